@@ -1,0 +1,312 @@
+//! Light shapes (DESIGN.md section 2): point, rectangle, disk and volumetric sphere, with an
+//! optional emission texture on rectangles and disks (textured lights weight their samples).
+//!
+//! Every light maps a point of the unit cube (its *parameter domain*, `dim()` coordinates used)
+//! onto itself: rectangles by `center + (2s-1) u + (2t-1) v`, disks by Shirley's concentric map,
+//! spheres by radius `R a^(1/3)` and a uniform direction, so uniform unit points give uniform
+//! light points. Per-receiver decorrelation ([`Light::rotate`]) is a random rotation about the
+//! symmetry axis for disks, a random 3D rotation for spheres, and a toroidal (Cranley-Patterson)
+//! shift of the parameters for rectangles, where a geometric rotation would leave the light.
+
+use crate::error::{Error, Result};
+use glam::{Mat3, Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// A nearest-texel emission texture over a light's parameter square: row `i` covers
+/// t in [i/H, (i+1)/H), column `j` covers s in [j/W, (j+1)/W).
+#[derive(Debug, Clone, PartialEq)]
+pub struct EmissionTexture {
+    width: usize,
+    height: usize,
+    values: Vec<f32>,
+}
+
+impl EmissionTexture {
+    /// A texture of non-negative, finite values, not all zero.
+    pub fn new(width: usize, height: usize, values: Vec<f32>) -> Result<Self> {
+        if width == 0 || height == 0 || values.len() != width * height {
+            return Err(Error::invalid("emission", format!("expected a non-empty (H, W) array, got {height}x{width}")));
+        }
+        if values.iter().any(|v| !v.is_finite() || *v < 0.0) {
+            return Err(Error::invalid("emission", "values must be finite and >= 0"));
+        }
+        if values.iter().all(|v| *v == 0.0) {
+            return Err(Error::invalid("emission", "all values are zero: the light emits nothing"));
+        }
+        Ok(Self { width, height, values })
+    }
+
+    fn lookup(&self, st: Vec2) -> f32 {
+        let j = ((st.x.clamp(0.0, 1.0) * self.width as f32) as usize).min(self.width - 1);
+        let i = ((st.y.clamp(0.0, 1.0) * self.height as f32) as usize).min(self.height - 1);
+        self.values[i * self.width + j]
+    }
+}
+
+/// The geometric shape of a light.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Shape {
+    Point { position: Vec3 },
+    /// `u`, `v`: half-extent vectors; the light faces `normalize(u x v)`.
+    Rect { center: Vec3, u: Vec3, v: Vec3 },
+    Disk { center: Vec3, normal: Vec3, radius: f32 },
+    /// Emits from its whole volume (seed 000).
+    Sphere { center: Vec3, radius: f32 },
+}
+
+/// A light: a shape and an optional emission texture.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Light {
+    pub shape: Shape,
+    emission: Option<EmissionTexture>,
+}
+
+/// Three uniform numbers in [0,1) that pick one decorrelating rotation (see [`Light::rotate`]).
+pub type RotationSeed = [f32; 3];
+
+fn finite_vec(arg: &str, v: Vec3) -> Result<()> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(Error::invalid(arg, format!("must be finite, got {v}")))
+    }
+}
+
+fn positive_radius(r: f32) -> Result<()> {
+    if r.is_finite() && r > 0.0 {
+        Ok(())
+    } else {
+        Err(Error::invalid("radius", format!("must be finite and > 0, got {r}")))
+    }
+}
+
+/// An orthonormal basis `(t, b)` of the plane orthogonal to the unit vector `n`.
+pub fn tangent_frame(n: Vec3) -> (Vec3, Vec3) {
+    let t = n.any_orthonormal_vector();
+    (t, n.cross(t))
+}
+
+/// Shirley and Chiu's concentric map from the unit square to the unit disk.
+fn concentric_disk(s: f32, t: f32) -> Vec2 {
+    let (a, b) = (2.0 * s - 1.0, 2.0 * t - 1.0);
+    if a == 0.0 && b == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, phi) = if a.abs() > b.abs() { (a, PI / 4.0 * (b / a)) } else { (b, PI / 2.0 - PI / 4.0 * (a / b)) };
+    Vec2::new(r * phi.cos(), r * phi.sin())
+}
+
+/// Inverse of [`concentric_disk`], for the emission lookup of world-space disk samples.
+fn concentric_square(p: Vec2) -> Vec2 {
+    let r = p.length();
+    if r == 0.0 {
+        return Vec2::splat(0.5);
+    }
+    let mut phi = p.y.atan2(p.x);
+    if phi < -PI / 4.0 {
+        phi += 2.0 * PI;
+    }
+    let (a, b) = if phi < PI / 4.0 {
+        (r, phi * r / (PI / 4.0))
+    } else if phi < 3.0 * PI / 4.0 {
+        (-(phi - PI / 2.0) * r / (PI / 4.0), r)
+    } else if phi < 5.0 * PI / 4.0 {
+        (-r, -(phi - PI) * r / (PI / 4.0))
+    } else {
+        ((phi - 3.0 * PI / 2.0) * r / (PI / 4.0), -r)
+    };
+    Vec2::new((a + 1.0) * 0.5, (b + 1.0) * 0.5)
+}
+
+impl Light {
+    pub fn point(position: Vec3) -> Result<Self> {
+        finite_vec("position", position)?;
+        Ok(Self { shape: Shape::Point { position }, emission: None })
+    }
+
+    /// A rectangle with half-extent vectors `u`, `v`; refuses zero area.
+    pub fn rect(center: Vec3, u: Vec3, v: Vec3) -> Result<Self> {
+        finite_vec("center", center)?;
+        finite_vec("u", u)?;
+        finite_vec("v", v)?;
+        if u.cross(v).length_squared() == 0.0 {
+            return Err(Error::invalid("u", format!("u = {u} and v = {v} span zero area")));
+        }
+        Ok(Self { shape: Shape::Rect { center, u, v }, emission: None })
+    }
+
+    /// A disk facing `normal`; refuses a zero normal or a radius <= 0.
+    pub fn disk(center: Vec3, normal: Vec3, radius: f32) -> Result<Self> {
+        finite_vec("center", center)?;
+        finite_vec("normal", normal)?;
+        positive_radius(radius)?;
+        if normal.length_squared() == 0.0 {
+            return Err(Error::invalid("normal", "must be non-zero"));
+        }
+        Ok(Self { shape: Shape::Disk { center, normal: normal.normalize(), radius }, emission: None })
+    }
+
+    /// A volumetric sphere; refuses a radius <= 0.
+    pub fn sphere(center: Vec3, radius: f32) -> Result<Self> {
+        finite_vec("center", center)?;
+        positive_radius(radius)?;
+        Ok(Self { shape: Shape::Sphere { center, radius }, emission: None })
+    }
+
+    /// Adds an emission texture (rectangles and disks only).
+    pub fn with_emission(mut self, texture: EmissionTexture) -> Result<Self> {
+        match self.shape {
+            Shape::Rect { .. } | Shape::Disk { .. } => {
+                self.emission = Some(texture);
+                Ok(self)
+            }
+            _ => Err(Error::invalid("emission", "only RectLight and DiskLight take an emission texture")),
+        }
+    }
+
+    /// Whether samples carry weights (an emission texture is set).
+    pub fn is_textured(&self) -> bool {
+        self.emission.is_some()
+    }
+
+    pub fn center(&self) -> Vec3 {
+        match self.shape {
+            Shape::Point { position } => position,
+            Shape::Rect { center, .. } | Shape::Disk { center, .. } | Shape::Sphere { center, .. } => center,
+        }
+    }
+
+    /// The emitting side's unit normal of a planar light.
+    pub fn normal(&self) -> Option<Vec3> {
+        match self.shape {
+            Shape::Rect { u, v, .. } => Some(u.cross(v).normalize()),
+            Shape::Disk { normal, .. } => Some(normal),
+            _ => None,
+        }
+    }
+
+    /// The largest distance from the center to a point of the light.
+    pub fn extent(&self) -> f32 {
+        match self.shape {
+            Shape::Point { .. } => 0.0,
+            Shape::Rect { u, v, .. } => (u + v).length().max((u - v).length()),
+            Shape::Disk { radius, .. } | Shape::Sphere { radius, .. } => radius,
+        }
+    }
+
+    /// How many unit-cube coordinates [`Light::map`] uses: 0, 2 (rect, disk) or 3 (sphere).
+    pub fn dim(&self) -> usize {
+        match self.shape {
+            Shape::Point { .. } => 0,
+            Shape::Rect { .. } | Shape::Disk { .. } => 2,
+            Shape::Sphere { .. } => 3,
+        }
+    }
+
+    /// Maps a unit-cube point onto the light (area- or volume-uniformly).
+    pub fn map(&self, p: [f32; 3]) -> Vec3 {
+        match self.shape {
+            Shape::Point { position } => position,
+            Shape::Rect { center, u, v } => center + u * (2.0 * p[0] - 1.0) + v * (2.0 * p[1] - 1.0),
+            Shape::Disk { center, normal, radius } => {
+                let (t, b) = tangent_frame(normal);
+                let d = concentric_disk(p[0], p[1]) * radius;
+                center + t * d.x + b * d.y
+            }
+            Shape::Sphere { center, radius } => {
+                let r = radius * p[0].cbrt();
+                let z = 1.0 - 2.0 * p[1];
+                let s = (1.0 - z * z).max(0.0).sqrt();
+                let phi = 2.0 * PI * p[2];
+                center + Vec3::new(s * phi.cos(), s * phi.sin(), z) * r
+            }
+        }
+    }
+
+    /// Parameters `(s, t)` in [0,1]^2 of a point on a planar light (its emission-texture coordinates).
+    fn params(&self, y: Vec3) -> Vec2 {
+        match self.shape {
+            Shape::Rect { center, u, v } => {
+                let d = y - center;
+                Vec2::new((d.dot(u) / u.length_squared() + 1.0) * 0.5, (d.dot(v) / v.length_squared() + 1.0) * 0.5)
+            }
+            Shape::Disk { center, normal, radius } => {
+                let (t, b) = tangent_frame(normal);
+                let d = y - center;
+                concentric_square(Vec2::new(d.dot(t), d.dot(b)) / radius)
+            }
+            _ => Vec2::splat(0.5),
+        }
+    }
+
+    /// The emission weight of light point `y`: 1 without a texture.
+    pub fn weight(&self, y: Vec3) -> f32 {
+        match &self.emission {
+            Some(tex) => tex.lookup(self.params(y)),
+            None => 1.0,
+        }
+    }
+
+    /// Applies the decorrelating rotation picked by `r` to light point `y` (see the module doc).
+    pub fn rotate(&self, y: Vec3, r: RotationSeed) -> Vec3 {
+        match self.shape {
+            Shape::Point { position } => position,
+            Shape::Rect { center, u, v } => {
+                let st = self.params(y) + Vec2::new(r[0], r[1]);
+                let st = st - st.floor();
+                center + u * (2.0 * st.x - 1.0) + v * (2.0 * st.y - 1.0)
+            }
+            Shape::Disk { center, normal, .. } => center + glam::Quat::from_axis_angle(normal, 2.0 * PI * r[0]) * (y - center),
+            Shape::Sphere { center, .. } => center + random_rotation(r) * (y - center),
+        }
+    }
+}
+
+/// Arvo's uniformly distributed random rotation from three uniform numbers.
+fn random_rotation(r: RotationSeed) -> Mat3 {
+    let theta = 2.0 * PI * r[0];
+    let phi = 2.0 * PI * r[1];
+    let z = r[2];
+    let rz = Mat3::from_rotation_z(theta);
+    let v = Vec3::new(phi.cos() * z.sqrt(), phi.sin() * z.sqrt(), (1.0 - z).sqrt());
+    let householder = Mat3::IDENTITY - 2.0 * Mat3::from_cols(v * v.x, v * v.y, v * v.z);
+    -(householder * rz)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn concentric_map_round_trips() {
+        for &(s, t) in &[(0.1, 0.2), (0.9, 0.3), (0.5, 0.95), (0.3, 0.7), (0.05, 0.5)] {
+            let back = concentric_square(concentric_disk(s, t));
+            assert!((back - Vec2::new(s, t)).length() < 1e-5, "{s},{t} -> {back}");
+        }
+    }
+
+    #[test]
+    fn rotations_keep_points_on_the_light() {
+        let disk = Light::disk(Vec3::ZERO, Vec3::Y, 2.0).unwrap();
+        let sphere = Light::sphere(Vec3::ONE, 1.5).unwrap();
+        let rect = Light::rect(Vec3::ZERO, Vec3::X, Vec3::Z * 0.5).unwrap();
+        for k in 0..50 {
+            let f = k as f32 / 50.0;
+            let p = [f, (f * 7.3) % 1.0, (f * 3.1) % 1.0];
+            let r = [(f * 5.7) % 1.0, (f * 2.3) % 1.0, (f * 9.1) % 1.0];
+            let y = disk.rotate(disk.map(p), r);
+            assert!(y.y.abs() < 1e-5 && y.length() <= 2.0 + 1e-4);
+            let y = sphere.rotate(sphere.map(p), r);
+            assert!((y - Vec3::ONE).length() <= 1.5 + 1e-4);
+            let y = rect.rotate(rect.map(p), r);
+            assert!(y.x.abs() <= 1.0 + 1e-5 && y.z.abs() <= 0.5 + 1e-5 && y.y.abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn zero_area_and_bad_radius_are_refused() {
+        assert!(matches!(Light::rect(Vec3::ZERO, Vec3::X, Vec3::X * 2.0), Err(Error::InvalidInput { .. })));
+        assert!(matches!(Light::disk(Vec3::ZERO, Vec3::Y, -1.0), Err(Error::InvalidInput { .. })));
+        assert!(matches!(Light::sphere(Vec3::ZERO, 0.0), Err(Error::InvalidInput { .. })));
+    }
+}

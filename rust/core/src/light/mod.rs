@@ -1,0 +1,3 @@
+//! Lights and light-sample patterns.
+pub mod lights;
+pub mod sampling;

@@ -1,0 +1,3 @@
+//! Shadow-map machinery shared by every image-based method.
+pub mod depth;
+pub mod pyramid;

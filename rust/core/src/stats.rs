@@ -1,0 +1,32 @@
+//! Per-call statistics: stage seconds and the papers' work counters, returned by every method.
+
+use std::time::Instant;
+
+/// Named values in insertion order; the Python layer turns them into a dict.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Stats {
+    pub entries: Vec<(String, f64)>,
+}
+
+impl Stats {
+    /// Records `value` under `name` (a later record of the same name replaces it).
+    pub fn set(&mut self, name: &str, value: f64) {
+        match self.entries.iter_mut().find(|(n, _)| n == name) {
+            Some(entry) => entry.1 = value,
+            None => self.entries.push((name.to_string(), value)),
+        }
+    }
+
+    /// The value recorded under `name`.
+    pub fn get(&self, name: &str) -> Option<f64> {
+        self.entries.iter().find(|(n, _)| n == name).map(|(_, v)| *v)
+    }
+
+    /// Runs `f`, records its wall time as `"<stage>_seconds"` and returns its result.
+    pub fn time<T>(&mut self, stage: &str, f: impl FnOnce() -> T) -> T {
+        let start = Instant::now();
+        let out = f();
+        self.set(&format!("{stage}_seconds"), start.elapsed().as_secs_f64());
+        out
+    }
+}
