@@ -1,1 +1,267 @@
+//! `softshadows._core`: the Python face of softshadows-core. Only conversion, validation and
+//! error mapping live here; every algorithm is in the core crate. The native classes wrap core
+//! values immutably, so concurrent calls from several Python threads are safe, and every heavy
+//! call releases the GIL.
 
+mod convert;
+mod error;
+mod methods;
+
+use convert::{faces, image, vec2s, vec3, vec3s};
+use error::OrRaise;
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::prelude::*;
+use softshadows_core::geometry::bvh::Bvh;
+use softshadows_core::geometry::camera::Camera;
+use softshadows_core::geometry::gbuffer::gbuffer;
+use softshadows_core::geometry::mesh::{AlphaTexture, Mesh, Scene};
+use softshadows_core::geometry::receivers::Receivers;
+use softshadows_core::light::lights::{EmissionTexture, Light};
+use softshadows_core::light::sampling::{light_samples, Pattern, SampleSet};
+
+/// A scene and its BVH, built once.
+#[pyclass(frozen, module = "softshadows._core")]
+pub struct NativeScene {
+    pub scene: Scene,
+    pub bvh: Bvh,
+}
+
+type MeshArgs<'py> = (
+    PyReadonlyArray2<'py, f32>,
+    PyReadonlyArray2<'py, u32>,
+    Option<PyReadonlyArray2<'py, f32>>,
+    Option<PyReadonlyArray2<'py, f32>>,
+    bool,
+);
+
+fn mesh(args: MeshArgs<'_>) -> PyResult<Mesh> {
+    let (vertices, f, uvs, alpha, closed) = args;
+    let uvs = uvs.map(|u| vec2s("uvs", &u)).transpose()?;
+    let alpha = alpha
+        .map(|a| {
+            let (w, h, values) = image(&a);
+            AlphaTexture::new(w, h, &values)
+        })
+        .transpose()
+        .or_raise()?;
+    Mesh::new(vec3s("vertices", &vertices)?, faces(&f)?, uvs, alpha, closed).or_raise()
+}
+
+#[pymethods]
+impl NativeScene {
+    /// `meshes`: a list of `(vertices, faces, uvs, alpha, closed)`.
+    #[new]
+    fn new(py: Python<'_>, meshes: Vec<MeshArgs<'_>>) -> PyResult<Self> {
+        let meshes = meshes.into_iter().map(mesh).collect::<PyResult<Vec<_>>>()?;
+        let scene = Scene::new(meshes).or_raise()?;
+        let bvh = py.detach(|| Bvh::build(&scene)).or_raise()?;
+        Ok(Self { scene, bvh })
+    }
+
+    #[getter]
+    fn num_faces(&self) -> usize {
+        self.scene.num_faces()
+    }
+
+    /// Ray-casts a G-buffer: `(positions (N,3), normals (N,3), mask (N,), face_ids (N,), depths (N*msaa,))`.
+    #[allow(clippy::type_complexity)]
+    fn gbuffer<'py>(
+        &self,
+        py: Python<'py>,
+        camera: &NativeCamera,
+        msaa: usize,
+    ) -> PyResult<(
+        Bound<'py, PyArray2<f32>>,
+        Bound<'py, PyArray2<f32>>,
+        Bound<'py, PyArray1<bool>>,
+        Bound<'py, PyArray1<i64>>,
+        Bound<'py, PyArray1<f32>>,
+    )> {
+        let gb = py.detach(|| gbuffer(&self.scene, &self.bvh, &camera.camera, msaa)).or_raise()?;
+        let n = gb.positions.len();
+        let as2 = |v: Vec<f32>| v.into_pyarray(py).reshape([n, 3]);
+        Ok((
+            as2(convert::flat3(&gb.positions))?,
+            as2(convert::flat3(&gb.normals))?,
+            gb.mask.into_pyarray(py),
+            gb.face_ids.into_pyarray(py),
+            gb.sample_depths.into_pyarray(py),
+        ))
+    }
+}
+
+/// A light (see `softshadows.lights`).
+#[pyclass(frozen, module = "softshadows._core")]
+pub struct NativeLight {
+    pub light: Light,
+}
+
+#[pymethods]
+impl NativeLight {
+    /// `kind`: "point" (center = position), "rect" (a = u, b = v), "disk" (a = normal), "sphere".
+    #[new]
+    #[pyo3(signature = (kind, center, a, b, radius, emission))]
+    fn new(
+        kind: &str,
+        center: PyReadonlyArray1<'_, f32>,
+        a: Option<PyReadonlyArray1<'_, f32>>,
+        b: Option<PyReadonlyArray1<'_, f32>>,
+        radius: f32,
+        emission: Option<PyReadonlyArray2<'_, f32>>,
+    ) -> PyResult<Self> {
+        let c = vec3("center", &center)?;
+        let arg = |name: &str, v: &Option<PyReadonlyArray1<'_, f32>>| match v {
+            Some(v) => vec3(name, v),
+            None => Err(pyo3::exceptions::PyValueError::new_err(format!("{name}: missing"))),
+        };
+        let light = match kind {
+            "point" => Light::point(c),
+            "rect" => Light::rect(c, arg("u", &a)?, arg("v", &b)?),
+            "disk" => Light::disk(c, arg("normal", &a)?, radius),
+            "sphere" => Light::sphere(c, radius),
+            other => {
+                return Err(pyo3::exceptions::PyValueError::new_err(format!("light: unknown kind {other:?}")))
+            }
+        }
+        .or_raise()?;
+        let light = match emission {
+            Some(e) => {
+                let (w, h, values) = image(&e);
+                light.with_emission(EmissionTexture::new(w, h, values).or_raise()?).or_raise()?
+            }
+            None => light,
+        };
+        Ok(Self { light })
+    }
+
+    #[getter]
+    fn extent(&self) -> f32 {
+        self.light.extent()
+    }
+
+    /// `n` world-space samples of `pattern`, shape (n, 3).
+    fn samples<'py>(&self, py: Python<'py>, n: usize, pattern: &str, seed: u64, frame: u64) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let pattern = Pattern::parse(pattern).or_raise()?;
+        softshadows_core::limits::check_memory("light samples", softshadows_core::limits::bytes(&[n as u64, 12])).or_raise()?;
+        let pts = py.detach(|| light_samples(&self.light, n, pattern, seed, frame));
+        Ok(convert::flat3(&pts).into_pyarray(py).reshape([n, 3])?)
+    }
+
+    /// Emission weights of world-space light points, shape (S,).
+    fn weights<'py>(&self, py: Python<'py>, points: PyReadonlyArray2<'_, f32>) -> PyResult<Bound<'py, PyArray1<f32>>> {
+        let pts = vec3s("samples", &points)?;
+        Ok(pts.iter().map(|&y| self.light.weight(y)).collect::<Vec<_>>().into_pyarray(py))
+    }
+}
+
+/// A pinhole camera.
+#[pyclass(frozen, module = "softshadows._core")]
+pub struct NativeCamera {
+    pub camera: Camera,
+}
+
+#[pymethods]
+impl NativeCamera {
+    #[new]
+    fn new(
+        eye: PyReadonlyArray1<'_, f32>,
+        target: PyReadonlyArray1<'_, f32>,
+        up: PyReadonlyArray1<'_, f32>,
+        fov_y: f32,
+        width: usize,
+        height: usize,
+    ) -> PyResult<Self> {
+        let camera = Camera::look_at(vec3("eye", &eye)?, vec3("target", &target)?, vec3("up", &up)?, fov_y, width, height)
+            .or_raise()?;
+        Ok(Self { camera })
+    }
+}
+
+/// Receivers: points, normals and a validity mask over a `width x height` grid.
+#[pyclass(frozen, module = "softshadows._core")]
+pub struct NativeReceivers {
+    pub receivers: Receivers,
+}
+
+#[pymethods]
+impl NativeReceivers {
+    #[new]
+    fn new(
+        points: PyReadonlyArray2<'_, f32>,
+        normals: PyReadonlyArray2<'_, f32>,
+        mask: PyReadonlyArray1<'_, bool>,
+        width: usize,
+        height: usize,
+    ) -> PyResult<Self> {
+        let valid = mask.as_array().to_vec();
+        let receivers =
+            Receivers::new(vec3s("points", &points)?, vec3s("normals", &normals)?, valid, width, height).or_raise()?;
+        Ok(Self { receivers })
+    }
+}
+
+/// How each receiver's light samples are chosen.
+#[pyclass(frozen, module = "softshadows._core")]
+pub struct NativeSamples {
+    pub samples: SampleSet,
+}
+
+#[pymethods]
+impl NativeSamples {
+    /// `n` samples of `pattern` per receiver, `interleave x interleave` patterns over the screen.
+    #[staticmethod]
+    #[allow(clippy::too_many_arguments)]
+    fn generate(
+        py: Python<'_>,
+        light: &NativeLight,
+        n: usize,
+        pattern: &str,
+        seed: u64,
+        interleave: usize,
+        rotate: bool,
+        frame: u64,
+    ) -> PyResult<Self> {
+        let pattern = Pattern::parse(pattern).or_raise()?;
+        let total = softshadows_core::limits::bytes(&[n as u64, interleave as u64, interleave as u64, 12]);
+        softshadows_core::limits::check_memory("light sample patterns", total).or_raise()?;
+        let samples = py.detach(|| SampleSet::generate(&light.light, n, pattern, seed, interleave, rotate, frame)).or_raise()?;
+        Ok(Self { samples })
+    }
+
+    /// The same explicit world-space samples (S, 3) for every receiver, optionally rotated per receiver.
+    #[staticmethod]
+    #[pyo3(signature = (samples, rotate_seed=None))]
+    fn explicit(samples: PyReadonlyArray2<'_, f32>, rotate_seed: Option<u64>) -> PyResult<Self> {
+        Ok(Self { samples: SampleSet::explicit(vec3s("samples", &samples)?, rotate_seed).or_raise()? })
+    }
+
+    #[getter]
+    fn count(&self) -> usize {
+        self.samples.count()
+    }
+}
+
+/// Sets the memory limit in bytes (0 restores the default of 75% of physical memory).
+#[pyfunction]
+fn set_memory_limit(bytes: u64) {
+    softshadows_core::limits::set_memory_limit(bytes);
+}
+
+/// The memory limit in bytes.
+#[pyfunction]
+fn memory_limit() -> u64 {
+    softshadows_core::limits::memory_limit()
+}
+
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<NativeScene>()?;
+    m.add_class::<NativeLight>()?;
+    m.add_class::<NativeCamera>()?;
+    m.add_class::<NativeReceivers>()?;
+    m.add_class::<NativeSamples>()?;
+    m.add_function(wrap_pyfunction!(set_memory_limit, m)?)?;
+    m.add_function(wrap_pyfunction!(memory_limit, m)?)?;
+    methods::register(m)?;
+    Ok(())
+}

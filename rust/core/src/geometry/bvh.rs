@@ -1,1 +1,391 @@
-//! placeholder being written
+//! The bounding volume hierarchy of all scene triangles, used by the ray-traced oracle and the
+//! G-buffer.
+//!
+//! Layout: a 4-wide BVH (each node holds the boxes of its up to four children as `Vec4` lanes,
+//! one 64-byte-aligned node per visit) built by binned SAH over a binary tree and collapsed (see
+//! `bvh/build.rs`). Leaves hold at most four triangles, stored as one [`Tri4`] block of
+//! precomputed vertex coordinates in structure-of-arrays form, so a leaf is one SIMD
+//! watertight test (`bvh/triangle.rs`, after Woop, Benthin and Wald 2013) and no index or
+//! vertex buffer is touched during traversal.
+//!
+//! Queries cover the *open* interval t in (0, `t_max`) of `origin + t dir` (`dir` need not be
+//! unit; `t` is in units of `dir`). Faces of perforated meshes are alpha-tested: a hit counts only
+//! where the texture is opaque, transparent hits are skipped and the traversal goes on. Each block
+//! carries a bitmask of its perforated lanes, so opaque meshes never pay for the texture path.
+//!
+//! Box tests are conservative: the exit distance is scaled by `1 + 4 eps` (Ize, "Robust BVH Ray
+//! Traversal", JCGT 2013, needs `1 + 2 gamma_3`), so a triangle hit by the watertight test is
+//! never culled by a box rounding the other way, and the any-hit answer does not depend on the
+//! traversal order. Results are deterministic: the build is, and traversal is sequential per ray.
+
+mod build;
+mod triangle;
+
+use crate::error::{Error, Result};
+use crate::geometry::mesh::Scene;
+use glam::{Vec3, Vec4};
+use std::cell::RefCell;
+pub use triangle::intersect_triangle;
+use triangle::{hit4, Lanes, RayData};
+
+/// Traversal stack entries; `build` guarantees `3 * depth + 1 <= STACK`.
+const STACK: usize = 256;
+/// Child reference flag: the low 31 bits index `blocks`, not `nodes`.
+const LEAF: u32 = 1 << 31;
+/// An unused child slot (its box is empty and never hit).
+const EMPTY: u32 = u32::MAX;
+/// Conservative scale of box exit distances (>= 1 + 2 gamma_3 of Ize 2013).
+const ROBUST: f32 = 1.0 + 4.0 * f32::EPSILON;
+
+thread_local! {
+    /// Per-thread traversal stacks, so that no query zeroes a fresh kilobyte-sized stack.
+    static ANY_STACK: RefCell<[u32; STACK]> = const { RefCell::new([0; STACK]) };
+    static CLOSEST_STACK: RefCell<[(u32, f32); STACK]> = const { RefCell::new([(0, 0.0); STACK]) };
+}
+
+/// A closest hit: distance `t` in units of the ray direction, the global face id and the
+/// barycentric weights `b1`, `b2` of the face's vertices 1 and 2.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hit {
+    pub t: f32,
+    pub face: u32,
+    pub b1: f32,
+    pub b2: f32,
+}
+
+/// Remembers the leaf that blocked the last shadow ray of a receiver. Neighbouring shadow rays
+/// of one receiver are usually blocked by the same triangles, so testing that leaf first
+/// answers most umbra rays with a single block test. It only changes speed, never answers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ShadowCache {
+    block: u32,
+}
+
+impl Default for ShadowCache {
+    fn default() -> Self {
+        Self { block: EMPTY }
+    }
+}
+
+/// One inner node: the bounds of four children (`bounds[0]` minima, `bounds[1]` maxima, each
+/// `[x, y, z]` with one lane per child) and their references.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(C, align(64))]
+struct Node4 {
+    bounds: [[Vec4; 3]; 2],
+    child: [u32; 4],
+}
+
+impl Node4 {
+    const EMPTY_NODE: Node4 = Node4 {
+        bounds: [[Vec4::INFINITY; 3], [Vec4::NEG_INFINITY; 3]],
+        child: [EMPTY; 4],
+    };
+
+    /// Slab test of the four child boxes: the bitmask of those overlapping (0, `t_max`) and
+    /// their entry distances.
+    #[inline(always)]
+    fn hit(&self, r: &RayData, t_max: f32) -> (u32, Vec4) {
+        let (n, f) = (r.near, r.far);
+        let x0 = (self.bounds[n[0]][0] - r.org_near[0]) * r.inv[0];
+        let y0 = (self.bounds[n[1]][1] - r.org_near[1]) * r.inv[1];
+        let z0 = (self.bounds[n[2]][2] - r.org_near[2]) * r.inv[2];
+        let x1 = (self.bounds[f[0]][0] - r.org_far[0]) * r.inv[0];
+        let y1 = (self.bounds[f[1]][1] - r.org_far[1]) * r.inv[1];
+        let z1 = (self.bounds[f[2]][2] - r.org_far[2]) * r.inv[2];
+        let tnear = x0.max(y0).max(z0.max(Vec4::ZERO));
+        let tfar = x1.min(y1).min(z1.min(Vec4::splat(t_max))) * ROBUST;
+        (tnear.cmple(tfar).bitmask(), tnear)
+    }
+}
+
+/// Up to four triangles: `v[vertex][axis]` with one lane per triangle (short leaves repeat their
+/// last triangle), the global face ids and the bitmask of lanes from perforated meshes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(C, align(16))]
+struct Tri4 {
+    v: [[Vec4; 3]; 3],
+    ids: [u32; 4],
+    alpha: u32,
+}
+
+impl Tri4 {
+    /// One triangle in all four lanes.
+    fn splat(tri: [Vec3; 3], id: u32, perforated: bool) -> Tri4 {
+        let v = tri.map(|p| [Vec4::splat(p.x), Vec4::splat(p.y), Vec4::splat(p.z)]);
+        Tri4 { v, ids: [id; 4], alpha: if perforated { 0xF } else { 0 } }
+    }
+
+    /// The block of global faces `faces` (1 to 4 of them).
+    fn from_faces(faces: &[u32], tris: &[[Vec3; 3]], perforated: &[bool]) -> Tri4 {
+        let mut v = [[[0f32; 4]; 3]; 3];
+        let (mut ids, mut alpha) = ([0u32; 4], 0u32);
+        for lane in 0..4 {
+            let id = faces[lane.min(faces.len() - 1)];
+            ids[lane] = id;
+            alpha |= u32::from(perforated[id as usize]) << lane;
+            for (vert, p) in tris[id as usize].iter().enumerate() {
+                for axis in 0..3 {
+                    v[vert][axis][lane] = p[axis];
+                }
+            }
+        }
+        Tri4 { v: v.map(|vert| vert.map(Vec4::from_array)), ids, alpha }
+    }
+}
+
+/// The BVH over all triangles of one scene (see the module doc).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Bvh {
+    nodes: Vec<Node4>,
+    blocks: Vec<Tri4>,
+    /// A node index, or `LEAF | block` for scenes of at most four triangles.
+    root: u32,
+    depth: u32,
+    bounds: (Vec3, Vec3),
+    num_faces: usize,
+}
+
+impl Bvh {
+    /// Builds the BVH of `scene` by binned SAH. Deterministic whatever the rayon thread count.
+    /// Refuses with [`Error::TooLarge`] before allocating when the build would exceed the
+    /// memory limit.
+    pub fn build(scene: &Scene) -> Result<Bvh> {
+        build::build(scene)
+    }
+
+    /// Number of triangles (the scene this BVH was built for has as many faces).
+    pub fn num_faces(&self) -> usize {
+        self.num_faces
+    }
+
+    /// Refuses a scene other than the one this BVH was built for (by face count).
+    pub fn check_scene(&self, scene: &Scene) -> Result<()> {
+        if scene.num_faces() != self.num_faces {
+            return Err(Error::invalid(
+                "bvh",
+                format!("built for {} faces, the scene has {}", self.num_faces, scene.num_faces()),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Bounds `(min, max)` of all triangles.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.bounds
+    }
+
+    /// Number of inner (4-wide) nodes.
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Number of leaves (four-triangle blocks).
+    pub fn leaf_count(&self) -> usize {
+        self.blocks.len()
+    }
+
+    /// Depth of the 4-wide tree (a single leaf has depth 1).
+    pub fn depth(&self) -> u32 {
+        self.depth
+    }
+
+    /// Bytes held by the nodes and blocks.
+    pub fn memory_bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<Node4>() + self.blocks.len() * std::mem::size_of::<Tri4>()
+    }
+
+    /// Whether any opaque surface hits the open segment t in (0, `t_max`) of `origin + t dir`.
+    /// `scene` must be the scene the BVH was built from. A zero `dir` or `t_max <= 0` (or NaN)
+    /// hits nothing.
+    pub fn occluded(&self, scene: &Scene, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
+        self.occluded_cached(scene, origin, dir, t_max, &mut ShadowCache::default())
+    }
+
+    /// [`Bvh::occluded`] that first tests the leaf remembered in `cache` and remembers the
+    /// blocking leaf. Use one cache per receiver for its shadow rays.
+    #[inline]
+    pub fn occluded_cached(&self, scene: &Scene, origin: Vec3, dir: Vec3, t_max: f32, cache: &mut ShadowCache) -> bool {
+        if !(t_max > 0.0) {
+            return false;
+        }
+        let Some(r) = RayData::new(origin, dir) else { return false };
+        if let Some(b) = self.blocks.get(cache.block as usize) {
+            if self.block_occludes(scene, b, &r, t_max) {
+                return true;
+            }
+        }
+        let found = ANY_STACK.with(|s| match s.try_borrow_mut() {
+            Ok(mut stack) => self.any_hit(scene, &r, t_max, &mut stack),
+            // Only reachable if `is_opaque_at` re-entered the BVH on this thread.
+            Err(_) => self.any_hit(scene, &r, t_max, &mut [0; STACK]),
+        });
+        match found {
+            Some(block) => {
+                cache.block = block;
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// For each target, whether the open segment from `origin` to it is blocked (the shadow rays
+    /// of one receiver; t in (0, 1) with `dir = target - origin`). Clears and fills `out`.
+    pub fn occluded_many(&self, scene: &Scene, origin: Vec3, targets: &[Vec3], out: &mut Vec<bool>) {
+        let mut cache = ShadowCache::default();
+        out.clear();
+        out.extend(targets.iter().map(|&y| self.occluded_cached(scene, origin, y - origin, 1.0, &mut cache)));
+    }
+
+    /// The closest opaque hit in the open interval (0, `t_max`), alpha-testing perforated faces.
+    pub fn intersect(&self, scene: &Scene, origin: Vec3, dir: Vec3, t_max: f32) -> Option<Hit> {
+        if !(t_max > 0.0) {
+            return None;
+        }
+        let r = RayData::new(origin, dir)?;
+        CLOSEST_STACK.with(|s| match s.try_borrow_mut() {
+            Ok(mut stack) => self.closest_hit(scene, &r, t_max, &mut stack),
+            Err(_) => self.closest_hit(scene, &r, t_max, &mut [(0, 0.0); STACK]),
+        })
+    }
+
+    /// Any-hit traversal; returns the block that holds an opaque hit.
+    fn any_hit(&self, scene: &Scene, r: &RayData, t_max: f32, stack: &mut [u32; STACK]) -> Option<u32> {
+        let mut sp = 0usize;
+        let mut cur = self.root;
+        loop {
+            if cur & LEAF == 0 {
+                let node = &self.nodes[cur as usize];
+                let (mut mask, _) = node.hit(r, t_max);
+                if mask != 0 {
+                    cur = node.child[mask.trailing_zeros() as usize];
+                    mask &= mask - 1;
+                    while mask != 0 {
+                        // At most 3 pushes per level and 3 * depth + 1 <= STACK (see `build`).
+                        stack[sp] = node.child[mask.trailing_zeros() as usize];
+                        sp += 1;
+                        mask &= mask - 1;
+                    }
+                    continue;
+                }
+            } else {
+                let b = cur & !LEAF;
+                if self.block_occludes(scene, &self.blocks[b as usize], r, t_max) {
+                    return Some(b);
+                }
+            }
+            if sp == 0 {
+                return None;
+            }
+            sp -= 1;
+            cur = stack[sp];
+        }
+    }
+
+    /// Closest-hit traversal, nearest child first, skipping subtrees beyond the best hit.
+    fn closest_hit(&self, scene: &Scene, r: &RayData, t_max: f32, stack: &mut [(u32, f32); STACK]) -> Option<Hit> {
+        let mut sp = 0usize;
+        let mut cur = self.root;
+        let (mut t_max, mut best) = (t_max, None);
+        loop {
+            if cur & LEAF == 0 {
+                let node = &self.nodes[cur as usize];
+                let (mask, tnear) = node.hit(r, t_max);
+                if mask != 0 {
+                    cur = push_far_children(node, mask, tnear, stack, &mut sp);
+                    continue;
+                }
+            } else if let Some(h) = block_closest(scene, &self.blocks[(cur & !LEAF) as usize], r, t_max) {
+                t_max = h.t;
+                best = Some(h);
+            }
+            loop {
+                if sp == 0 {
+                    return best;
+                }
+                sp -= 1;
+                let (c, d) = stack[sp];
+                if d <= t_max * ROBUST {
+                    cur = c;
+                    break;
+                }
+            }
+        }
+    }
+
+    /// Whether block `b` holds an opaque hit: opaque-mesh lanes answer at once, perforated lanes
+    /// go through the texture.
+    #[inline(always)]
+    fn block_occludes(&self, scene: &Scene, b: &Tri4, r: &RayData, t_max: f32) -> bool {
+        let lanes = hit4(b, r, t_max);
+        if lanes.mask & !b.alpha != 0 {
+            return true;
+        }
+        lanes.mask != 0 && alpha_occludes(scene, b, &lanes)
+    }
+}
+
+/// Whether any hit lane of a perforated block is opaque at its hit point.
+#[cold]
+#[inline(never)]
+fn alpha_occludes(scene: &Scene, b: &Tri4, lanes: &Lanes) -> bool {
+    (0..4).filter(|&i| lanes.mask >> i & 1 != 0).any(|i| lane_opaque(scene, b, lanes, i))
+}
+
+/// Whether lane `i` (hit) is opaque at its hit point.
+#[inline]
+fn lane_opaque(scene: &Scene, b: &Tri4, lanes: &Lanes, i: usize) -> bool {
+    if b.alpha >> i & 1 == 0 {
+        return true;
+    }
+    let (_, b1, b2) = lanes.get(i);
+    scene.is_opaque_at(b.ids[i], b1, b2)
+}
+
+/// The closest opaque hit of block `b` (ties go to the lower lane).
+#[inline]
+fn block_closest(scene: &Scene, b: &Tri4, r: &RayData, t_max: f32) -> Option<Hit> {
+    let lanes = hit4(b, r, t_max);
+    let mut mask = lanes.mask;
+    if mask == 0 {
+        return None;
+    }
+    let t = lanes.distances().to_array();
+    while mask != 0 {
+        let lane = (0..4).filter(|&i| mask >> i & 1 != 0).fold(4, |best, i| if best == 4 || t[i] < t[best] { i } else { best });
+        if lane_opaque(scene, b, &lanes, lane) {
+            let (t, b1, b2) = lanes.get(lane);
+            return Some(Hit { t, face: b.ids[lane], b1, b2 });
+        }
+        mask &= !(1 << lane);
+    }
+    None
+}
+
+/// Pushes the hit children of `node` farthest first with their entry distances and returns the
+/// nearest, to be visited next.
+#[inline(always)]
+fn push_far_children(node: &Node4, mask: u32, tnear: Vec4, stack: &mut [(u32, f32); STACK], sp: &mut usize) -> u32 {
+    if mask & (mask - 1) == 0 {
+        return node.child[mask.trailing_zeros() as usize];
+    }
+    let d = tnear.to_array();
+    let mut items = [(0f32, 0u32); 4];
+    let mut n = 0;
+    for lane in (0..4).filter(|&i| mask >> i & 1 != 0) {
+        // Insertion into descending order of distance (stable: equal distances keep lane order).
+        let mut j = n;
+        while j > 0 && items[j - 1].0 < d[lane] {
+            items[j] = items[j - 1];
+            j -= 1;
+        }
+        items[j] = (d[lane], node.child[lane]);
+        n += 1;
+    }
+    for &(dist, child) in &items[..n - 1] {
+        // At most 3 pushes per level and 3 * depth + 1 <= STACK (see `build`).
+        stack[*sp] = (child, dist);
+        *sp += 1;
+    }
+    items[n - 1].1
+}

@@ -1,1 +1,110 @@
-//! placeholder being written
+//! A pinhole camera for G-buffers (DESIGN.md section 2).
+//!
+//! Conventions: a right-handed frame `right = forward x up`; pixel `(x, y)` has its center at the
+//! continuous coordinates `(x + 0.5, y + 0.5)`; `y` grows downward, so image row 0 is the top of
+//! the picture; `fov_y_degrees` is the full vertical field of view and pixels are square.
+
+use crate::error::{Error, Result};
+use glam::Vec3;
+
+/// A pinhole camera with an orthonormal frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Camera {
+    pub eye: Vec3,
+    pub forward: Vec3,
+    pub right: Vec3,
+    pub up: Vec3,
+    pub fov_y_degrees: f32,
+    pub width: usize,
+    pub height: usize,
+}
+
+fn finite(arg: &str, v: Vec3) -> Result<()> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(Error::invalid(arg, format!("must be finite, got {v}")))
+    }
+}
+
+impl Camera {
+    /// A camera at `eye` looking at `target`, with `up` giving the image's upward direction
+    /// (orthogonalized). Refuses zero sizes ("width"/"height"), `eye == target` ("target"), an
+    /// `up` parallel to the view ("up") and a field of view outside (0, 180) degrees ("fov_y").
+    pub fn look_at(eye: Vec3, target: Vec3, up: Vec3, fov_y_degrees: f32, width: usize, height: usize) -> Result<Camera> {
+        if width == 0 {
+            return Err(Error::invalid("width", "must be >= 1, got 0"));
+        }
+        if height == 0 {
+            return Err(Error::invalid("height", "must be >= 1, got 0"));
+        }
+        finite("eye", eye)?;
+        finite("target", target)?;
+        finite("up", up)?;
+        if !(fov_y_degrees > 0.0 && fov_y_degrees < 180.0) {
+            return Err(Error::invalid("fov_y", format!("must be in (0, 180) degrees, got {fov_y_degrees}")));
+        }
+        let view = target - eye;
+        let forward = view.normalize_or_zero();
+        if forward == Vec3::ZERO {
+            return Err(Error::invalid("target", format!("must differ from eye, both are {eye}")));
+        }
+        let right = forward.cross(up.normalize_or_zero());
+        // Below ~1e-6 (sin of the angle) the frame would be dominated by rounding.
+        if !(right.length() > 1e-6) {
+            return Err(Error::invalid("up", format!("up = {up} is zero or parallel to the view direction {forward}")));
+        }
+        let right = right.normalize();
+        let up = right.cross(forward);
+        Ok(Camera { eye, forward, right, up, fov_y_degrees, width, height })
+    }
+
+    /// The *normalized* direction of the primary ray through continuous pixel coordinates
+    /// `(px, py)` (pixel `(x, y)`'s center is `(x + 0.5, y + 0.5)`; `y` grows downward).
+    #[inline]
+    pub fn ray(&self, px: f32, py: f32) -> Vec3 {
+        let tan_half = (self.fov_y_degrees.to_radians() * 0.5).tan();
+        let aspect = self.width as f32 / self.height as f32;
+        let sx = (2.0 * px / self.width as f32 - 1.0) * tan_half * aspect;
+        let sy = (1.0 - 2.0 * py / self.height as f32) * tan_half;
+        (self.forward + self.right * sx + self.up * sy).normalize()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn arg_of(r: Result<Camera>) -> String {
+        match r {
+            Err(Error::InvalidInput { arg, .. }) => arg,
+            other => format!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn bad_arguments_name_themselves() {
+        let (e, t, u) = (Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y);
+        assert_eq!(arg_of(Camera::look_at(e, t, u, 45.0, 0, 4)), "width");
+        assert_eq!(arg_of(Camera::look_at(e, t, u, 45.0, 4, 0)), "height");
+        assert_eq!(arg_of(Camera::look_at(e, e, u, 45.0, 4, 4)), "target");
+        assert_eq!(arg_of(Camera::look_at(e, t, Vec3::Z, 45.0, 4, 4)), "up");
+        assert_eq!(arg_of(Camera::look_at(e, t, Vec3::ZERO, 45.0, 4, 4)), "up");
+        assert_eq!(arg_of(Camera::look_at(e, t, u, 180.0, 4, 4)), "fov_y");
+        assert_eq!(arg_of(Camera::look_at(e, t, u, 0.0, 4, 4)), "fov_y");
+        assert_eq!(arg_of(Camera::look_at(e, t, u, f32::NAN, 4, 4)), "fov_y");
+    }
+
+    #[test]
+    fn frame_and_rays() {
+        let cam = Camera::look_at(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 90.0, 4, 2).unwrap();
+        assert!((cam.forward - Vec3::NEG_Z).length() < 1e-6);
+        assert!((cam.right - Vec3::X).length() < 1e-6);
+        assert!((cam.up - Vec3::Y).length() < 1e-6);
+        // The image center looks forward; the top-left corner looks up and left.
+        assert!((cam.ray(2.0, 1.0) - Vec3::NEG_Z).length() < 1e-6);
+        let corner = cam.ray(0.0, 0.0);
+        let expect = Vec3::new(-2.0, 1.0, -1.0).normalize();
+        assert!((corner - expect).length() < 1e-6, "{corner}");
+    }
+}

@@ -129,7 +129,8 @@ impl Light {
         finite_vec("center", center)?;
         finite_vec("u", u)?;
         finite_vec("v", v)?;
-        if u.cross(v).length_squared() == 0.0 {
+        // Compare the cross product itself: its squared length underflows for tiny lights.
+        if u.cross(v).abs().max_element() == 0.0 {
             return Err(Error::invalid("u", format!("u = {u} and v = {v} span zero area")));
         }
         Ok(Self { shape: Shape::Rect { center, u, v }, emission: None })
@@ -179,7 +180,10 @@ impl Light {
     /// The emitting side's unit normal of a planar light.
     pub fn normal(&self) -> Option<Vec3> {
         match self.shape {
-            Shape::Rect { u, v, .. } => Some(u.cross(v).normalize()),
+            Shape::Rect { u, v, .. } => {
+                let c = u.cross(v);
+                Some((c / c.abs().max_element()).normalize())
+            }
             Shape::Disk { normal, .. } => Some(normal),
             _ => None,
         }

@@ -1,0 +1,52 @@
+"""softshadows: real-time soft-shadow algorithms from five research papers, run on numpy scenes
+and measured against exact (ray-traced) and path-traced (Mitsuba 3) references.
+
+Quick start::
+
+    import softshadows as ss
+    setup = ss.scenes.load_model("bunny")          # or ss.scenes.fence(), ss.scenes.columns(), ...
+    gb = ss.gbuffer(setup.scene, setup.camera)
+    vis = ss.ray_traced(setup.scene, setup.light, gb, samples=64)
+
+See DESIGN.md for the data model and the definition of visibility.
+"""
+
+from . import _core
+from .camera import Camera, GBuffer, Receivers, gbuffer
+from .lights import DiskLight, PointLight, RectLight, SphereLight
+from .methods import METHODS, ray_traced, shadow_map
+from .scene import Mesh, Scene
+
+__version__ = "0.1.0"
+
+
+def set_memory_limit(bytes: int | None) -> None:
+    """Caps the working memory a call may plan to allocate (``None`` restores 75% of RAM).
+
+    A call whose estimate exceeds it raises ``MemoryError`` before allocating.
+    """
+    _core.set_memory_limit(0 if bytes is None else int(bytes))
+
+
+def memory_limit() -> int:
+    """The current memory limit in bytes."""
+    return int(_core.memory_limit())
+
+
+__all__ = [
+    "Camera",
+    "DiskLight",
+    "GBuffer",
+    "METHODS",
+    "Mesh",
+    "PointLight",
+    "Receivers",
+    "RectLight",
+    "Scene",
+    "SphereLight",
+    "gbuffer",
+    "memory_limit",
+    "ray_traced",
+    "set_memory_limit",
+    "shadow_map",
+]

@@ -1,0 +1,71 @@
+"""Input conversion shared by every public constructor and method.
+
+Each helper converts array-likes to the contiguous dtype the core needs and raises a
+``ValueError`` that names the argument, the expected and the actual shape or dtype.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def array(name: str, value, dtype, shape: tuple, *, finite: bool = True) -> np.ndarray:
+    """Converts ``value`` to a C-contiguous ``dtype`` array of ``shape`` (``None`` = any size).
+
+    Parameters
+    ----------
+    name : str
+        Argument name used in error messages.
+    value : array_like
+        Input; float64/int64 and non-contiguous arrays are accepted and converted.
+    dtype : numpy dtype
+        Target dtype.
+    shape : tuple of int or None
+        Expected shape; ``None`` entries match any length.
+    finite : bool
+        Reject NaN and Inf (floating dtypes only).
+    """
+    try:
+        a = np.asarray(value)
+    except Exception as exc:  # ragged lists and other non-arrays
+        raise ValueError(f"{name}: expected an array of shape {_fmt(shape)}, got {type(value).__name__} ({exc})") from None
+    if a.ndim != len(shape) or any(s is not None and s != n for s, n in zip(shape, a.shape)):
+        raise ValueError(f"{name}: expected shape {_fmt(shape)}, got {a.shape} ({a.dtype})")
+    if a.dtype.kind not in "biuf":
+        raise ValueError(f"{name}: expected a numeric array, got dtype {a.dtype}")
+    if np.dtype(dtype).kind in "ui" and a.dtype.kind == "f":
+        if a.size and not np.all(np.isfinite(a) & (a == np.round(a))):
+            raise ValueError(f"{name}: expected integer indices, got non-integer {a.dtype} values")
+    if np.dtype(dtype).kind == "u" and a.size and a.min() < 0:
+        raise ValueError(f"{name}: indices must be >= 0, got {a.min()}")
+    out = np.ascontiguousarray(a, dtype=dtype)
+    if finite and out.dtype.kind == "f" and not np.all(np.isfinite(out)):
+        raise ValueError(f"{name}: contains NaN or Inf")
+    return out
+
+
+def vec3(name: str, value) -> np.ndarray:
+    """A finite 3-vector as float32."""
+    return array(name, value, np.float32, (3,))
+
+
+def positive(name: str, value, *, allow_zero: bool = False) -> float:
+    """A finite positive float."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected a number, got {value!r}") from None
+    if not np.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
+        raise ValueError(f"{name}: must be finite and {'>=' if allow_zero else '>'} 0, got {v}")
+    return v
+
+
+def positive_int(name: str, value) -> int:
+    """A positive int (bools refused)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise ValueError(f"{name}: expected a positive integer, got {value!r}")
+    return int(value)
+
+
+def _fmt(shape: tuple) -> str:
+    return "(" + ", ".join("N" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"

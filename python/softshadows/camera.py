@@ -1,0 +1,160 @@
+"""Cameras, G-buffers and explicit receivers: the points whose visibility methods compute."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import _validate as v
+
+__all__ = ["Camera", "GBuffer", "Receivers", "gbuffer"]
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A pinhole camera. Build it with :meth:`Camera.look_at`.
+
+    Attributes
+    ----------
+    eye, target, up : ndarray, shape (3,)
+    fov_y : float
+        Vertical field of view in degrees.
+    width, height : int
+        Image size in pixels; row 0 is the top of the image.
+    """
+
+    eye: np.ndarray
+    target: np.ndarray
+    up: np.ndarray
+    fov_y: float
+    width: int
+    height: int
+
+    @classmethod
+    def look_at(cls, eye, target, up=(0, 1, 0), fov_y: float = 45.0, width: int = 512, height: int = 512) -> "Camera":
+        """A camera at ``eye`` looking at ``target``.
+
+        Parameters
+        ----------
+        eye, target, up : array_like, shape (3,)
+        fov_y : float
+            Vertical field of view in degrees, in (0, 180).
+        width, height : int
+            Resolution in pixels, >= 1.
+        """
+        eye, target, up = v.vec3("eye", eye), v.vec3("target", target), v.vec3("up", up)
+        width, height = v.positive_int("width", width), v.positive_int("height", height)
+        fov_y = float(fov_y)
+        if not 0 < fov_y < 180:
+            raise ValueError(f"fov_y: must be in (0, 180) degrees, got {fov_y}")
+        cam = cls(eye, target, up, fov_y, width, height)
+        cam.native()  # validates eye != target and up not parallel to the view direction
+        return cam
+
+    def native(self):
+        """The core camera."""
+        from . import _core
+
+        return _core.NativeCamera(self.eye, self.target, self.up, self.fov_y, self.width, self.height)
+
+    def with_size(self, width: int, height: int) -> "Camera":
+        """The same view at another resolution."""
+        return Camera.look_at(self.eye, self.target, self.up, self.fov_y, width, height)
+
+
+class Receivers:
+    """Explicit receivers: points with normals.
+
+    Parameters
+    ----------
+    points : array_like, shape (K, 3)
+    normals : array_like, shape (K, 3)
+        Need not be unit length; must be non-zero.
+    """
+
+    def __init__(self, points, normals):
+        self.points = v.array("points", points, np.float32, (None, 3))
+        self.normals = v.array("normals", normals, np.float32, (len(self.points), 3))
+        if len(self.normals) and not np.all(np.linalg.norm(self.normals, axis=1) > 0):
+            raise ValueError("normals: every normal must be non-zero")
+        self.mask = np.ones(len(self.points), dtype=bool)
+
+    @property
+    def shape(self) -> tuple:
+        return (len(self.points),)
+
+    def _flat(self):
+        return self.points, self.normals, self.mask, len(self.points), 1
+
+
+@dataclass
+class GBuffer:
+    """A G-buffer: what each pixel of a camera sees.
+
+    Attributes
+    ----------
+    positions : ndarray, shape (H, W, 3), float32
+        World position of the visible surface at each pixel center.
+    normals : ndarray, shape (H, W, 3), float32
+        Unit geometric normals facing the camera.
+    mask : ndarray, shape (H, W), bool
+        Whether the pixel center hit a surface (metrics are computed over it).
+    face_ids : ndarray, shape (H, W), int64
+        Global face id of the hit, -1 for none.
+    sample_depths : ndarray, shape (H, W, msaa), float32 or None
+        Distances along each MSAA sample's ray (inf for no hit), when ``msaa > 1``.
+    camera : Camera
+    """
+
+    positions: np.ndarray
+    normals: np.ndarray
+    mask: np.ndarray
+    face_ids: np.ndarray
+    sample_depths: np.ndarray | None
+    camera: Camera
+
+    @property
+    def shape(self) -> tuple:
+        return self.mask.shape
+
+    def _flat(self):
+        h, w = self.mask.shape
+        return self.positions.reshape(-1, 3), self.normals.reshape(-1, 3), self.mask.reshape(-1), w, h
+
+
+def gbuffer(scene, camera: Camera, msaa: int = 1) -> GBuffer:
+    """Ray-casts a G-buffer of ``scene`` seen by ``camera``.
+
+    Parameters
+    ----------
+    scene : Scene
+    camera : Camera
+    msaa : {1, 2, 4, 8, 16}
+        Samples per pixel (standard D3D positions); with more than one, ``sample_depths`` is set.
+
+    Returns
+    -------
+    GBuffer
+    """
+    if msaa not in (1, 2, 4, 8, 16):
+        raise ValueError(f"msaa: expected one of 1, 2, 4, 8, 16, got {msaa!r}")
+    pos, nrm, mask, ids, depths = scene.native().gbuffer(camera.native(), msaa)
+    h, w = camera.height, camera.width
+    return GBuffer(
+        pos.reshape(h, w, 3),
+        nrm.reshape(h, w, 3),
+        mask.reshape(h, w),
+        ids.reshape(h, w),
+        None if msaa == 1 else depths.reshape(h, w, msaa),
+        camera,
+    )
+
+
+def as_receivers(receivers):
+    """Accepts a GBuffer or Receivers (or an ``(points, normals)`` tuple) for a method call."""
+    if isinstance(receivers, (GBuffer, Receivers)):
+        return receivers
+    if isinstance(receivers, tuple) and len(receivers) == 2:
+        return Receivers(*receivers)
+    raise ValueError(f"receivers: expected a GBuffer, a Receivers or a (points, normals) tuple, got {type(receivers).__name__}")

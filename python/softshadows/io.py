@@ -1,0 +1,140 @@
+"""Reading and writing images: OpenEXR for float data, PNG for viewing.
+
+* EXR files are written as single-part scanline images, float32, ZIP-compressed: a (H, W)
+  array as one channel ``"Y"``, a (H, W, 3) array as ``"R"``, ``"G"``, ``"B"`` (and (H, W, 4)
+  adds ``"A"``). Reading returns float32 whatever the stored pixel type (half included).
+* Environment maps are lat-long images (DESIGN.md section 2): row 0 is the top (+up pole),
+  columns sweep the azimuth. Cube-face layouts are not read yet (``layout="cube"`` raises
+  ``NotImplementedError``); when added they will take six faces in the order
+  +x, -x, +y, -y, +z, -z.
+* PNGs go through ``matplotlib.image.imsave`` (no pyplot, no GUI backend needed).
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+__all__ = ["write_exr", "read_exr", "read_environment", "write_png"]
+
+
+def write_exr(path, image) -> None:
+    """Writes a float image to an OpenEXR file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    image : array_like, shape (H, W), (H, W, 3) or (H, W, 4)
+        Stored as float32 channels ``Y``, ``RGB`` or ``RGBA``. NaN and Inf are refused.
+    """
+    import OpenEXR
+
+    a = np.asarray(image)
+    if a.dtype.kind not in "biuf":
+        raise ValueError(f"image: expected a numeric array, got dtype {a.dtype}")
+    if not (a.ndim == 2 or (a.ndim == 3 and a.shape[2] in (3, 4))) or a.size == 0:
+        raise ValueError(f"image: expected a non-empty array of shape (H, W), (H, W, 3) or (H, W, 4), got {a.shape}")
+    a = np.ascontiguousarray(a, np.float32)
+    if not np.all(np.isfinite(a)):
+        raise ValueError("image: contains NaN or Inf")
+    name = "Y" if a.ndim == 2 else ("RGB" if a.shape[2] == 3 else "RGBA")
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with OpenEXR.File(header, {name: a}) as f:
+        f.write(os.fspath(path))
+
+
+def read_exr(path) -> np.ndarray:
+    """Reads an OpenEXR image as float32.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+
+    Returns
+    -------
+    ndarray, float32
+        (H, W, 3) for R, G, B channels, (H, W, 4) with A, (H, W) for a single channel (``Y``
+        or any other name).
+    """
+    import OpenEXR
+
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise FileNotFoundError(path)
+    with OpenEXR.File(path) as f:
+        channels = {k: np.asarray(c.pixels) for k, c in f.channels().items()}
+    for name in ("RGB", "RGBA", "Y"):
+        if name in channels:
+            return np.ascontiguousarray(channels[name], np.float32)
+    if len(channels) == 1:
+        return np.ascontiguousarray(next(iter(channels.values())), np.float32)
+    raise ValueError(f"path: {path} has channels {sorted(channels)}; expected R, G, B (, A) or a single channel")
+
+
+def read_environment(path, *, layout: str = "latlong") -> np.ndarray:
+    """Reads an environment map for :class:`EnvironmentMap` lights.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        An OpenEXR file. RGBA drops alpha; a single channel is replicated to RGB.
+    layout : {"latlong"}
+        Lat-long (equirectangular): row 0 is the top, width normally twice the height.
+        ``"cube"`` is reserved for cube faces (not implemented yet).
+
+    Returns
+    -------
+    ndarray, shape (H, W, 3), float32
+        Linear radiance, >= 0 (small negative values, which some tools write, are clamped).
+    """
+    if layout == "cube":
+        raise NotImplementedError("layout: cube-face environment maps are not supported yet; convert to lat-long")
+    if layout != "latlong":
+        raise ValueError(f"layout: expected 'latlong', got {layout!r}")
+    img = read_exr(path)
+    if img.ndim == 2:
+        img = np.repeat(img[..., None], 3, axis=-1)
+    img = img[..., :3]
+    if not np.all(np.isfinite(img)):
+        raise ValueError(f"path: {os.fspath(path)} contains NaN or Inf")
+    if img.shape[0] < 2 or img.shape[1] < 2:
+        raise ValueError(f"path: a lat-long map needs at least 2x2 pixels, got {img.shape[:2]}")
+    return np.ascontiguousarray(np.maximum(img, 0), np.float32)
+
+
+def write_png(path, image, *, vmin: float = 0.0, vmax: float = 1.0, cmap: str | None = None) -> None:
+    """Writes an image for viewing.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    image : array_like, shape (H, W), (H, W, 3) or (H, W, 4)
+        Float values are mapped linearly from [vmin, vmax] to [0, 1] and clipped (no gamma:
+        visibility is shown as is). uint8 images are written unchanged.
+    vmin, vmax : float
+        Value range, vmin < vmax.
+    cmap : str, optional
+        Matplotlib colour map for (H, W) images; default gray. Not allowed with RGB.
+    """
+    import matplotlib.image
+
+    a = np.asarray(image)
+    if a.dtype.kind not in "biuf":
+        raise ValueError(f"image: expected a numeric array, got dtype {a.dtype}")
+    if not (a.ndim == 2 or (a.ndim == 3 and a.shape[2] in (3, 4))) or a.size == 0:
+        raise ValueError(f"image: expected a non-empty array of shape (H, W), (H, W, 3) or (H, W, 4), got {a.shape}")
+    if a.ndim == 3 and cmap is not None:
+        raise ValueError("cmap: only single-channel (H, W) images take a colour map")
+    if not (np.isfinite(vmin) and np.isfinite(vmax) and vmin < vmax):
+        raise ValueError(f"vmax: expected finite vmin < vmax, got vmin={vmin}, vmax={vmax}")
+    if a.dtype != np.uint8:
+        a = a.astype(np.float64)
+        if not np.all(np.isfinite(a)):
+            raise ValueError("image: contains NaN or Inf")
+        a = np.clip((a - vmin) / (vmax - vmin), 0, 1)
+    if a.ndim == 2:
+        top = 255 if a.dtype == np.uint8 else 1
+        matplotlib.image.imsave(os.fspath(path), a, cmap=cmap or "gray", vmin=0, vmax=top, format="png")
+    else:
+        matplotlib.image.imsave(os.fspath(path), a, format="png")

@@ -1,0 +1,218 @@
+"""Lights and their sample patterns (DESIGN.md section 2).
+
+Every light has ``samples(n, pattern=..., seed=..., frame=...)`` returning world-space light
+points of shape (n, 3), so patterns can be plotted and two methods can run on the same samples.
+The patterns, their defaults and the per-receiver rotation are documented in
+``rust/core/src/light/sampling.rs``; in short:
+
+* ``"uniform"``, ``"stratified"`` (jittered grid, or n-rooks when n is not a square),
+* ``"poisson"`` (Poisson disk; minimum distances 0.2456139 and 0.1076681 for 16 and 64 samples,
+  seed 001 section 4.1),
+* ``"sobol"`` (a digitally shifted (0,2)-sequence), ``"halton"`` (bases 2, 3, 5).
+
+Methods additionally take ``rotate="per_receiver"`` (a random rotation per receiver: about the
+axis of disks, in 3D for spheres, a toroidal shift of a rectangle's parameters) and
+``interleaved=k`` (k x k patterns tiled over the screen).
+"""
+
+from __future__ import annotations
+
+import abc
+
+import numpy as np
+
+from . import _validate as v
+
+__all__ = ["PointLight", "RectLight", "DiskLight", "SphereLight", "PATTERNS"]
+
+PATTERNS = ("uniform", "stratified", "poisson", "sobol", "halton")
+
+
+class _Light(abc.ABC):
+    """Common behaviour: the core light and sampling."""
+
+    kind = ""
+
+    @abc.abstractmethod
+    def _args(self) -> tuple:
+        """(center, u-or-normal, v, radius, emission) as the core light constructor takes them."""
+
+    def native(self):
+        """The core light object."""
+        from . import _core
+
+        return _core.NativeLight(self.kind, *self._args())
+
+    @property
+    def extent(self) -> float:
+        """Largest distance from the center to a point of the light, in world units."""
+        return float(self.native().extent)
+
+    def samples(self, n: int, *, pattern: str = "poisson", seed: int = 0, frame: int = 0) -> np.ndarray:
+        """World-space light samples.
+
+        Parameters
+        ----------
+        n : int
+            Number of samples.
+        pattern : {"uniform", "stratified", "poisson", "sobol", "halton"}
+            Sample pattern over the light's area (volume for spheres).
+        seed : int
+            Any non-negative integer; the same seed gives the same samples.
+        frame : int
+            Temporal jitter (seed 000 section 4.3): frame ``i > 0`` rotates the whole pattern.
+
+        Returns
+        -------
+        ndarray, shape (n, 3), float32
+        """
+        n = v.positive_int("n", n)
+        return self.native().samples(n, _pattern(pattern), _seed(seed), _seed(frame, "frame"))
+
+    def weights(self, samples) -> np.ndarray:
+        """Emission weights of world-space light points, shape (S,): 1 without an emission texture."""
+        pts = v.array("samples", samples, np.float32, (None, 3))
+        return self.native().weights(pts)
+
+
+def _pattern(pattern: str) -> str:
+    if pattern not in PATTERNS:
+        raise ValueError(f"pattern: expected one of {PATTERNS}, got {pattern!r}")
+    return pattern
+
+
+def _seed(seed, name: str = "seed") -> int:
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"{name}: expected a non-negative integer, got {seed!r}")
+    return int(seed)
+
+
+def _emission(emission):
+    if emission is None:
+        return None
+    e = v.array("emission", emission, np.float32, (None, None))
+    if e.size == 0 or (e < 0).any() or not e.any():
+        raise ValueError(f"emission: expected a non-empty (H, W) array of values >= 0, not all zero, got shape {e.shape}")
+    return e
+
+
+class PointLight(_Light):
+    """A point light.
+
+    Parameters
+    ----------
+    position : array_like, shape (3,)
+    """
+
+    kind = "point"
+
+    def __init__(self, position):
+        self.position = v.vec3("position", position)
+
+    @property
+    def center(self) -> np.ndarray:
+        return self.position
+
+    def _args(self):
+        return (self.position, None, None, 0.0, None)
+
+    def __repr__(self):
+        return f"PointLight(position={self.position.tolist()})"
+
+
+class RectLight(_Light):
+    """A one-sided rectangular area light.
+
+    Parameters
+    ----------
+    center : array_like, shape (3,)
+    u, v : array_like, shape (3,)
+        Half-extent vectors; the light covers ``center + a u + b v`` for a, b in [-1, 1] and
+        emits toward ``normalize(u x v)``.
+    emission : array_like, shape (H, W), optional
+        Relative emitted radiance over the rectangle: row i covers b in the i-th of H bands from
+        -1 to 1, column j the j-th band of a. Samples are weighted by it (a textured light).
+    """
+
+    kind = "rect"
+
+    def __init__(self, center, u, v_, *, emission=None):
+        self.center = v.vec3("center", center)
+        self.u = v.vec3("u", u)
+        self.v = v.vec3("v", v_)
+        if np.linalg.norm(np.cross(self.u.astype(np.float64), self.v.astype(np.float64))) == 0:
+            raise ValueError(f"u: u = {self.u.tolist()} and v = {self.v.tolist()} span zero area")
+        self.emission = _emission(emission)
+
+    @property
+    def normal(self) -> np.ndarray:
+        n = np.cross(self.u, self.v)
+        return (n / np.linalg.norm(n)).astype(np.float32)
+
+    @property
+    def area(self) -> float:
+        return float(4 * np.linalg.norm(np.cross(self.u.astype(np.float64), self.v.astype(np.float64))))
+
+    def _args(self):
+        return (self.center, self.u, self.v, 0.0, self.emission)
+
+    def __repr__(self):
+        return f"RectLight(center={self.center.tolist()}, u={self.u.tolist()}, v={self.v.tolist()})"
+
+
+class DiskLight(_Light):
+    """A one-sided disk area light.
+
+    Parameters
+    ----------
+    center, normal : array_like, shape (3,)
+        The disk emits toward ``normal`` (normalized here).
+    radius : float
+        Radius in world units, > 0.
+    emission : array_like, shape (H, W), optional
+        Relative radiance over the disk through Shirley's concentric map of the unit square.
+    """
+
+    kind = "disk"
+
+    def __init__(self, center, normal, radius, *, emission=None):
+        self.center = v.vec3("center", center)
+        n = v.vec3("normal", normal)
+        if not np.any(n):
+            raise ValueError("normal: must be non-zero")
+        self.normal = (n / np.linalg.norm(n)).astype(np.float32)
+        self.radius = v.positive("radius", radius)
+        self.emission = _emission(emission)
+
+    @property
+    def area(self) -> float:
+        return float(np.pi * self.radius**2)
+
+    def _args(self):
+        return (self.center, self.normal, None, self.radius, self.emission)
+
+    def __repr__(self):
+        return f"DiskLight(center={self.center.tolist()}, normal={self.normal.tolist()}, radius={self.radius})"
+
+
+class SphereLight(_Light):
+    """A volumetric spherical light that emits from its whole volume (seed 000).
+
+    Parameters
+    ----------
+    center : array_like, shape (3,)
+    radius : float
+        Radius in world units, > 0.
+    """
+
+    kind = "sphere"
+
+    def __init__(self, center, radius):
+        self.center = v.vec3("center", center)
+        self.radius = v.positive("radius", radius)
+
+    def _args(self):
+        return (self.center, None, None, self.radius, None)
+
+    def __repr__(self):
+        return f"SphereLight(center={self.center.tolist()}, radius={self.radius})"

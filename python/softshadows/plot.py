@@ -1,0 +1,79 @@
+"""Pictures: visibility and error side by side, the way people compare shadow methods."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["comparison_grid", "show_samples"]
+
+
+def _pyplot():
+    import matplotlib
+
+    if matplotlib.get_backend().lower() not in ("agg", "module://matplotlib_inline.backend_inline"):
+        matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def comparison_grid(reference, results: dict, mask=None, *, path=None, titles: dict | None = None, vmax: float = 0.25):
+    """A grid with one column per method: visibility on top, signed error against the reference below.
+
+    Parameters
+    ----------
+    reference : ndarray, shape (H, W)
+        Reference visibility in [0, 1].
+    results : dict of str to ndarray, shape (H, W)
+        Each method's visibility.
+    mask : ndarray, shape (H, W), bool, optional
+        Pixels that hit a surface; others are drawn gray in the error row.
+    path : str or Path, optional
+        Where to save the PNG; the figure is returned either way.
+    titles : dict of str to str, optional
+        Extra text under each column title (e.g. the RMSE).
+    vmax : float
+        Error magnitude mapped to full red / blue.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from .metrics import error_heatmap
+
+    plt = _pyplot()
+    cols = {"reference": reference, **results}
+    fig, axes = plt.subplots(2, len(cols), figsize=(2.6 * len(cols), 5.6), squeeze=False)
+    for k, (name, vis) in enumerate(cols.items()):
+        sub = (titles or {}).get(name, "")
+        axes[0, k].imshow(vis, cmap="gray", vmin=0, vmax=1, interpolation="nearest")
+        axes[0, k].set_title(name + (f"\n{sub}" if sub else ""), fontsize=9)
+        axes[1, k].imshow(error_heatmap(vis, reference, mask, vmax=vmax), interpolation="nearest")
+        axes[1, k].set_title("error" if name != "reference" else f"error scale ±{vmax}", fontsize=8)
+    for ax in axes.ravel():
+        ax.set_axis_off()
+    fig.tight_layout()
+    if path is not None:
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+    return fig
+
+
+def show_samples(light, samples, *, ax=None, title: str | None = None):
+    """Scatter-plots light samples in the light's plane (the two largest principal axes).
+
+    Parameters
+    ----------
+    light : a light
+    samples : ndarray, shape (S, 3)
+    """
+    plt = _pyplot()
+    pts = np.asarray(samples, dtype=np.float64) - np.asarray(light.center, dtype=np.float64)
+    _, _, vt = np.linalg.svd(pts if len(pts) > 1 else np.eye(3), full_matrices=False)
+    xy = pts @ vt[:2].T
+    if ax is None:
+        _, ax = plt.subplots(figsize=(3, 3))
+    ax.scatter(xy[:, 0], xy[:, 1], s=6)
+    ax.set_aspect("equal")
+    ax.set_title(title or f"{len(pts)} samples", fontsize=9)
+    return ax

@@ -1,0 +1,674 @@
+"""Mitsuba 3 references: the same scene as a Mitsuba scene, visibility by Mitsuba's own ray
+queries, and path-traced direct illumination (DESIGN.md section 4).
+
+Choices made here (where the design is silent)
+----------------------------------------------
+* **Variant.** ``llvm_ad_rgb`` when it loads and runs, else ``scalar_rgb`` (whose ray queries
+  run one ray at a time from Python: correct but slow, for tiny scenes only). The environment
+  variable ``SOFTSHADOWS_MITSUBA_VARIANT`` forces one. The variant is selected lazily, at the first
+  call that needs Mitsuba, and re-selected on every call (``mi.set_variant`` is process-global,
+  so code that switches variants between our calls does not break us). :func:`variant` says
+  which one is in use.
+* **Textures.** Measured with Mitsuba 3.9: a ``bitmap`` texture built from an in-memory tensor
+  maps row 0 to v in [0, 1/H) and a ``mi.Mesh``'s ``vertex_texcoords`` reach ``si.uv`` unchanged.
+  That is already our convention (``alpha[i, j]`` covers v in [i/H, (i+1)/H), row 0 is v = 0),
+  so no flip is applied. (The v flip people remember belongs to Mitsuba's OBJ/PLY loaders, which
+  convert files' texture coordinates; images loaded from files have row 0 at the top.) Alpha is
+  binarized at 0.5 before it becomes a ``mask`` opacity, with ``nearest`` filtering and
+  ``repeat`` wrapping.
+* **Surfaces.** Every mesh gets a ``twosided`` ``diffuse`` BSDF (our G-buffer shades the side the
+  camera sees, and a bare Mitsuba ``diffuse`` is black from behind); meshes keep flat face
+  normals (no vertex normals are passed).
+* **Lights.** ``RectLight`` is a ``rectangle`` whose ``to_world`` maps local (a, b, 0) to
+  ``center + a u + b v`` and local +z, the side an ``area`` emitter lights, to
+  ``normalize(u x v)``. ``DiskLight`` is a ``disk`` (one-sided, facing ``normal``). ``SphereLight``
+  is a ``sphere`` *surface* of uniform radiance: our sphere light emits from its volume, which
+  matters for where visibility samples lie but not for shading, where a uniformly emitting sphere
+  and a sphere surface of the same radiance give the same irradiance. ``PointLight`` is a
+  ``point`` emitter of intensity ``intensity`` (W/sr). Area lights have radiance ``intensity``,
+  times the emission texture of a textured ``RectLight`` (mapped through the rectangle's uv,
+  which equals our (s, t) parameters; textured disks are refused: Mitsuba's disk uv is polar and
+  cannot express our concentric map).
+* **Units.** With radiance L (``intensity``) and reflectance ``albedo``, Mitsuba's rendered
+  radiance of a lit diffuse point is ``albedo / pi * E`` with E the irradiance: the same scale as
+  :func:`softshadows.shading.direct` (scale 1, checked in ``tests/test_shading.py``).
+* **Light geometry in view.** The light's shape is part of the rendered scene (it must be, to
+  emit); a camera ray that hits its back side sees black, not what lies behind it. Keep lights
+  out of view or mask those pixels. The light's shape is never part of the visibility scene.
+* **Visibility.** Section 3 of the design: ray origin ``p + eps n`` (n normalized, eps defaulting
+  to ``scene.epsilon``), unit direction toward the sample and ``maxt = |y_s - origin| (1 - 1e-6)``
+  so the segment stops just short of the sample, and v = 0 for samples with
+  ``dot(y_s - p, n) <= 0`` (those rays are not traced). Textured lights weight their samples by
+  ``light.weights`` (the core's emission lookup), giving a weighted mean.
+* **Perforated meshes.** ``scene.ray_test`` treats a ``mask`` BSDF as opaque, so opaque meshes
+  and perforated meshes go into two Mitsuba scenes: rays are first tested against the opaque one
+  (``ray_test``), and survivors march through the perforated one with ``ray_intersect``, looking
+  our alpha up at ``si.uv`` (nearest texel, repeat) and, at a transparent texel, restarting on
+  the same line just past the hit (clearing the surface by Mitsuba's spawn offset
+  ``(1 + max|p|) * mi.math.RayEpsilon``; see ``_step_past`` for why not along the normal). A ray that is still crossing transparent texels after
+  :data:`MAX_ALPHA_STEPS` hits counts as blocked, with a ``RuntimeWarning`` giving how many.
+* **Renders.** ``integrator="auto"`` is ``path`` (max_depth 2: emitted plus direct light) for
+  scenes without perforated meshes and ``volpath`` (max_depth 2) otherwise, because ``path`` and
+  ``direct`` shadow rays are stopped by ``mask`` BSDFs whatever their opacity. Measured with
+  Mitsuba 3.9 (64 spp, a fully transparent mask quad between a rect light and a lit floor):
+  ``path``/``direct`` 0.0011 (as dark as an opaque quad), ``volpath`` 0.0528 against 0.0532
+  without the quad (noise level), and ``volpath`` shadow rays are stopped by opaque texels.
+* **Cache.** Results are ``.npy`` files in ``$SOFTSHADOWS_CACHE`` (default
+  ``~/.cache/softshadows/reference``), named by a SHA-256 of every input: geometry and texture
+  bytes, the light, receivers, samples, options, the Mitsuba version, the variant and
+  :data:`CACHE_VERSION`. Files are written atomically and never edited; delete the directory to
+  clear it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from . import _validate as v
+from .camera import Camera, GBuffer, Receivers, as_receivers
+from .lights import DiskLight, PointLight, RectLight, SphereLight
+from .scene import Scene
+
+__all__ = ["variant", "mitsuba_scene", "mitsuba_visibility", "mitsuba_render", "cache_dir", "CACHE_VERSION"]
+
+#: Bumped whenever a change here changes results, so stale cache entries are never read.
+CACHE_VERSION = 1
+#: Transparent texels a shadow ray may cross before it counts as blocked.
+MAX_ALPHA_STEPS = 64
+#: Rays per Mitsuba call: large enough to amortize the JIT, small enough for memory (~200 MB).
+RAYS_PER_CALL = 1 << 22
+#: Shadow segments stop this fraction of their length short of the light sample.
+_SEGMENT_SHRINK = 1e-6
+
+_VARIANTS = ("llvm_ad_rgb", "scalar_rgb")
+_selected: str | None = None
+
+
+# ----------------------------------------------------------------------------- variant
+
+
+def variant() -> str:
+    """The Mitsuba variant these references use, selecting it on first use.
+
+    Returns
+    -------
+    str
+        ``"llvm_ad_rgb"`` when it loads and runs, else ``"scalar_rgb"`` (or the value of the
+        ``SOFTSHADOWS_MITSUBA_VARIANT`` environment variable).
+    """
+    _mitsuba()
+    return _selected
+
+
+def _mitsuba():
+    """Imports Mitsuba with our variant set, choosing it the first time."""
+    global _selected
+    import mitsuba as mi
+
+    if _selected is None:
+        forced = os.environ.get("SOFTSHADOWS_MITSUBA_VARIANT")
+        errors = []
+        for name in (forced,) if forced else _VARIANTS:
+            try:
+                mi.set_variant(name)
+                _smoke_test(mi)
+            except Exception as exc:  # a missing LLVM shows up at set_variant or at the first kernel
+                errors.append(f"{name}: {exc}")
+                continue
+            _selected = name
+            break
+        else:
+            raise RuntimeError("no usable Mitsuba variant: " + "; ".join(errors))
+    elif mi.variant() != _selected:
+        mi.set_variant(_selected)
+    return mi
+
+
+def _smoke_test(mi) -> None:
+    """Runs one tiny ray query, so a variant that imports but cannot JIT is rejected here."""
+    scene = mi.load_dict({"type": "scene", "s": {"type": "sphere", "center": [0, 0, 0], "radius": 1.0}})
+    hit = scene.ray_test(mi.Ray3f(mi.Point3f(0, 0, -3), mi.Vector3f(0, 0, 1), 10.0))
+    if not bool(np.all(np.asarray(hit))):
+        raise RuntimeError("smoke test ray missed")
+
+
+def _vectorized(mi) -> bool:
+    return not mi.variant().startswith("scalar")
+
+
+# ----------------------------------------------------------------------------- scenes
+
+
+def mitsuba_scene(scene: Scene, light, camera: Camera | None = None, *, albedo: float = 0.8,
+                  intensity: float = 1.0, spp: int = 64) -> dict:
+    """The scene, its light and optionally a camera as a Mitsuba 3 scene dictionary.
+
+    Parameters
+    ----------
+    scene : Scene
+        Meshes become ``mi.Mesh`` objects built in memory (positions, faces, texcoords when the
+        mesh has uvs) with a two-sided diffuse BSDF; perforated meshes wrap it in a ``mask`` BSDF
+        whose opacity is the alpha texture binarized at 0.5 (nearest, repeat; see the module
+        notes on the uv convention).
+    light : PointLight, RectLight, DiskLight or SphereLight
+        Becomes a ``point`` emitter or an emitting ``rectangle``/``disk``/``sphere`` shape.
+    camera : Camera, optional
+        Adds a ``perspective`` sensor (vertical fov, box filter, RGB ``hdrfilm``) with an
+        ``independent`` sampler of ``spp`` samples per pixel.
+    albedo : float
+        Diffuse reflectance in [0, 1].
+    intensity : float
+        Radiance of an area light (W m^-2 sr^-1) or intensity of a point light (W sr^-1).
+    spp : int
+        Samples per pixel of the sensor's sampler.
+
+    Returns
+    -------
+    dict
+        Pass it to ``mitsuba.load_dict``. It holds Mitsuba objects, so it belongs to the variant
+        that :func:`variant` reports. Keys: ``mesh_000``, ... , ``light``, and ``sensor``.
+    """
+    mi = _mitsuba()
+    _check_scene(scene)
+    albedo = _albedo(albedo)
+    intensity = v.positive("intensity", intensity)
+    spp = v.positive_int("spp", spp)
+    d = {"type": "scene"}
+    d.update(_mesh_shapes(mi, scene, range(len(scene.meshes)), albedo))
+    d["light"] = _light_dict(mi, light, intensity)
+    if camera is not None:
+        d["sensor"] = _sensor_dict(mi, _check_camera(camera), spp)
+    return d
+
+
+def _mesh_shapes(mi, scene: Scene, indices, albedo: float) -> dict:
+    return {f"mesh_{i:03d}": _mesh(mi, scene.meshes[i], f"mesh_{i:03d}", albedo) for i in indices}
+
+
+def _mesh(mi, mesh, name: str, albedo: float):
+    """One ``mi.Mesh`` from our arrays, with its BSDF attached."""
+    has_uv = mesh.uvs is not None
+    m = mi.Mesh(name, len(mesh.vertices), len(mesh.faces), has_vertex_texcoords=has_uv)
+    params = mi.traverse(m)
+    # The buffers' own types: mi.Float in JIT variants, dynamic ArrayXf/ArrayXu in scalar ones.
+    for key, values in (("vertex_positions", mesh.vertices), ("faces", mesh.faces), ("vertex_texcoords", mesh.uvs)):
+        if values is not None:
+            params[key] = type(params[key])(values.reshape(-1))
+    params.update()
+    m.set_bsdf(mi.load_dict(_bsdf_dict(mesh, albedo)))
+    return m
+
+
+def _bsdf_dict(mesh, albedo: float) -> dict:
+    surface = {"type": "twosided", "material": {"type": "diffuse", "reflectance": {"type": "rgb", "value": albedo}}}
+    if mesh.alpha is None:
+        return surface
+    return {"type": "mask", "opacity": _texture(mesh.alpha >= 0.5), "material": surface}
+
+
+def _texture(values: np.ndarray) -> dict:
+    """A nearest/repeat bitmap of a (H, W) array, row 0 at v = 0 (Mitsuba's in-memory convention)."""
+    import mitsuba as mi
+
+    data = np.ascontiguousarray(values, dtype=np.float32)[..., None]
+    return {"type": "bitmap", "bitmap": mi.Bitmap(data), "filter_type": "nearest", "wrap_mode": "repeat", "raw": True}
+
+
+def _light_dict(mi, light, intensity: float) -> dict:
+    if isinstance(light, PointLight):
+        return {"type": "point", "position": light.position.tolist(), "intensity": {"type": "rgb", "value": intensity}}
+    radiance = {"type": "rgb", "value": intensity}
+    if isinstance(light, RectLight):
+        if light.emission is not None:
+            radiance = _scaled_texture(light.emission, intensity)
+        to_world = _frame(light.center, light.u, light.v, light.normal)
+        return {"type": "rectangle", "to_world": to_world, "emitter": {"type": "area", "radiance": radiance}}
+    if isinstance(light, DiskLight):
+        if light.emission is not None:
+            raise ValueError("light: a textured DiskLight has no Mitsuba equivalent (Mitsuba's disk uv is polar)")
+        t, b = _tangents(light.normal)
+        to_world = _frame(light.center, light.radius * t, light.radius * b, light.normal)
+        return {"type": "disk", "to_world": to_world, "emitter": {"type": "area", "radiance": radiance}}
+    if isinstance(light, SphereLight):
+        return {"type": "sphere", "center": light.center.tolist(), "radius": float(light.radius),
+                "emitter": {"type": "area", "radiance": radiance}}
+    raise ValueError(f"light: expected a PointLight, RectLight, DiskLight or SphereLight, got {type(light).__name__}")
+
+
+def _scaled_texture(emission: np.ndarray, intensity: float) -> dict:
+    # The rectangle's uv is ((a+1)/2, (b+1)/2), which is our (s, t): row i covers t in band i.
+    tex = _texture(emission * intensity)
+    tex["filter_type"] = "nearest"
+    tex["wrap_mode"] = "clamp"
+    return tex
+
+
+def _frame(center, x, y, z):
+    """A ``ScalarTransform4f`` whose columns are x, y, z and the translation ``center``.
+
+    Mitsuba transforms normals by the inverse transpose, so local +z becomes a vector
+    orthogonal to x and y on the side of ``z`` (``z = normalize(x cross y)`` here): the
+    emitting side stays ``normalize(u x v)`` even for non-orthogonal u, v.
+    """
+    import mitsuba as mi
+
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, y, z, center
+    return mi.ScalarTransform4f(m.tolist())
+
+
+def _tangents(n: np.ndarray):
+    n = np.asarray(n, np.float64)
+    a = np.array([1.0, 0, 0]) if abs(n[0]) < 0.9 else np.array([0, 1.0, 0])
+    t = np.cross(n, a)
+    t /= np.linalg.norm(t)
+    return t, np.cross(n, t)
+
+
+def _sensor_dict(mi, camera: Camera, spp: int) -> dict:
+    to_world = mi.ScalarTransform4f().look_at(origin=camera.eye.tolist(), target=camera.target.tolist(), up=camera.up.tolist())
+    return {
+        "type": "perspective",
+        "fov": float(camera.fov_y),
+        "fov_axis": "y",
+        "to_world": to_world,
+        "film": {"type": "hdrfilm", "width": int(camera.width), "height": int(camera.height), "pixel_format": "rgb",
+                 "component_format": "float32", "rfilter": {"type": "box"}},
+        "sampler": {"type": "independent", "sample_count": spp},
+    }
+
+
+# ----------------------------------------------------------------------------- visibility
+
+
+def mitsuba_visibility(scene: Scene, light, receivers, samples, *, epsilon: float | None = None,
+                       cache: bool = True, progress: bool = True) -> np.ndarray:
+    """Visibility of light samples by Mitsuba's own ray queries (DESIGN.md section 3).
+
+    V(p) is the mean over samples y_s of v(p, y_s): 1 when the open segment from
+    ``p + epsilon n`` to ``y_s`` hits no opaque surface (alpha-tested on perforated meshes)
+    and ``dot(y_s - p, n) > 0``, else 0.
+
+    Parameters
+    ----------
+    scene : Scene
+        Occluders; the light's own geometry is never added.
+    light : PointLight, RectLight, DiskLight or SphereLight
+        Used for ``light.samples(n)`` when ``samples`` is an int, and for the weights of a
+        textured light.
+    receivers : GBuffer or Receivers or (points, normals)
+        A G-buffer (positions (H, W, 3), normals (H, W, 3), mask (H, W)) or explicit points
+        (K, 3) and non-zero normals (K, 3), in world units.
+    samples : int or array_like, shape (S, 3)
+        World-space light points, or how many to draw with ``light.samples(n)`` (default
+        pattern and seed; this needs the compiled core).
+    epsilon : float, optional
+        Origin offset along the unit normal, world units; default ``scene.epsilon``.
+    cache : bool
+        Read and write the on-disk cache (see the module notes).
+    progress : bool
+        Show a tqdm progress bar over ray batches.
+
+    Returns
+    -------
+    ndarray, shape (H, W) or (K,), float32
+        In [0, 1]; 0 where the G-buffer mask is False.
+    """
+    _check_scene(scene)
+    rx = as_receivers(receivers)
+    pts = _light_samples(light, samples)
+    eps = scene.epsilon if epsilon is None else v.positive("epsilon", epsilon, allow_zero=True)
+    weights = light.weights(pts).astype(np.float64) if getattr(light, "emission", None) is not None else None
+    points, normals, mask = _receiver_arrays(rx)
+    key = None
+    if cache:
+        key = _cache_key("visibility", scene, light, points, normals, mask, pts, eps, weights)
+        hit = _cache_read(key)
+        if hit is not None:
+            return hit
+    mi = _mitsuba()
+    tracer = _Tracer(mi, scene)
+    vis = np.zeros(len(points), np.float32)
+    vis[mask] = _visibility(tracer, points[mask], normals[mask], pts, eps, weights, progress)
+    vis = vis.reshape(rx.shape)
+    if key is not None:
+        _cache_write(key, vis)
+    return vis
+
+
+def _light_samples(light, samples) -> np.ndarray:
+    if isinstance(samples, (int, np.integer)) and not isinstance(samples, bool):
+        return np.asarray(light.samples(v.positive_int("samples", samples)), np.float32)
+    pts = v.array("samples", samples, np.float32, (None, 3))
+    if len(pts) == 0:
+        raise ValueError("samples: expected at least one light sample, got shape (0, 3)")
+    return pts
+
+
+def _receiver_arrays(rx):
+    if isinstance(rx, GBuffer):
+        points = np.asarray(rx.positions, np.float64).reshape(-1, 3)
+        normals = np.asarray(rx.normals, np.float64).reshape(-1, 3)
+        mask = np.asarray(rx.mask, bool).reshape(-1)
+    else:
+        points, normals, mask = rx.points.astype(np.float64), rx.normals.astype(np.float64), rx.mask.copy()
+    if mask.any():
+        if not np.all(np.isfinite(points[mask])):
+            raise ValueError("receivers: positions of hit pixels contain NaN or Inf")
+        lengths = np.linalg.norm(normals[mask], axis=1)
+        if not np.all(np.isfinite(lengths) & (lengths > 0)):
+            raise ValueError("receivers: normals of hit pixels must be finite and non-zero")
+    normals = normals.copy()
+    normals[mask] /= np.linalg.norm(normals[mask], axis=1, keepdims=True)
+    return points, normals, mask
+
+
+def _visibility(tracer, points, normals, samples, eps, weights, progress) -> np.ndarray:
+    """Mean visibility of (K,) receivers over (S,) samples, in batches of about RAYS_PER_CALL rays."""
+    from tqdm.auto import tqdm
+
+    n_samples = len(samples)
+    per_batch = max(1, RAYS_PER_CALL // n_samples)
+    ys = samples.astype(np.float64)
+    out = np.empty(len(points), np.float64)
+    with tqdm(total=len(points) * n_samples, unit="ray", unit_scale=True, disable=not progress,
+              desc="mitsuba_visibility", leave=False) as bar:
+        for k0 in range(0, len(points), per_batch):
+            p, n = points[k0:k0 + per_batch], normals[k0:k0 + per_batch]
+            to_sample = ys[None, :, :] - p[:, None, :]                  # (k, S, 3)
+            front = np.einsum("ksc,kc->ks", to_sample, n) > 0
+            origins = np.broadcast_to((p + eps * n)[:, None, :], to_sample.shape)
+            visible = np.zeros(front.shape, bool)
+            visible[front] = ~tracer.occluded(origins[front], np.broadcast_to(ys, to_sample.shape)[front])
+            if weights is None:
+                out[k0:k0 + len(p)] = visible.mean(axis=1)
+            else:
+                out[k0:k0 + len(p)] = visible @ weights / weights.sum()
+            bar.update(visible.size)
+    return np.clip(out, 0, 1).astype(np.float32)
+
+
+class _Tracer:
+    """Shadow-segment queries against a softshadows scene, through Mitsuba.
+
+    Opaque meshes go into one Mitsuba scene (``ray_test``), perforated ones into another
+    (``ray_intersect`` plus our alpha lookup), so the common case never pays for the march.
+    """
+
+    def __init__(self, mi, scene: Scene):
+        self.mi = mi
+        opaque = [i for i, m in enumerate(scene.meshes) if m.alpha is None and len(m.faces)]
+        perforated = [i for i, m in enumerate(scene.meshes) if m.alpha is not None and len(m.faces)]
+        self.opaque = self._load(scene, opaque)
+        self.perforated = self._load(scene, perforated)
+        # Alpha textures by the id Mitsuba reports in si.shape, binarized once.
+        self.alpha = {}
+        if self.perforated is not None:
+            for shape in self.perforated.shapes():
+                i = int(shape.id().split("_")[1])
+                self.alpha[self._shape_id(shape)] = scene.meshes[i].alpha >= 0.5
+
+    def _load(self, scene, indices):
+        if not indices:
+            return None
+        return self.mi.load_dict({"type": "scene", **_mesh_shapes(self.mi, scene, indices, 0.5)})
+
+    def _shape_id(self, shape):
+        if _vectorized(self.mi):
+            import drjit as dr
+
+            return int(np.asarray(dr.reinterpret_array(self.mi.UInt32, self.mi.ShapePtr(shape)))[0])
+        return shape.id()
+
+    def occluded(self, origins: np.ndarray, targets: np.ndarray) -> np.ndarray:
+        """Whether each segment from origins (R, 3) to targets (R, 3), float64, is blocked."""
+        blocked = np.zeros(len(origins), bool)
+        if self.opaque is not None and len(origins):
+            d, maxt = _segment(origins, targets)
+            blocked = self._ray_test(origins, d, maxt)
+        if self.perforated is not None:
+            todo = np.flatnonzero(~blocked)
+            blocked[todo] = self._march(origins[todo], targets[todo])
+        return blocked
+
+    def _ray_test(self, o, d, maxt) -> np.ndarray:
+        mi = self.mi
+        if _vectorized(mi):
+            return np.asarray(self.opaque.ray_test(_rays(mi, o, d, maxt)), bool).reshape(-1)
+        return np.array([bool(self.opaque.ray_test(mi.Ray3f(mi.Point3f(*o[i]), mi.Vector3f(*d[i]), float(maxt[i]))))
+                         for i in range(len(o))], bool)
+
+    def _march(self, origins, targets) -> np.ndarray:
+        """Steps each segment through transparent texels of the perforated meshes."""
+        blocked = np.zeros(len(origins), bool)
+        alive = np.arange(len(origins))
+        o = origins
+        for _ in range(MAX_ALPHA_STEPS):
+            if not len(alive):
+                return blocked
+            d, maxt = _segment(o, targets[alive])
+            hit, t, n, uv, shape = self._intersect(o, d, maxt)
+            opaque = np.zeros(len(alive), bool)
+            for sid, alpha in self.alpha.items():
+                on = hit & (shape == sid)
+                opaque[on] = _alpha_lookup(alpha, uv[on])
+            blocked[alive[opaque]] = True
+            go_on = hit & ~opaque
+            alive, o = alive[go_on], _step_past(o[go_on], d[go_on], t[go_on], n[go_on])
+        if len(alive):
+            blocked[alive] = True
+            warnings.warn(f"{len(alive)} shadow rays crossed more than {MAX_ALPHA_STEPS} transparent texels and count as blocked",
+                          RuntimeWarning, stacklevel=3)
+        return blocked
+
+    def _intersect(self, o, d, maxt):
+        """(hit, t, geometric normal, uv, shape id) of the first hit of each ray."""
+        mi = self.mi
+        if _vectorized(mi):
+            import drjit as dr
+
+            si = self.perforated.ray_intersect(_rays(mi, o, d, maxt), mi.RayFlags.Minimal | mi.RayFlags.UV, False)
+            hit = np.asarray(si.is_valid(), bool).reshape(-1)
+            shape = np.asarray(dr.reinterpret_array(mi.UInt32, si.shape), np.int64).reshape(-1)
+            return (hit, np.asarray(si.t, np.float64).reshape(-1), np.asarray(si.n, np.float64).T,
+                    np.asarray(si.uv, np.float64).T, shape)
+        hit = np.zeros(len(o), bool)
+        t, n, uv = np.zeros(len(o)), np.zeros((len(o), 3)), np.zeros((len(o), 2))
+        shape = np.empty(len(o), object)
+        for i in range(len(o)):
+            si = self.perforated.ray_intersect(mi.Ray3f(mi.Point3f(*o[i]), mi.Vector3f(*d[i]), float(maxt[i])))
+            if si.is_valid():
+                hit[i], t[i], n[i], uv[i], shape[i] = True, float(si.t), np.array(si.n), np.array(si.uv), si.shape.id()
+        return hit, t, n, uv, shape
+
+
+def _segment(o, targets):
+    """Unit directions and maxt of the open segments o -> targets (stopping just short)."""
+    d = targets - o
+    dist = np.linalg.norm(d, axis=1)
+    safe = np.where(dist > 0, dist, 1.0)
+    return d / safe[:, None], dist * (1 - _SEGMENT_SHRINK)
+
+
+def _rays(mi, o, d, maxt):
+    return mi.Ray3f(mi.Point3f(np.ascontiguousarray(o.T, np.float32)),
+                    mi.Vector3f(np.ascontiguousarray(d.T, np.float32)),
+                    mi.Float(np.ascontiguousarray(maxt, np.float32)))
+
+
+def _step_past(o, d, t, n):
+    """A new origin on the same line, just past the hit at ``o + t d`` (d unit length).
+
+    Stepping along the ray (not along the normal, as Mitsuba's ``spawn_ray`` does) keeps the
+    continued ray on the original segment, so later hits land where the segment crosses them:
+    a normal offset shifts the ray sideways by ~1e-4 and moved texel lookups near texel edges.
+    The step clears the surface by Mitsuba's spawn offset ``(1 + max|p|) * RayEpsilon`` measured
+    along the normal, capped at 20x that length for grazing hits; a ray that lands on the same
+    surface again finds the same transparent texel and just steps again.
+    """
+    mi = _mitsuba()
+    p = o + t[:, None] * d
+    clearance = (1 + np.abs(p).max(axis=1, initial=0)) * float(mi.math.RayEpsilon)
+    cos = np.abs(np.einsum("ij,ij->i", n, d)) / np.maximum(np.linalg.norm(n, axis=1), 1e-30)
+    return p + (clearance / np.maximum(cos, 0.05))[:, None] * d
+
+
+def _alpha_lookup(opaque_texels: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """Nearest-texel, repeat-wrapped lookup with our convention (row i covers v in [i/H, (i+1)/H))."""
+    h, w = opaque_texels.shape
+    frac = uv - np.floor(uv)
+    j = np.minimum((frac[:, 0] * w).astype(np.int64), w - 1)
+    i = np.minimum((frac[:, 1] * h).astype(np.int64), h - 1)
+    return opaque_texels[i, j]
+
+
+# ----------------------------------------------------------------------------- rendering
+
+_INTEGRATORS = ("auto", "path", "direct", "volpath")
+
+
+def mitsuba_render(scene: Scene, light, camera: Camera, *, spp: int = 64, integrator: str = "auto",
+                   albedo: float = 0.8, intensity: float = 1.0, seed: int = 0, cache: bool = True) -> np.ndarray:
+    """Path-traced direct illumination of the scene by Mitsuba 3.
+
+    Parameters
+    ----------
+    scene : Scene
+    light : PointLight, RectLight, DiskLight or SphereLight
+        See :func:`mitsuba_scene` for how each becomes a Mitsuba emitter.
+    camera : Camera
+        Row 0 of the result is the top of the image, as in the G-buffer.
+    spp : int
+        Samples per pixel.
+    integrator : {"auto", "path", "direct", "volpath"}
+        ``path`` and ``volpath`` run with max_depth 2 (emission plus direct light); ``direct``
+        is Mitsuba's direct integrator (MIS of emitter and BSDF sampling). ``auto`` is
+        ``volpath`` when the scene has perforated meshes (the only one whose shadow rays cross
+        transparent texels) and ``path`` otherwise.
+    albedo : float
+        Diffuse reflectance of every surface, in [0, 1].
+    intensity : float
+        Area-light radiance or point-light intensity (see :func:`mitsuba_scene`).
+    seed : int
+        Sampler seed; the same seed gives the same image.
+    cache : bool
+        Read and write the on-disk cache.
+
+    Returns
+    -------
+    ndarray, shape (H, W, 3), float32
+        Linear RGB radiance (W m^-2 sr^-1 for radiance 1 lights); comparable with
+        ``shading.direct(...)`` at the same ``albedo`` and ``intensity`` (scale 1).
+    """
+    _check_scene(scene)
+    camera = _check_camera(camera)
+    spp = v.positive_int("spp", spp)
+    if integrator not in _INTEGRATORS:
+        raise ValueError(f"integrator: expected one of {_INTEGRATORS}, got {integrator!r}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed: expected a non-negative integer, got {seed!r}")
+    albedo, intensity = _albedo(albedo), v.positive("intensity", intensity)
+    if integrator == "auto":
+        integrator = "volpath" if any(m.alpha is not None for m in scene.meshes) else "path"
+    key = None
+    if cache:
+        key = _cache_key("render", scene, light, _camera_array(camera), spp, integrator, albedo, intensity, int(seed))
+        hit = _cache_read(key)
+        if hit is not None:
+            return hit
+    mi = _mitsuba()
+    d = mitsuba_scene(scene, light, camera, albedo=albedo, intensity=intensity, spp=spp)
+    d["integrator"] = {"type": "direct"} if integrator == "direct" else {"type": integrator, "max_depth": 2}
+    image = np.asarray(mi.render(mi.load_dict(d), spp=spp, seed=int(seed)), np.float32)[..., :3]
+    image = np.ascontiguousarray(image)
+    if key is not None:
+        _cache_write(key, image)
+    return image
+
+
+# ----------------------------------------------------------------------------- cache
+
+
+def cache_dir() -> Path:
+    """The reference cache directory: ``$SOFTSHADOWS_CACHE`` or ``~/.cache/softshadows/reference``."""
+    return Path(os.environ.get("SOFTSHADOWS_CACHE") or Path.home() / ".cache" / "softshadows" / "reference")
+
+
+def _cache_key(kind: str, scene: Scene, light, *parts) -> str:
+    import mitsuba as mi
+
+    h = hashlib.sha256()
+
+    def add(x):
+        if isinstance(x, np.ndarray):
+            h.update(f"a{x.dtype.str}{x.shape}".encode())
+            h.update(np.ascontiguousarray(x).tobytes())
+        elif x is None or isinstance(x, (bool, int, float, str, np.integer, np.floating)):
+            h.update(f"s{type(x).__name__}:{x!r};".encode())
+        else:
+            raise TypeError(f"cannot hash {type(x).__name__}")
+
+    for x in (kind, CACHE_VERSION, mi.__version__, variant()):
+        add(x)
+    for m in scene.meshes:
+        for x in (m.vertices, m.faces, m.uvs, m.alpha):
+            add(x)
+    add(type(light).__name__)
+    for attr in ("position", "center", "u", "v", "normal", "radius", "emission"):
+        value = getattr(light, attr, None)
+        add(np.asarray(value) if value is not None and not isinstance(value, float) else value)
+    for x in parts:
+        add(np.asarray(x) if isinstance(x, (list, tuple)) else x)
+    return f"{kind}-{h.hexdigest()}"
+
+
+def _cache_path(key: str) -> Path:
+    return cache_dir() / f"{key}.npy"
+
+
+def _cache_read(key: str):
+    path = _cache_path(key)
+    if not path.exists():
+        return None
+    try:
+        return np.load(path, allow_pickle=False)
+    except (OSError, ValueError):  # a truncated file from a crash: recompute and overwrite
+        return None
+
+
+def _cache_write(key: str, value: np.ndarray) -> None:
+    path = _cache_path(key)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f"{path.stem}.{os.getpid()}.tmp.npy")
+    np.save(tmp, value, allow_pickle=False)
+    os.replace(tmp, path)  # atomic: readers never see a partial file
+
+
+# ----------------------------------------------------------------------------- validation
+
+
+def _check_scene(scene) -> None:
+    if not isinstance(scene, Scene):
+        raise ValueError(f"scene: expected a softshadows.Scene, got {type(scene).__name__}")
+
+
+def _check_camera(camera) -> Camera:
+    if not isinstance(camera, Camera):
+        raise ValueError(f"camera: expected a softshadows.Camera, got {type(camera).__name__}")
+    return camera
+
+
+def _albedo(albedo) -> float:
+    a = v.positive("albedo", albedo, allow_zero=True)
+    if a > 1:
+        raise ValueError(f"albedo: must be in [0, 1], got {a}")
+    return a
+
+
+def _camera_array(camera: Camera) -> np.ndarray:
+    return np.concatenate([camera.eye, camera.target, camera.up, [camera.fov_y, camera.width, camera.height]]).astype(np.float64)

@@ -1,0 +1,142 @@
+"""Scenes: triangle meshes, optionally perforated by a binary alpha texture (DESIGN.md section 2)."""
+
+from __future__ import annotations
+
+
+import numpy as np
+
+from . import _validate as v
+
+__all__ = ["Mesh", "Scene"]
+
+
+class Mesh:
+    """A triangle mesh, optionally perforated by an alpha texture.
+
+    Parameters
+    ----------
+    vertices : array_like, shape (N, 3)
+        Vertex positions in world units; converted to float32.
+    faces : array_like, shape (M, 3)
+        Vertex indices of each triangle; converted to uint32.
+    uvs : array_like, shape (N, 2), optional
+        Per-vertex texture coordinates; they wrap (repeat).
+    alpha : array_like, shape (H, W), optional
+        Alpha texture in [0, 1]; a texel with alpha >= 0.5 is opaque. ``alpha[i, j]`` covers
+        u in [j/W, (j+1)/W) and v in [i/H, (i+1)/H) (row 0 is v = 0); lookups are nearest-texel.
+        Requires ``uvs``.
+    closed : bool
+        The mesh is two-manifold and closed; methods may then let only light back-facing
+        triangles cast shadows and skip their depth bias.
+    name : str, optional
+        A label for reports.
+    """
+
+    def __init__(self, vertices, faces, *, uvs=None, alpha=None, closed: bool = False, name: str | None = None):
+        self.vertices = v.array("vertices", vertices, np.float32, (None, 3))
+        self.faces = v.array("faces", faces, np.uint32, (None, 3))
+        if self.faces.size and int(self.faces.max()) >= len(self.vertices):
+            bad = int(np.argmax(self.faces.max(axis=1) >= len(self.vertices)))
+            raise ValueError(
+                f"faces: face {bad} = {self.faces[bad].tolist()} indexes past the {len(self.vertices)} vertices"
+            )
+        if alpha is not None and uvs is None:
+            raise ValueError("uvs: a perforated mesh (alpha=...) needs per-vertex uvs of shape (N, 2)")
+        self.uvs = None if uvs is None else v.array("uvs", uvs, np.float32, (len(self.vertices), 2))
+        self.alpha = None if alpha is None else v.array("alpha", alpha, np.float32, (None, None))
+        if self.alpha is not None and self.alpha.size == 0:
+            raise ValueError(f"alpha: expected a non-empty (H, W) texture, got shape {self.alpha.shape}")
+        self.closed = bool(closed)
+        self.name = name
+
+    @property
+    def perforated(self) -> bool:
+        """Whether the mesh has an alpha texture."""
+        return self.alpha is not None
+
+    def __repr__(self) -> str:
+        extra = f", alpha={self.alpha.shape}" if self.perforated else ""
+        return f"Mesh({self.name or ''!s}{len(self.vertices)} vertices, {len(self.faces)} faces{extra}, closed={self.closed})"
+
+
+class Scene:
+    """A set of meshes; faces are numbered globally in mesh order (the G-buffer's face ids).
+
+    Parameters
+    ----------
+    meshes : sequence of Mesh
+        At least one triangle in all.
+    """
+
+    def __init__(self, meshes):
+        meshes = list(meshes) if not isinstance(meshes, Mesh) else [meshes]
+        if not meshes or not all(isinstance(m, Mesh) for m in meshes):
+            raise ValueError(f"meshes: expected a non-empty list of softshadows.Mesh, got {meshes!r}")
+        if sum(len(m.faces) for m in meshes) == 0:
+            raise ValueError("meshes: the scene has no triangles")
+        self.meshes = meshes
+        self._native = None
+
+    @classmethod
+    def from_trimesh(cls, mesh, *, alpha=None, closed: bool | None = None) -> "Scene":
+        """Builds a scene from a ``trimesh.Trimesh`` or ``trimesh.Scene``.
+
+        Parameters
+        ----------
+        mesh : trimesh.Trimesh or trimesh.Scene
+            A scene is flattened with its node transforms applied (``Scene.dump``).
+        alpha : array_like, shape (H, W), optional
+            An alpha texture for every mesh, which then needs uvs (``mesh.visual.uv``).
+        closed : bool, optional
+            Overrides the default of ``mesh.is_watertight`` per mesh.
+        """
+        import trimesh
+
+        parts = mesh.dump(concatenate=False) if isinstance(mesh, trimesh.Scene) else [mesh]
+        meshes = []
+        for part in parts:
+            uvs = getattr(part.visual, "uv", None)
+            meshes.append(
+                Mesh(
+                    part.vertices,
+                    part.faces,
+                    uvs=None if alpha is None else uvs,
+                    alpha=alpha,
+                    closed=bool(part.is_watertight) if closed is None else closed,
+                    name=getattr(part.metadata, "get", lambda k: None)("name"),
+                )
+            )
+        return cls(meshes)
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """Axis-aligned bounds of the referenced vertices, shape (2, 3): min and max."""
+        pts = np.concatenate([m.vertices[m.faces.reshape(-1)] for m in self.meshes if len(m.faces)])
+        return np.stack([pts.min(axis=0), pts.max(axis=0)])
+
+    @property
+    def epsilon(self) -> float:
+        """The default shadow-ray offset along the receiver normal: 1e-4 x the bounds' diagonal.
+
+        ``ray_traced`` and the Mitsuba reference use the same value (DESIGN.md section 3).
+        """
+        lo, hi = self.bounds.astype(np.float64)
+        return float(1e-4 * np.linalg.norm(hi - lo))
+
+    @property
+    def num_faces(self) -> int:
+        """Total number of triangles."""
+        return sum(len(m.faces) for m in self.meshes)
+
+    def native(self):
+        """The core scene with its BVH, built once and cached (the scene is treated as immutable)."""
+        if self._native is None:
+            from . import _core
+
+            self._native = _core.NativeScene(
+                [(m.vertices, m.faces, m.uvs, m.alpha, m.closed) for m in self.meshes]
+            )
+        return self._native
+
+    def __repr__(self) -> str:
+        return f"Scene({len(self.meshes)} meshes, {self.num_faces} faces)"

@@ -1,0 +1,316 @@
+//! Binned-SAH construction of a binary BVH, then its collapse into the 4-wide layout the
+//! traversal uses.
+//!
+//! - Binning: 16 bins per axis over the centroid bounds; the split plane minimizing
+//!   `area(L) * blocks(L) + area(R) * blocks(R)` is taken, where `blocks(n) = ceil(n / 4)` since a
+//!   leaf's four-triangle block costs one SIMD test whatever its occupancy. Nodes of at most four
+//!   triangles become leaves (exactly one block each).
+//! - Depth bound: below depth [`SAH_DEPTH_LIMIT`] the split is the object median instead, which
+//!   halves the node, so the binary tree is at most `48 + 32` levels deep and the traversal
+//!   stacks of [`super::STACK`] entries cannot overflow (checked once in [`build`]).
+//! - Determinism: subtrees above [`PAR_MIN`] triangles are built with `rayon::join` into their own
+//!   node vectors and concatenated in (root, left, right) order, and every partition is an
+//!   in-place sequential pass over a disjoint slice, so the result is the same for any thread count.
+//! - Collapse: each 4-wide node takes its binary children and repeatedly opens the inner child
+//!   with the largest surface area until it has four. Nodes and blocks are laid out depth-first.
+
+use super::{Bvh, Node4, Tri4, EMPTY, LEAF, STACK};
+use crate::error::{Error, Result};
+use crate::geometry::mesh::Scene;
+use crate::limits;
+use glam::{Vec3, Vec4};
+use rayon::prelude::*;
+
+const BINS: usize = 16;
+const LEAF_SIZE: usize = 4;
+/// Depth after which splits are object medians (bounds the tree depth).
+const SAH_DEPTH_LIMIT: u32 = 48;
+/// Subtrees of at least this many triangles are built in parallel.
+const PAR_MIN: usize = 8192;
+/// Generous upper bound of the working memory per triangle during the build, in bytes.
+const BYTES_PER_TRIANGLE: u64 = 480;
+
+#[derive(Debug, Clone, Copy)]
+struct Aabb {
+    lo: Vec3,
+    hi: Vec3,
+}
+
+impl Aabb {
+    const EMPTY: Aabb = Aabb { lo: Vec3::splat(f32::INFINITY), hi: Vec3::splat(f32::NEG_INFINITY) };
+
+    fn union(self, o: Aabb) -> Aabb {
+        Aabb { lo: self.lo.min(o.lo), hi: self.hi.max(o.hi) }
+    }
+
+    fn grow(self, p: Vec3) -> Aabb {
+        Aabb { lo: self.lo.min(p), hi: self.hi.max(p) }
+    }
+
+    /// Half the surface area (the SAH only compares ratios); 0 for an empty box.
+    fn half_area(self) -> f32 {
+        let d = (self.hi - self.lo).max(Vec3::ZERO);
+        d.x * d.y + d.y * d.z + d.z * d.x
+    }
+}
+
+/// A triangle's bounds and centroid.
+#[derive(Debug, Clone, Copy)]
+struct Prim {
+    b: Aabb,
+    c: Vec3,
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Kind {
+    /// Triangles `idx[start .. start + count]`.
+    Leaf { start: u32, count: u32 },
+    /// Child indices within the same node vector.
+    Inner { left: u32, right: u32 },
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Node2 {
+    b: Aabb,
+    kind: Kind,
+}
+
+/// Builds the BVH of all triangles of `scene` (see the module doc).
+pub(super) fn build(scene: &Scene) -> Result<Bvh> {
+    let n = scene.num_faces();
+    limits::check_memory("BVH", limits::bytes(&[n as u64, BYTES_PER_TRIANGLE]))?;
+    if n >= (LEAF as usize) / 2 {
+        // Leaf references keep 31 bits for the block index; the memory check refuses far earlier.
+        return Err(Error::TooLarge { what: "BVH".into(), bytes: n as u64 * BYTES_PER_TRIANGLE, limit: limits::memory_limit() });
+    }
+    let tris: Vec<[Vec3; 3]> = scene.triangles().map(|(_, t)| t).collect();
+    let alpha = perforated_faces(scene);
+    let prims: Vec<Prim> = tris
+        .par_iter()
+        .map(|t| {
+            let b = Aabb::EMPTY.grow(t[0]).grow(t[1]).grow(t[2]);
+            Prim { b, c: (b.lo + b.hi) * 0.5 }
+        })
+        .collect();
+    let mut idx: Vec<u32> = (0..n as u32).collect();
+    let nodes2 = build_subtree(&prims, &mut idx, 0, 0);
+    drop(prims);
+    let mut out = Collapse { n2: &nodes2, idx: &idx, tris: &tris, alpha: &alpha, nodes: Vec::new(), blocks: Vec::new(), depth: 0 };
+    let root = out.node(0, 1);
+    if 3 * out.depth as usize + 1 > STACK {
+        // Unreachable by the depth bound of the module doc; refuse rather than risk the stacks.
+        return Err(Error::invalid("meshes", format!("BVH depth {} exceeds the traversal stack", out.depth)));
+    }
+    let b = nodes2[0].b;
+    Ok(Bvh { nodes: out.nodes, blocks: out.blocks, root, depth: out.depth, bounds: (b.lo, b.hi), num_faces: n })
+}
+
+/// Per global face, whether it belongs to a perforated mesh (precomputed so that opaque meshes
+/// never look at textures).
+fn perforated_faces(scene: &Scene) -> Vec<bool> {
+    scene.meshes.iter().flat_map(|m| std::iter::repeat_n(m.is_perforated(), m.faces.len())).collect()
+}
+
+fn bounds_of(prims: &[Prim], idx: &[u32]) -> (Aabb, Aabb) {
+    idx.iter().fold((Aabb::EMPTY, Aabb::EMPTY), |(b, c), &i| {
+        let p = &prims[i as usize];
+        (b.union(p.b), c.grow(p.c))
+    })
+}
+
+/// Builds the subtree over `idx` (whose first entry sits at `start` of the full index array);
+/// node 0 of the result is its root.
+fn build_subtree(prims: &[Prim], idx: &mut [u32], start: u32, depth: u32) -> Vec<Node2> {
+    if idx.len() < PAR_MIN {
+        let mut out = Vec::with_capacity(2 * idx.len().div_ceil(LEAF_SIZE));
+        build_serial(prims, idx, start, depth, &mut out);
+        return out;
+    }
+    let (b, cb) = bounds_of(prims, idx);
+    let mid = split(prims, idx, cb, depth);
+    let (li, ri) = idx.split_at_mut(mid);
+    let (l, r) = rayon::join(
+        || build_subtree(prims, li, start, depth + 1),
+        || build_subtree(prims, ri, start + mid as u32, depth + 1),
+    );
+    let mut out = Vec::with_capacity(1 + l.len() + r.len());
+    out.push(Node2 { b, kind: Kind::Inner { left: 1, right: 1 + l.len() as u32 } });
+    append_shifted(&mut out, &l);
+    append_shifted(&mut out, &r);
+    out
+}
+
+/// Appends `sub` to `out`, shifting its internal child indices to their new positions.
+fn append_shifted(out: &mut Vec<Node2>, sub: &[Node2]) {
+    let shift = out.len() as u32;
+    out.extend(sub.iter().map(|n| match n.kind {
+        Kind::Inner { left, right } => Node2 { b: n.b, kind: Kind::Inner { left: left + shift, right: right + shift } },
+        Kind::Leaf { .. } => *n,
+    }));
+}
+
+/// Sequential build appending to `out`; returns the index of the subtree's root.
+fn build_serial(prims: &[Prim], idx: &mut [u32], start: u32, depth: u32, out: &mut Vec<Node2>) -> u32 {
+    let (b, cb) = bounds_of(prims, idx);
+    let me = out.len() as u32;
+    if idx.len() <= LEAF_SIZE {
+        out.push(Node2 { b, kind: Kind::Leaf { start, count: idx.len() as u32 } });
+        return me;
+    }
+    out.push(Node2 { b, kind: Kind::Leaf { start, count: 0 } });
+    let mid = split(prims, idx, cb, depth);
+    let (li, ri) = idx.split_at_mut(mid);
+    let left = build_serial(prims, li, start, depth + 1, out);
+    let right = build_serial(prims, ri, start + mid as u32, depth + 1, out);
+    out[me as usize].kind = Kind::Inner { left, right };
+    me
+}
+
+/// Partitions `idx` (more than [`LEAF_SIZE`] triangles) and returns the size of the left part,
+/// always in `1 .. idx.len()`.
+fn split(prims: &[Prim], idx: &mut [u32], cb: Aabb, depth: u32) -> usize {
+    if depth < SAH_DEPTH_LIMIT {
+        if let Some((axis, plane, scale)) = best_sah_split(prims, idx, cb) {
+            let lo = cb.lo[axis];
+            let mid = partition(idx, |i| bin_of(prims[i as usize].c[axis], lo, scale) < plane);
+            if mid > 0 && mid < idx.len() {
+                return mid;
+            }
+        }
+    }
+    median_split(prims, idx, cb)
+}
+
+/// The bin of centroid coordinate `c`.
+#[inline]
+fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
+    (((c - lo) * scale) as usize).min(BINS - 1)
+}
+
+/// Stable-order-independent, deterministic in-place partition; returns the count of `pred` items.
+fn partition(idx: &mut [u32], pred: impl Fn(u32) -> bool) -> usize {
+    let mut first = 0;
+    for k in 0..idx.len() {
+        if pred(idx[k]) {
+            idx.swap(first, k);
+            first += 1;
+        }
+    }
+    first
+}
+
+/// The best `(axis, plane, scale)` of binned SAH (left = bins `< plane`), `None` when the
+/// centroids coincide.
+fn best_sah_split(prims: &[Prim], idx: &[u32], cb: Aabb) -> Option<(usize, usize, f32)> {
+    let ext = cb.hi - cb.lo;
+    let mut best: Option<(f32, usize, usize, f32)> = None;
+    for axis in 0..3 {
+        if !(ext[axis] > 0.0) {
+            continue;
+        }
+        let scale = BINS as f32 / ext[axis];
+        let mut count = [0u32; BINS];
+        let mut boxes = [Aabb::EMPTY; BINS];
+        for &i in idx {
+            let p = &prims[i as usize];
+            let k = bin_of(p.c[axis], cb.lo[axis], scale);
+            count[k] += 1;
+            boxes[k] = boxes[k].union(p.b);
+        }
+        // Suffix costs, then a left-to-right sweep.
+        let mut right = [(0u32, 0f32); BINS];
+        let (mut rb, mut rn) = (Aabb::EMPTY, 0u32);
+        for k in (1..BINS).rev() {
+            rb = rb.union(boxes[k]);
+            rn += count[k];
+            right[k] = (rn, rb.half_area() * rn.div_ceil(LEAF_SIZE as u32) as f32);
+        }
+        let (mut lb, mut ln) = (Aabb::EMPTY, 0u32);
+        for plane in 1..BINS {
+            lb = lb.union(boxes[plane - 1]);
+            ln += count[plane - 1];
+            let (rn, rcost) = right[plane];
+            let cost = lb.half_area() * ln.div_ceil(LEAF_SIZE as u32) as f32 + rcost;
+            // Both sides non-empty; strict `<` keeps the first of equal candidates.
+            if ln > 0 && rn > 0 && best.is_none_or(|b| cost < b.0) {
+                best = Some((cost, axis, plane, scale));
+            }
+        }
+    }
+    best.map(|(_, axis, plane, scale)| (axis, plane, scale))
+}
+
+/// Object-median split along the widest centroid axis (halves the node: bounds the depth).
+fn median_split(prims: &[Prim], idx: &mut [u32], cb: Aabb) -> usize {
+    let mid = idx.len() / 2;
+    let ext = cb.hi - cb.lo;
+    let axis = if ext.x >= ext.y && ext.x >= ext.z { 0 } else if ext.y >= ext.z { 1 } else { 2 };
+    if ext[axis] > 0.0 {
+        // A strict total order (coordinate, then index) makes the selection deterministic.
+        idx.select_nth_unstable_by(mid, |&a, &b| {
+            let (ca, cb) = (prims[a as usize].c[axis], prims[b as usize].c[axis]);
+            ca.total_cmp(&cb).then(a.cmp(&b))
+        });
+    }
+    mid
+}
+
+/// State of the BVH2 -> BVH4 collapse.
+struct Collapse<'a> {
+    n2: &'a [Node2],
+    idx: &'a [u32],
+    tris: &'a [[Vec3; 3]],
+    alpha: &'a [bool],
+    nodes: Vec<Node4>,
+    blocks: Vec<Tri4>,
+    depth: u32,
+}
+
+impl Collapse<'_> {
+    /// Emits the subtree of binary node `i` (at 4-wide depth `depth`) and returns its child reference.
+    fn node(&mut self, i: usize, depth: u32) -> u32 {
+        self.depth = self.depth.max(depth);
+        let (left, right) = match self.n2[i].kind {
+            Kind::Leaf { start, count } => return self.leaf(start as usize, count as usize),
+            Kind::Inner { left, right } => (left as usize, right as usize),
+        };
+        let mut kids = vec![left, right];
+        while kids.len() < 4 {
+            // Open the inner child with the largest area (first on ties).
+            let pick = kids
+                .iter()
+                .enumerate()
+                .filter(|(_, &k)| matches!(self.n2[k].kind, Kind::Inner { .. }))
+                .fold(None::<(usize, f32)>, |acc, (pos, &k)| {
+                    let a = self.n2[k].b.half_area();
+                    if acc.is_none_or(|(_, best)| a > best) { Some((pos, a)) } else { acc }
+                });
+            let Some((pos, _)) = pick else { break };
+            if let Kind::Inner { left, right } = self.n2[kids[pos]].kind {
+                kids.splice(pos..=pos, [left as usize, right as usize]);
+            }
+        }
+        let me = self.nodes.len();
+        self.nodes.push(Node4::EMPTY_NODE);
+        let mut lo = [[f32::INFINITY; 4]; 3];
+        let mut hi = [[f32::NEG_INFINITY; 4]; 3];
+        let mut child = [EMPTY; 4];
+        for (lane, &k) in kids.iter().enumerate() {
+            child[lane] = self.node(k, depth + 1);
+            let b = self.n2[k].b;
+            for a in 0..3 {
+                lo[a][lane] = b.lo[a];
+                hi[a][lane] = b.hi[a];
+            }
+        }
+        self.nodes[me] = Node4 { bounds: [lo.map(Vec4::from_array), hi.map(Vec4::from_array)], child };
+        me as u32
+    }
+
+    /// Emits the block of triangles `idx[start .. start + count]` (1 to 4 of them).
+    fn leaf(&mut self, start: usize, count: usize) -> u32 {
+        let faces = &self.idx[start..start + count];
+        self.blocks.push(Tri4::from_faces(faces, self.tris, self.alpha));
+        LEAF | (self.blocks.len() - 1) as u32
+    }
+}

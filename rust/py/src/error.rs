@@ -1,0 +1,27 @@
+//! The one mapping from core errors to Python exceptions (DESIGN.md section 7):
+//! bad input → ValueError, a request too large → MemoryError, a missing resource → RuntimeError.
+
+use pyo3::exceptions::{PyMemoryError, PyRuntimeError, PyValueError};
+use pyo3::PyErr;
+use softshadows_core::Error;
+
+/// Turns a core [`Error`] into the matching Python exception.
+pub fn to_py(err: Error) -> PyErr {
+    let message = err.to_string();
+    match err {
+        Error::InvalidInput { .. } => PyValueError::new_err(message),
+        Error::TooLarge { .. } => PyMemoryError::new_err(message),
+        Error::Unavailable(_) => PyRuntimeError::new_err(message),
+    }
+}
+
+/// `?`-friendly conversion of core results.
+pub trait OrRaise<T> {
+    fn or_raise(self) -> pyo3::PyResult<T>;
+}
+
+impl<T> OrRaise<T> for softshadows_core::Result<T> {
+    fn or_raise(self) -> pyo3::PyResult<T> {
+        self.map_err(to_py)
+    }
+}

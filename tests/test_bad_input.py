@@ -1,0 +1,117 @@
+"""Bad input is refused with a ValueError naming the argument; too-large requests with MemoryError."""
+
+import numpy as np
+import pytest
+from conftest import quad, up_receivers
+
+import softshadows as ss
+
+V = np.array([[0, 0, 0], [1, 0, 0], [0, 0, 1]], dtype=np.float32)
+F = np.array([[0, 1, 2]], dtype=np.uint32)
+
+
+@pytest.mark.parametrize(
+    "kwargs, arg",
+    [
+        (dict(vertices=np.array([[0, 0, 0], [np.nan, 0, 0], [0, 0, 1]]), faces=F), "vertices"),
+        (dict(vertices=V, faces=np.array([[0, 1, 3]])), "faces"),
+        (dict(vertices=V[:, :2], faces=F), "vertices"),
+        (dict(vertices=V, faces=np.array([0, 1, 2])), "faces"),
+        (dict(vertices=V.astype(str), faces=F), "vertices"),
+        (dict(vertices=V, faces=np.array([[0, 1, 2.5]])), "faces"),
+        (dict(vertices=V, faces=np.array([[0, 1, -2]])), "faces"),
+        (dict(vertices=V, faces=F, alpha=np.ones((2, 2))), "uvs"),
+        (dict(vertices=V, faces=F, uvs=np.zeros((2, 2)), alpha=np.ones((2, 2))), "uvs"),
+        (dict(vertices=V, faces=F, uvs=np.zeros((3, 2)), alpha=np.ones((0, 0))), "alpha"),
+    ],
+)
+def test_bad_meshes(kwargs, arg):
+    with pytest.raises(ValueError, match=arg):
+        ss.Mesh(kwargs.pop("vertices"), kwargs.pop("faces"), **kwargs)
+
+
+def test_float64_int64_and_non_contiguous_input_is_converted():
+    big = np.zeros((3, 6))
+    big[:, ::2] = V
+    m = ss.Mesh(big[:, ::2], F.astype(np.int64))
+    assert m.vertices.dtype == np.float32 and m.vertices.flags.c_contiguous and m.faces.dtype == np.uint32
+    np.testing.assert_array_equal(m.vertices, V)
+
+
+def test_empty_scene():
+    with pytest.raises(ValueError, match="meshes"):
+        ss.Scene([])
+    with pytest.raises(ValueError, match="meshes"):
+        ss.Scene([ss.Mesh(np.zeros((0, 3)), np.zeros((0, 3)))])
+
+
+@pytest.mark.parametrize(
+    "make, arg",
+    [
+        (lambda: ss.RectLight((0, 1, 0), (1, 0, 0), (2, 0, 0)), "u"),
+        (lambda: ss.RectLight((0, 1, 0), (0, 0, 0), (0, 0, 1)), "u"),
+        (lambda: ss.DiskLight((0, 1, 0), (0, -1, 0), -1.0), "radius"),
+        (lambda: ss.DiskLight((0, 1, 0), (0, -1, 0), 0.0), "radius"),
+        (lambda: ss.DiskLight((0, 1, 0), (0, 0, 0), 1.0), "normal"),
+        (lambda: ss.SphereLight((0, 1, 0), -0.5), "radius"),
+        (lambda: ss.PointLight((0, np.inf, 0)), "position"),
+        (lambda: ss.RectLight((0, 1), (1, 0, 0), (0, 0, 1)), "center"),
+        (lambda: ss.RectLight((0, 1, 0), (1, 0, 0), (0, 0, 1), emission=np.zeros((2, 2))), "emission"),
+    ],
+)
+def test_bad_lights(make, arg):
+    with pytest.raises(ValueError, match=arg):
+        make()
+
+
+@pytest.mark.parametrize(
+    "kwargs, arg",
+    [
+        (dict(width=0), "width"),
+        (dict(height=0), "height"),
+        (dict(fov_y=0.0), "fov_y"),
+        (dict(target=(0, 5, 5)), "target"),
+        (dict(up=(0, -1, -1)), "up"),
+    ],
+)
+def test_bad_cameras(kwargs, arg):
+    args = dict(eye=(0, 5, 5), target=(0, 0, 0), up=(0, 1, 0), fov_y=45.0, width=8, height=8) | kwargs
+    with pytest.raises(ValueError, match=arg):
+        ss.Camera.look_at(**args)
+
+
+def test_bad_method_arguments(ground):
+    scene = ss.Scene([ground])
+    light = ss.RectLight((0, 4, 0), (1, 0, 0), (0, 0, -1))
+    rx = up_receivers([0.0, 1.0])
+    with pytest.raises(ValueError, match="samples"):
+        ss.ray_traced(scene, light, rx, samples=0)
+    with pytest.raises(ValueError, match="samples"):
+        ss.ray_traced(scene, light, rx, samples=np.zeros((4, 2)))
+    with pytest.raises(ValueError, match="rotate"):
+        ss.ray_traced(scene, light, rx, rotate="sometimes")
+    with pytest.raises(ValueError, match="receivers"):
+        ss.ray_traced(scene, light, np.zeros((3, 3)))
+    with pytest.raises(ValueError, match="normals"):
+        ss.Receivers([[0, 0, 0]], [[0, 0, 0]])
+    with pytest.raises(ValueError, match="msaa"):
+        ss.gbuffer(scene, ss.Camera.look_at((0, 5, 5), (0, 0, 0), width=4, height=4), msaa=3)
+    with pytest.raises(ValueError, match="resolution"):
+        ss.shadow_map(scene, light, rx, resolution=0)
+
+
+def test_a_request_too_large_raises_memory_error_before_allocating(ground):
+    scene = ss.Scene([ground])
+    light = ss.RectLight((0, 4, 0), (1, 0, 0), (0, 0, -1))
+    try:
+        ss.set_memory_limit(1 << 20)
+        with pytest.raises(MemoryError, match="set_memory_limit"):
+            light.samples(1 << 20)
+        with pytest.raises(MemoryError, match="set_memory_limit"):
+            ss.shadow_map(scene, light, up_receivers([0.0]), resolution=1 << 14)
+        # 4 GiB of samples would be refused at the default limit too: nothing is allocated.
+        ss.set_memory_limit(None)
+        with pytest.raises(MemoryError):
+            light.samples(1 << 40)
+    finally:
+        ss.set_memory_limit(None)

@@ -1,0 +1,91 @@
+"""EXR and PNG input/output (io.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from softshadows import io
+
+
+def test_exr_round_trips_gray_rgb_and_rgba(tmp_path):
+    rng = np.random.default_rng(0)
+    for shape in [(5, 7), (5, 7, 3), (5, 7, 4)]:
+        img = (rng.uniform(-2, 50, shape)).astype(np.float32)
+        path = tmp_path / f"img{len(shape)}.exr"
+        io.write_exr(path, img)
+        back = io.read_exr(path)
+        assert back.dtype == np.float32 and back.shape == shape
+        np.testing.assert_array_equal(back, img)
+
+
+def test_gray_exr_is_one_y_channel(tmp_path):
+    import OpenEXR
+
+    io.write_exr(tmp_path / "v.exr", np.ones((3, 4), np.float64))
+    with OpenEXR.File(str(tmp_path / "v.exr"), separate_channels=True) as f:
+        assert list(f.channels()) == ["Y"]
+
+
+def test_half_float_files_are_read_as_float32(tmp_path):
+    import OpenEXR
+
+    h = np.arange(12, dtype=np.float16).reshape(3, 4)
+    with OpenEXR.File({"type": OpenEXR.scanlineimage}, {"R": h, "G": h + 1, "B": h + 2}) as f:
+        f.write(str(tmp_path / "h.exr"))
+    back = io.read_exr(tmp_path / "h.exr")
+    assert back.dtype == np.float32 and back.shape == (3, 4, 3)
+    np.testing.assert_array_equal(back[..., 2], h.astype(np.float32) + 2)
+
+
+def test_read_environment_latlong(tmp_path):
+    env = np.random.default_rng(1).uniform(0, 10, (8, 16, 4)).astype(np.float32)
+    env[0, 0, 0] = -1e-3  # tools sometimes write tiny negatives
+    io.write_exr(tmp_path / "env.exr", env)
+    out = io.read_environment(tmp_path / "env.exr")
+    assert out.shape == (8, 16, 3) and out.dtype == np.float32
+    assert out[0, 0, 0] == 0
+    np.testing.assert_array_equal(out[1:], env[1:, :, :3])
+    io.write_exr(tmp_path / "gray.exr", env[..., 1])
+    np.testing.assert_array_equal(io.read_environment(tmp_path / "gray.exr"), np.repeat(env[..., 1:2], 3, -1))
+    with pytest.raises(NotImplementedError):
+        io.read_environment(tmp_path / "env.exr", layout="cube")
+    with pytest.raises(ValueError, match="layout"):
+        io.read_environment(tmp_path / "env.exr", layout="mirrorball")
+
+
+def test_write_png_maps_the_value_range(tmp_path):
+    import matplotlib.image
+
+    gray = np.array([[0.0, 0.5], [1.0, 2.0]])
+    io.write_png(tmp_path / "g.png", gray, vmin=0, vmax=2)
+    back = matplotlib.image.imread(tmp_path / "g.png")
+    assert back.shape[:2] == (2, 2)
+    np.testing.assert_allclose(back[..., 0], [[0, 0.25], [0.5, 1.0]], atol=1 / 255)
+    rgb = np.zeros((2, 3, 3))
+    rgb[0, 0] = [1, 0, 0.5]
+    io.write_png(tmp_path / "c.png", rgb)
+    back = matplotlib.image.imread(tmp_path / "c.png")
+    np.testing.assert_allclose(back[0, 0, :3], [1, 0, 0.5], atol=1 / 255)
+    io.write_png(tmp_path / "m.png", gray, cmap="magma", vmax=2)
+    back = matplotlib.image.imread(tmp_path / "m.png")
+    assert not np.allclose(back[..., 0], back[..., 2])  # a colour map, not gray
+
+
+@pytest.mark.parametrize(
+    "call, name",
+    [
+        (lambda p: io.write_exr(p / "a.exr", np.zeros((2, 2, 2))), "image"),
+        (lambda p: io.write_exr(p / "a.exr", np.full((2, 2), np.inf)), "image"),
+        (lambda p: io.write_png(p / "a.png", np.zeros((2, 2, 3)), cmap="magma"), "cmap"),
+        (lambda p: io.write_png(p / "a.png", np.zeros((2, 2)), vmin=1, vmax=1), "vmax"),
+    ],
+)
+def test_bad_arguments_name_themselves(tmp_path, call, name):
+    with pytest.raises(ValueError, match=name):
+        call(tmp_path)
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(FileNotFoundError):
+        io.read_exr(tmp_path / "nope.exr")

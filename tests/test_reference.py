@@ -1,0 +1,365 @@
+"""Mitsuba references (reference.py) against a brute-force numpy oracle on tiny scenes.
+
+The oracle below implements DESIGN.md section 3 directly: every segment is tested against every
+triangle (Moller-Trumbore in float64), perforated triangles alpha-tested at the interpolated uv.
+It does not need the compiled core.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mitsuba")
+
+from softshadows import reference  # noqa: E402
+from softshadows.camera import Camera, GBuffer, Receivers  # noqa: E402
+from softshadows.lights import PointLight, RectLight  # noqa: E402
+from softshadows.scene import Mesh, Scene  # noqa: E402
+
+pytestmark = pytest.mark.mitsuba
+
+
+# ----------------------------------------------------------------------------- oracle
+
+
+def quad(center, half_u, half_v, *, uv_scale=(1.0, 1.0), alpha=None) -> Mesh:
+    c, u, w = (np.asarray(x, float) for x in (center, half_u, half_v))
+    verts = [c - u - w, c + u - w, c + u + w, c - u + w]
+    su, sv = uv_scale
+    uvs = [[0, 0], [su, 0], [su, sv], [0, sv]]
+    return Mesh(verts, [[0, 1, 2], [0, 2, 3]], uvs=uvs if alpha is not None else None, alpha=alpha)
+
+
+def texel_opaque(alpha, uv):
+    """Our convention: alpha[i, j] covers u in [j/W, (j+1)/W), v in [i/H, (i+1)/H), repeat, nearest."""
+    h, w = alpha.shape
+    f = uv - np.floor(uv)
+    j = np.minimum((f[..., 0] * w).astype(int), w - 1)
+    i = np.minimum((f[..., 1] * h).astype(int), h - 1)
+    return alpha[i, j] >= 0.5
+
+
+def segment_hits(o, d, tri):
+    """Moller-Trumbore: barycentrics and t of (K,) segments o + t d against (T, 3, 3) triangles."""
+    v0, e1, e2 = tri[:, 0], tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    pvec = np.cross(d[:, None, :], e2[None])
+    det = np.einsum("kti,ti->kt", pvec, e1)
+    ok = np.abs(det) > 1e-14
+    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+    tvec = o[:, None, :] - v0[None]
+    b1 = np.einsum("kti,kti->kt", tvec, pvec) * inv
+    qvec = np.cross(tvec, e1[None])
+    b2 = np.einsum("ki,kti->kt", d, qvec) * inv
+    t = np.einsum("kti,ti->kt", qvec, e2) * inv
+    inside = ok & (b1 >= 0) & (b2 >= 0) & (b1 + b2 <= 1)
+    return inside, t, b1, b2
+
+
+def brute_force_visibility(scene, points, normals, samples, eps):
+    points, samples = np.asarray(points, float), np.asarray(samples, float)
+    n = np.asarray(normals, float)
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    origins = points + eps * n
+    vis = np.zeros(len(points))
+    for y in samples:
+        d = y - origins  # segment parameter t in (0, 1 - 1e-6) in units of d
+        blocked = np.zeros(len(points), bool)
+        for mesh in scene.meshes:
+            tri = mesh.vertices[mesh.faces].astype(float)
+            inside, t, b1, b2 = segment_hits(origins, d, tri)
+            hit = inside & (t > 0) & (t < 1 - 1e-6)
+            if mesh.alpha is not None:
+                uv = mesh.uvs[mesh.faces].astype(float)  # (T, 3, 2)
+                interp = ((1 - b1 - b2)[..., None] * uv[None, :, 0] + b1[..., None] * uv[None, :, 1]
+                          + b2[..., None] * uv[None, :, 2])
+                hit &= texel_opaque(mesh.alpha, interp)
+            blocked |= hit.any(axis=1)
+        front = np.einsum("ki,ki->k", y - points, n) > 0
+        vis += front & ~blocked
+    return vis / len(samples)
+
+
+# ----------------------------------------------------------------------------- fixtures
+
+GROUND = quad([0, 0, 0], [2, 0, 0], [0, 2, 0])
+LIGHT = RectLight([0.1, -0.2, 2.0], [0.6, 0.1, 0.0], [0.0, -0.5, 0.05])  # faces down (u x v has z < 0)
+
+
+@pytest.fixture(autouse=True)
+def cache_dir(tmp_path, monkeypatch):
+    """Every test gets an empty cache, so no test reads another's results."""
+    monkeypatch.setenv("SOFTSHADOWS_CACHE", str(tmp_path / "cache"))
+    return tmp_path / "cache"
+
+
+def light_samples(n, seed=0):
+    rng = np.random.default_rng(seed)
+    a, b = rng.uniform(-1, 1, (2, n))
+    return LIGHT.center + a[:, None] * LIGHT.u + b[:, None] * LIGHT.v
+
+
+def ground_receivers(k, seed=1, *, extent=1.6):
+    rng = np.random.default_rng(seed)
+    pts = np.c_[rng.uniform(-extent, extent, (k, 2)), np.zeros(k)]
+    normals = np.tile([0.0, 0.0, 1.0], (k, 1))
+    # A few tilted normals put some samples behind the tangent plane.
+    normals[: k // 5] = np.c_[rng.uniform(-2, 2, (k // 5, 2)), np.ones(k // 5)]
+    return pts, normals
+
+
+def assert_matches_oracle(vis, ref, n_samples):
+    diff = np.abs(vis - ref)
+    # Only samples within float precision of an edge may differ: one sample at most, rarely.
+    assert diff.max() <= 1.0 / n_samples + 1e-6, diff.max()
+    assert np.mean(diff > 1e-6) < 0.01, np.mean(diff > 1e-6)
+
+
+# ----------------------------------------------------------------------------- visibility
+
+
+def test_variant_is_selected_lazily_and_usable():
+    assert reference.variant() in ("llvm_ad_rgb", "scalar_rgb")
+    assert reference.variant() == reference.variant()  # chosen once, then stable
+
+
+def test_opaque_quad_matches_brute_force():
+    scene = Scene([GROUND, quad([0.2, 0.1, 1.0], [0.5, 0.2, 0.0], [-0.1, 0.4, 0.1])])
+    pts, normals = ground_receivers(500)
+    samples = light_samples(32)
+    vis = reference.mitsuba_visibility(scene, LIGHT, Receivers(pts, normals), samples, cache=False)
+    ref = brute_force_visibility(scene, pts, normals, samples, scene.epsilon)
+    assert vis.shape == (500,) and vis.dtype == np.float32
+    assert 0.05 < np.mean(ref < 1) < 0.95  # the scene has both shadow and light
+    assert_matches_oracle(vis, ref, 32)
+
+
+def test_perforated_quads_match_brute_force_and_not_a_flipped_texture():
+    # Asymmetric textures (no flip maps them onto themselves), values either side of 0.5,
+    # uvs past 1 (repeat) and two layers, so rays step through several transparent texels.
+    a1 = np.array([[0.9, 0.1, 0.1, 0.1], [0.2, 0.0, 0.7, 0.5], [1.0, 0.6, 0.3, 0.0]])
+    a2 = np.array([[0.0, 1.0], [0.0, 0.0], [0.49, 0.0]])
+    fence = quad([0.0, 0.0, 0.8], [0.9, 0.0, 0.0], [0.0, 0.8, 0.0], uv_scale=(2.0, 1.0), alpha=a1)
+    top = quad([0.1, 0.0, 1.2], [0.7, 0.1, 0.0], [0.0, 0.7, 0.05], uv_scale=(1.0, 3.0), alpha=a2)
+    scene = Scene([GROUND, fence, top])
+    pts, normals = ground_receivers(400)
+    samples = light_samples(24, seed=3)
+    vis = reference.mitsuba_visibility(scene, LIGHT, Receivers(pts, normals), samples, cache=False)
+    ref = brute_force_visibility(scene, pts, normals, samples, scene.epsilon)
+    assert_matches_oracle(vis, ref, 24)
+    flipped = Scene([GROUND, Mesh(fence.vertices, fence.faces, uvs=fence.uvs, alpha=a1[::-1]),
+                     Mesh(top.vertices, top.faces, uvs=top.uvs, alpha=a2[::-1])])
+    wrong = brute_force_visibility(flipped, pts, normals, samples, scene.epsilon)
+    assert np.abs(vis - wrong).mean() > 0.05  # the comparison above can tell a v flip apart
+
+
+def test_fully_transparent_mesh_casts_no_shadow_and_opaque_alpha_does():
+    pts, normals = ground_receivers(200)
+    samples = light_samples(16)
+    clear = quad([0, 0, 1.0], [1.5, 0, 0], [0, 1.5, 0], alpha=np.zeros((2, 2)))
+    solid = quad([0, 0, 1.0], [1.5, 0, 0], [0, 1.5, 0], alpha=np.ones((2, 2)))
+    rx = Receivers(pts, normals)
+    unoccluded = reference.mitsuba_visibility(Scene([GROUND]), LIGHT, rx, samples, cache=False)
+    through = reference.mitsuba_visibility(Scene([GROUND, clear]), LIGHT, rx, samples, cache=False)
+    blocked = reference.mitsuba_visibility(Scene([GROUND, solid]), LIGHT, rx, samples, cache=False)
+    np.testing.assert_array_equal(through, unoccluded)
+    assert unoccluded.mean() > 0.5
+    np.testing.assert_array_equal(blocked, np.zeros_like(blocked))
+
+
+def test_samples_behind_the_tangent_plane_count_as_occluded():
+    pts = np.array([[0.0, 0.0, 0.0], [0.5, 0.5, 0.0], [0.0, 0.0, 0.5]])
+    normals = np.array([[0.0, 0.0, -1.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+    samples = np.array([[-1.0, 0.0, 1.0], [1.0, 0.0, 1.0], [2.0, 0.0, 1.0], [-2.0, 0.0, 1.0]])
+    vis = reference.mitsuba_visibility(Scene([GROUND]), LIGHT, (pts, normals), samples, cache=False)
+    np.testing.assert_allclose(vis, [0.0, 1.0, 0.5])
+
+
+def test_gbuffer_input_keeps_its_shape_and_zeroes_masked_pixels():
+    h, w = 6, 5
+    rng = np.random.default_rng(2)
+    pos = np.zeros((h, w, 3), np.float32)
+    pos[..., :2] = rng.uniform(-1, 1, (h, w, 2))
+    nrm = np.zeros((h, w, 3), np.float32)
+    nrm[..., 2] = 1
+    mask = rng.uniform(size=(h, w)) < 0.7
+    pos[~mask] = np.nan  # garbage where nothing was hit must be ignored
+    cam = Camera(np.zeros(3, np.float32), np.ones(3, np.float32), np.array([0, 0, 1], np.float32), 45.0, w, h)
+    gb = GBuffer(pos, nrm, mask, np.where(mask, 0, -1), None, cam)
+    vis = reference.mitsuba_visibility(Scene([GROUND]), LIGHT, gb, light_samples(8), cache=False)
+    assert vis.shape == (h, w) and vis.dtype == np.float32
+    assert np.all(vis[~mask] == 0) and np.all(vis[mask] == 1)
+
+
+def test_point_light_hard_shadow_edge():
+    scene = Scene([GROUND, quad([0, 0, 1.0], [0.5, 0, 0], [0, 0.5, 0])])
+    light = PointLight([0.0, 0.0, 2.0])
+    # The quad's shadow from a point at height 2 is the square |x|, |y| < 1 on the ground.
+    pts = np.array([[0.9, 0, 0], [1.1, 0, 0], [0, -0.95, 0], [0, -1.05, 0]])
+    vis = reference.mitsuba_visibility(scene, light, (pts, np.tile([0, 0, 1.0], (4, 1))), light.position[None], cache=False)
+    np.testing.assert_array_equal(vis, [0, 1, 0, 1])
+
+
+def test_epsilon_controls_self_shadowing_of_a_receiver_inside_a_thin_slab():
+    # A receiver 1e-3 below a ceiling quad: an offset of 1e-2 along its normal starts the ray
+    # above the quad, so nothing blocks it; the default offset (1e-4 x the diagonal) does not.
+    scene = Scene([GROUND, quad([0, 0, 1.0], [0.3, 0, 0], [0, 0.3, 0])])
+    pts, normals = np.array([[0.0, 0.0, 0.999]]), np.array([[0.0, 0.0, 1.0]])
+    samples = light_samples(8)
+    default = reference.mitsuba_visibility(scene, LIGHT, (pts, normals), samples, cache=False)
+    large = reference.mitsuba_visibility(scene, LIGHT, (pts, normals), samples, epsilon=1e-2, cache=False)
+    assert default[0] == 0 and large[0] == 1
+
+
+def test_bad_arguments_name_themselves():
+    scene = Scene([GROUND])
+    rx = Receivers(np.zeros((2, 3)), np.tile([0, 0, 1.0], (2, 1)))
+    with pytest.raises(ValueError, match="samples"):
+        reference.mitsuba_visibility(scene, LIGHT, rx, np.zeros((4, 2)))
+    with pytest.raises(ValueError, match="receivers"):
+        reference.mitsuba_visibility(scene, LIGHT, np.zeros((2, 3)), light_samples(4))
+    with pytest.raises(ValueError, match="scene"):
+        reference.mitsuba_visibility([GROUND], LIGHT, rx, light_samples(4))
+    with pytest.raises(ValueError, match="epsilon"):
+        reference.mitsuba_visibility(scene, LIGHT, rx, light_samples(4), epsilon=-1)
+
+
+# ----------------------------------------------------------------------------- cache
+
+
+def test_cache_hit_returns_the_stored_array_without_tracing(cache_dir, monkeypatch):
+    scene = Scene([GROUND, quad([0, 0, 1.0], [0.5, 0, 0], [0, 0.5, 0])])
+    pts, normals = ground_receivers(100)
+    rx = Receivers(pts, normals)
+    first = reference.mitsuba_visibility(scene, LIGHT, rx, light_samples(8))
+    files = sorted(cache_dir.glob("visibility-*.npy"))
+    assert len(files) == 1
+    np.testing.assert_array_equal(np.load(files[0]), first)
+
+    def fail(*args, **kwargs):
+        raise AssertionError("a cache hit must not trace rays")
+
+    monkeypatch.setattr(reference, "_Tracer", fail)
+    second = reference.mitsuba_visibility(scene, LIGHT, rx, light_samples(8))
+    np.testing.assert_array_equal(second, first)
+    assert second.shape == first.shape and second.dtype == first.dtype
+    with pytest.raises(AssertionError, match="cache hit"):  # other samples: another key, a miss
+        reference.mitsuba_visibility(scene, LIGHT, rx, light_samples(8, seed=5))
+    with pytest.raises(AssertionError, match="cache hit"):  # cache=False never reads
+        reference.mitsuba_visibility(scene, LIGHT, rx, light_samples(8), cache=False)
+
+
+def test_cache_key_depends_on_every_input():
+    scene = Scene([GROUND])
+    rx = Receivers(*ground_receivers(10))
+    s = light_samples(4)
+    base = reference._cache_key("visibility", scene, LIGHT, rx.points, rx.normals, rx.mask, s, 1e-3, None)
+    other_light = RectLight(LIGHT.center, LIGHT.u, -LIGHT.v)
+    other_scene = Scene([quad([0, 0, 0], [2, 0, 0], [0, 2.001, 0])])
+    variants = [
+        reference._cache_key("visibility", scene, other_light, rx.points, rx.normals, rx.mask, s, 1e-3, None),
+        reference._cache_key("visibility", other_scene, LIGHT, rx.points, rx.normals, rx.mask, s, 1e-3, None),
+        reference._cache_key("visibility", scene, LIGHT, rx.points + 1, rx.normals, rx.mask, s, 1e-3, None),
+        reference._cache_key("visibility", scene, LIGHT, rx.points, rx.normals, rx.mask, s[:3], 1e-3, None),
+        reference._cache_key("visibility", scene, LIGHT, rx.points, rx.normals, rx.mask, s, 2e-3, None),
+    ]
+    assert base == reference._cache_key("visibility", scene, LIGHT, rx.points, rx.normals, rx.mask, s, 1e-3, None)
+    assert len({base, *variants}) == 6
+
+
+# ----------------------------------------------------------------------------- scene dict and renders
+
+
+def test_mitsuba_scene_mask_opacity_follows_our_uv_convention():
+    mi = reference._mitsuba()
+    alpha = np.array([[1.0, 0, 0, 0], [0, 0, 1, 0.6], [1, 0.3, 1, 0]])
+    occ = quad([0.5, 0.5, 1.0], [0.5, 0, 0], [0, 0.5, 0], alpha=alpha)
+    scene = mi.load_dict(reference.mitsuba_scene(Scene([occ]), LIGHT))
+    xy = np.random.default_rng(0).uniform(0.01, 0.99, (300, 2))
+    if not mi.variant().startswith("llvm"):
+        pytest.skip("vectorized check")
+    o = np.c_[xy, np.full(len(xy), 1.5)].T.astype(np.float32)
+    si = scene.ray_intersect(mi.Ray3f(mi.Point3f(o), mi.Vector3f(0, 0, -1)))
+    assert np.all(np.asarray(si.is_valid()))
+    opacity = 1 - np.asarray(si.bsdf().eval_null_transmission(si))[0]
+    np.testing.assert_array_equal(opacity, texel_opaque(alpha, xy).astype(float))
+
+
+def test_rect_light_emits_toward_u_cross_v():
+    down = RectLight([0, 0, 1.0], [0.3, 0, 0], [0, -0.3, 0])
+    up = RectLight([0, 0, 1.0], [0.3, 0, 0], [0, 0.3, 0])
+    # The camera is below the light's plane: it sees the ground and the light's underside.
+    cam = Camera(np.array([0, -2.5, 0.8], np.float32), np.zeros(3, np.float32), np.array([0, 0, 1], np.float32), 40.0, 16, 12)
+    lit = reference.mitsuba_render(Scene([GROUND]), down, cam, spp=16, cache=False)
+    dark = reference.mitsuba_render(Scene([GROUND]), up, cam, spp=16, cache=False)
+    assert lit.shape == (12, 16, 3) and lit.dtype == np.float32
+    assert lit.mean() > 0.005 and dark.max() == 0
+
+
+def test_volpath_render_sees_and_lights_through_transparent_texels():
+    # A fully transparent quad in view and between the light and the ground must change nothing;
+    # a fully opaque one must render like the same quad without a texture.
+    cam = Camera(np.array([0, -1.0, 3.0], np.float32), np.zeros(3, np.float32), np.array([0, 1, 0], np.float32), 50.0, 24, 24)
+    light = RectLight([0.0, 2.0, 2.0], [0.5, 0, 0], [0, -0.3, 0.3])  # faces -y and down, out of view
+    clear = quad([0, 0, 1.0], [0.6, 0, 0], [0, 0.6, 0], alpha=np.zeros((2, 2)))
+    solid = quad([0, 0, 1.0], [0.6, 0, 0], [0, 0.6, 0], alpha=np.ones((2, 2)))
+    kw = dict(spp=128, cache=False)
+    bare = reference.mitsuba_render(Scene([GROUND]), light, cam, integrator="volpath", **kw)
+    through = reference.mitsuba_render(Scene([GROUND, clear]), light, cam, **kw)  # auto: volpath
+    blocked = reference.mitsuba_render(Scene([GROUND, solid]), light, cam, **kw)
+    plain = reference.mitsuba_render(Scene([GROUND, Mesh(solid.vertices, solid.faces)]), light, cam, **kw)
+    assert abs(through.mean() / bare.mean() - 1) < 0.03
+    assert abs(blocked.mean() / plain.mean() - 1) < 0.03
+    assert abs(plain.mean() / bare.mean() - 1) > 0.1  # the quad does change the picture
+    path = reference.mitsuba_render(Scene([GROUND, clear]), light, cam, integrator="path", **kw)
+    assert path.mean() < 0.9 * bare.mean()  # documented: path treats mask BSDFs as opaque
+
+
+def test_render_cache_and_seed(cache_dir):
+    cam = Camera(np.array([0, -2.5, 2.0], np.float32), np.zeros(3, np.float32), np.array([0, 0, 1], np.float32), 40.0, 8, 8)
+    light = RectLight([0, 0, 1.0], [0.3, 0, 0], [0, -0.3, 0])
+    a = reference.mitsuba_render(Scene([GROUND]), light, cam, spp=4)
+    b = reference.mitsuba_render(Scene([GROUND]), light, cam, spp=4)
+    c = reference.mitsuba_render(Scene([GROUND]), light, cam, spp=4, seed=1)
+    np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(a, c)
+    assert len(list(cache_dir.glob("render-*.npy"))) == 2
+    with pytest.raises(ValueError, match="integrator"):
+        reference.mitsuba_render(Scene([GROUND]), light, cam, integrator="bdpt")
+
+
+def test_scalar_variant_fallback_gives_the_same_bits(tmp_path):
+    # The variant is process-global, so the scalar run happens in a child process.
+    import json
+    import os
+    import subprocess
+    import sys
+
+    a1 = [[0.9, 0.1, 0.1, 0.1], [0.2, 0.0, 0.7, 0.5], [1.0, 0.6, 0.3, 0.0]]
+    code = f"""
+import json, numpy as np
+from softshadows import reference
+from softshadows.scene import Mesh, Scene
+from softshadows.lights import RectLight
+quad = lambda v, **kw: Mesh(v, [[0, 1, 2], [0, 2, 3]], **kw)
+scene = Scene([quad([[-2, -2, 0], [2, -2, 0], [2, 2, 0], [-2, 2, 0]]),
+               quad([[-0.9, -0.8, 0.8], [0.9, -0.8, 0.8], [0.9, 0.8, 0.8], [-0.9, 0.8, 0.8]],
+                    uvs=[[0, 0], [2, 0], [2, 1], [0, 1]], alpha=np.array({a1}))])
+light = RectLight({LIGHT.center.tolist()}, {LIGHT.u.tolist()}, {LIGHT.v.tolist()})
+pts = np.array(json.loads(input()))
+vis = reference.mitsuba_visibility(scene, light, (pts[0], pts[1]), pts[2], cache=False, progress=False)
+print(json.dumps([reference.variant(), vis.tolist()]))
+"""
+    pts, normals = ground_receivers(60)
+    samples = light_samples(8)
+    env = dict(os.environ, SOFTSHADOWS_MITSUBA_VARIANT="scalar_rgb", PYTHONPATH=os.pathsep.join(sys.path))
+    out = subprocess.run([sys.executable, "-c", code], input=json.dumps([pts.tolist(), normals.tolist(), samples.tolist()]),
+                         capture_output=True, text=True, env=env, timeout=120)
+    assert out.returncode == 0, out.stderr
+    used, scalar = json.loads(out.stdout.strip().splitlines()[-1])
+    assert used == "scalar_rgb"
+    fence = quad([0.0, 0.0, 0.8], [0.9, 0.0, 0.0], [0.0, 0.8, 0.0], uv_scale=(2.0, 1.0), alpha=np.array(a1))
+    scene = Scene([GROUND, fence])
+    here = reference.mitsuba_visibility(scene, LIGHT, (pts, normals), samples, cache=False)
+    np.testing.assert_array_equal(np.float32(scalar), here)
+    assert 0 < here.mean() < 1

@@ -1,0 +1,73 @@
+"""Sample patterns: counts, bounds on the light, Poisson distance, determinism, decorrelation."""
+
+import numpy as np
+import pytest
+
+import softshadows as ss
+
+LIGHTS = {
+    "rect": ss.RectLight((0, 5, 0), (0.5, 0, 0), (0, 0, 0.5)),
+    "disk": ss.DiskLight((1, 4, 2), (0, -1, 0), 0.75),
+    "sphere": ss.SphereLight((0, 3, 0), 0.4),
+}
+
+
+def on_light(name, pts):
+    """Whether every point lies on (in) the light."""
+    light = LIGHTS[name]
+    d = pts.astype(np.float64) - light.center
+    tol = 1e-5
+    if name == "rect":
+        return np.all(np.abs(d[:, 1]) < tol) and np.all(np.abs(d[:, [0, 2]]) <= 0.5 + tol)
+    if name == "disk":
+        return np.all(np.abs(d @ light.normal) < tol) and np.all(np.linalg.norm(d, axis=1) <= 0.75 + tol)
+    return np.all(np.linalg.norm(d, axis=1) <= 0.4 + tol)
+
+
+@pytest.mark.parametrize("pattern", ss.lights.PATTERNS)
+@pytest.mark.parametrize("name", LIGHTS)
+def test_counts_bounds_and_determinism(name, pattern):
+    light = LIGHTS[name]
+    a = light.samples(50, pattern=pattern, seed=3)
+    assert a.shape == (50, 3) and a.dtype == np.float32
+    assert on_light(name, a)
+    np.testing.assert_array_equal(a, light.samples(50, pattern=pattern, seed=3))
+    assert not np.array_equal(a, light.samples(50, pattern=pattern, seed=4))
+    assert len(np.unique(a.round(6), axis=0)) == 50
+
+
+@pytest.mark.parametrize("n, r", [(16, 0.2456139), (64, 0.1076681)])
+def test_poisson_minimum_distance_of_seed_001(n, r):
+    # A unit square light: parameter distances equal world distances.
+    pts = LIGHTS["rect"].samples(n, pattern="poisson", seed=9)[:, [0, 2]].astype(np.float64)
+    d = np.linalg.norm(pts[:, None] - pts[None], axis=-1) + np.eye(n) * 10
+    assert d.min() >= r * (1 - 1e-5)
+
+
+def test_stratified_square_counts_fill_every_cell():
+    pts = LIGHTS["rect"].samples(64, pattern="stratified", seed=2)[:, [0, 2]] + 0.5
+    cells = np.floor(pts * 8).astype(int)
+    assert len({tuple(c) for c in cells}) == 64
+
+
+def test_uniform_samples_cover_the_light_evenly():
+    pts = LIGHTS["disk"].samples(20000, pattern="uniform", seed=1).astype(np.float64)
+    r = np.linalg.norm(pts - LIGHTS["disk"].center, axis=1) / 0.75
+    # Area-uniform on a disk: P(r < 1/sqrt2) = 1/2.
+    assert abs(np.mean(r < np.sqrt(0.5)) - 0.5) < 0.015
+
+
+def test_frame_jitter_moves_the_pattern_but_keeps_it_on_the_light():
+    light = LIGHTS["disk"]
+    f0, f1 = light.samples(32, frame=0), light.samples(32, frame=1)
+    assert not np.allclose(f0, f1)
+    assert on_light("disk", f1)
+    np.testing.assert_array_equal(f1, light.samples(32, frame=1))
+
+
+@pytest.mark.parametrize("bad, arg", [(dict(pattern="blue"), "pattern"), (dict(seed=-1), "seed"), (dict(frame=1.5), "frame")])
+def test_bad_sampling_options_name_the_argument(bad, arg):
+    with pytest.raises(ValueError, match=arg):
+        LIGHTS["rect"].samples(16, **bad)
+    with pytest.raises(ValueError, match="n"):
+        LIGHTS["rect"].samples(0)

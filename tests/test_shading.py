@@ -1,0 +1,258 @@
+"""Unshadowed irradiance and factored shading (shading.py): analytic formulas against numerical
+integration, and the unit scale against Mitsuba renders of an unoccluded plane."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from softshadows import shading
+from softshadows.camera import Camera, GBuffer, Receivers
+from softshadows.lights import DiskLight, PointLight, RectLight, SphereLight
+from softshadows.scene import Mesh, Scene
+
+
+def unit(x):
+    x = np.asarray(x, float)
+    return x / np.linalg.norm(x)
+
+
+def quadrature_rect(p, n, light, emission=None, grid=700):
+    """Midpoint rule over the rectangle: E = integral L cos_r cos_l / r^2 dA."""
+    s = (np.arange(grid) + 0.5) / grid * 2 - 1
+    a, b = np.meshgrid(s, s)  # b varies along rows: row i of an emission texture is a band of b
+    y = light.center + a[..., None] * light.u + b[..., None] * light.v
+    d = y - p
+    r2 = np.einsum("...i,...i", d, d)
+    cos_r = np.maximum(d @ n, 0) / np.sqrt(r2)
+    cos_l = np.maximum(-(d @ light.normal.astype(float)), 0) / np.sqrt(r2)
+    radiance = 1.0
+    if emission is not None:
+        h, w = emission.shape
+        i = np.minimum(((b + 1) / 2 * h).astype(int), h - 1)
+        j = np.minimum(((a + 1) / 2 * w).astype(int), w - 1)
+        radiance = emission[i, j]
+    return light.area * np.mean(radiance * cos_r * cos_l / r2)
+
+
+def quadrature_sphere(p, n, center, radius, grid=800):
+    """Stratified integral of max(cos, 0) over the cone the sphere subtends."""
+    axis = unit(np.asarray(center) - p)
+    sin_s = radius / np.linalg.norm(np.asarray(center) - p)
+    cos_s = np.sqrt(1 - sin_s**2)
+    u = (np.arange(grid) + 0.5) / grid
+    cos_a, phi = np.meshgrid(1 - u * (1 - cos_s), 2 * np.pi * u)
+    sin_a = np.sqrt(1 - cos_a**2)
+    t = unit(np.cross(axis, [0.3, 0.5, 0.8]))
+    b = np.cross(axis, t)
+    w = cos_a[..., None] * axis + (sin_a * np.cos(phi))[..., None] * t + (sin_a * np.sin(phi))[..., None] * b
+    return 2 * np.pi * (1 - cos_s) * np.mean(np.maximum(w @ n, 0))
+
+
+RECT = RectLight([0.1, -0.2, 1.5], [0.5, 0.0, 0.2], [0.0, -0.7, 0.1])  # faces mostly down
+
+CASES = [  # (point, normal): above, off to the side, tilted, and straddling the horizon
+    ([0.0, 0.0, 0.0], [0, 0, 1]),
+    ([1.2, 0.7, 0.0], [0, 0, 1]),
+    ([0.3, 0.1, 0.4], [0.5, -0.3, 0.6]),
+    ([0.1, -0.2, 0.9], [1.0, 0.0, 0.02]),
+    ([0.0, 0.3, 1.0], [0.2, 1.0, 0.1]),
+]
+
+
+@pytest.mark.parametrize("p, n", CASES)
+def test_rect_irradiance_matches_numerical_integration(p, n):
+    p, n = np.asarray(p, float), unit(n)
+    e = shading.unshadowed_irradiance(p[None], n[None], RECT)[0]
+    ref = quadrature_rect(p, n, RECT)
+    assert ref > 1e-3  # every case receives light
+    assert e == pytest.approx(ref, rel=3e-3)
+
+
+def test_horizon_clipping_changes_the_answer():
+    # Half of the light is below this receiver's horizon: without clipping the formula would
+    # count negative cosines and give a different value.
+    p, n = np.array([0.1, -0.2, 0.9]), unit([1.0, 0.0, 0.02])
+    corners = shading._rect_corners(RECT.center.astype(float), RECT.u.astype(float), RECT.v.astype(float))
+    heights = (corners - p) @ n
+    assert heights.min() < 0 < heights.max()
+    e = shading.unshadowed_irradiance(p[None], n[None], RECT)[0]
+    assert e == pytest.approx(quadrature_rect(p, n, RECT), rel=3e-3)
+
+
+def test_one_sided_lights_and_receivers_facing_away_get_nothing():
+    pts = np.array([[0.0, 0.0, 3.0], [0.0, 0.0, 0.0], [0.1, -0.2, 1.5]])  # behind, facing away, in the plane
+    normals = np.array([[0, 0, -1.0], [0, 0, -1.0], [0, 0, 1.0]])
+    for light in (RECT, DiskLight(RECT.center, [0, 0, -1], 0.5)):
+        np.testing.assert_array_equal(shading.unshadowed_irradiance(pts, normals, light), 0)
+
+
+def test_disk_polygon_error_is_tiny():
+    disk = DiskLight([0, 0, 2.0], [0, 0, -1], 0.7)
+    on_axis = shading.unshadowed_irradiance(np.zeros((1, 3)), np.array([[0, 0, 1.0]]), disk)[0]
+    exact = np.pi * 0.7**2 / (0.7**2 + 2.0**2)
+    assert abs(on_axis / exact - 1) < 1e-5
+    # Off axis and tilted: against the same formula with 16x more edges.
+    p, n = np.array([[1.3, -0.4, 0.2]]), np.array([unit([0.2, 0.1, 1.0])])
+    coarse = shading.unshadowed_irradiance(p, n, disk)[0]
+    fine = shading._polygon_irradiance(p, n, _regular_polygon(disk, 4096)[None])[0]
+    assert abs(coarse / fine - 1) < 1e-5
+
+
+def _regular_polygon(disk, k):
+    old = shading.DISK_EDGES
+    try:
+        shading.DISK_EDGES = k
+        return shading._disk_polygon(disk)
+    finally:
+        shading.DISK_EDGES = old
+
+
+@pytest.mark.parametrize(
+    "center, radius, p, n",
+    [
+        ([0.0, 0.0, 1.0], 0.3, [0.3, 0.2, 0.0], [0, 0, 1]),  # fully above the horizon
+        ([0.0, 0.0, 0.25], 0.4, [0.6, 0.0, 0.0], [0, 0, 1]),  # partly below (radius > height)
+        ([0.0, 0.0, 0.25], 0.4, [1.0, 0.5, 0.0], [0, 0, 1]),
+        ([0.0, 0.0, 0.25], 0.4, [1.5, 0.0, 0.0], [0, 0, 1]),
+        ([0.0, 0.0, 0.25], 0.4, [0.0, 0.0, -0.5], [1, 0, 0.1]),
+    ],
+)
+def test_sphere_irradiance_matches_numerical_integration(center, radius, p, n):
+    center = np.asarray(center, float)
+    light = SphereLight(center, radius)
+    p, n = np.asarray(p, float), unit(n)
+    cos_t, sin_s = unit(center - p) @ n, radius / np.linalg.norm(center - p)
+    assert sin_s < 1
+    e = shading.unshadowed_irradiance(p[None], n[None], light)[0]
+    assert e > 0 and (cos_t > sin_s) == (e == pytest.approx(np.pi * sin_s**2 * cos_t))
+    assert e == pytest.approx(quadrature_sphere(p, n, center, radius), rel=2e-3, abs=1e-6)
+
+
+def test_sphere_inside_and_point_light():
+    sphere = SphereLight([0, 0, 0], 1.0)
+    assert shading.unshadowed_irradiance(np.zeros((1, 3)), np.array([[0, 0, 1.0]]), sphere)[0] == pytest.approx(np.pi)
+    point = PointLight([0.0, 0.0, 2.0])
+    pts = np.array([[0.0, 0, 0], [2.0, 0, 0], [0, 0, 3.0]])
+    e = shading.unshadowed_irradiance(pts, np.tile([0, 0, 1.0], (3, 1)), point, intensity=4.0)
+    np.testing.assert_allclose(e, [1.0, 4.0 * np.cos(np.pi / 4) / 8, 0.0])
+
+
+def test_textured_rect_sums_texels():
+    emission = np.array([[1.0, 0.0, 3.0], [0.5, 2.0, 0.0]])
+    light = RectLight(RECT.center, RECT.u, RECT.v, emission=emission)
+    for p, n in CASES[:3]:
+        p, n = np.asarray(p, float), unit(n)
+        e = shading.unshadowed_irradiance(p[None], n[None], light)[0]
+        assert e == pytest.approx(quadrature_rect(p, n, light, emission), rel=3e-3)
+    flat = RectLight(RECT.center, RECT.u, RECT.v, emission=np.full((2, 2), 0.5))
+    p, n = np.zeros((1, 3)), np.array([[0, 0, 1.0]])
+    assert shading.unshadowed_irradiance(p, n, flat)[0] == pytest.approx(0.5 * shading.unshadowed_irradiance(p, n, RECT)[0])
+
+
+def test_direct_is_albedo_over_pi_times_irradiance_times_visibility():
+    rng = np.random.default_rng(0)
+    pts = np.c_[rng.uniform(-1, 1, (50, 2)), np.zeros(50)]
+    normals = np.tile([0, 0, 1.0], (50, 1))
+    vis = rng.uniform(size=50)
+    out = shading.direct(Receivers(pts, normals), RECT, vis, 0.5, intensity=2.0)
+    e = shading.unshadowed_irradiance(pts, normals, RECT)
+    assert out.shape == (50,) and out.dtype == np.float32
+    np.testing.assert_allclose(out, 0.5 / np.pi * 2.0 * e * vis, rtol=1e-6)
+    rgb = shading.direct((pts, normals), RECT, vis, albedo=[0.2, 0.4, 0.8])
+    assert rgb.shape == (50, 3)
+    np.testing.assert_allclose(rgb[:, 1:], [2, 4] * rgb[:, :1], rtol=1e-6)
+    np.testing.assert_allclose(rgb[:, 0], 0.2 / np.pi * e * vis, rtol=1e-6)
+
+
+def test_direct_zeroes_masked_pixels_and_checks_arguments():
+    gb = plane_gbuffer(camera(10, 8))
+    assert (~gb.mask).any()
+    out = shading.direct(gb, RECT, np.ones(gb.shape))
+    assert out.shape == gb.shape and np.all(out[~gb.mask] == 0) and np.all(out[gb.mask] > 0)
+    with pytest.raises(ValueError, match="visibility"):
+        shading.direct(gb, RECT, np.ones((3, 3)))
+    with pytest.raises(ValueError, match="visibility"):
+        shading.direct(gb, RECT, np.full(gb.shape, 1.5))
+    with pytest.raises(ValueError, match="albedo"):
+        shading.direct(gb, RECT, np.ones(gb.shape), albedo=2.0)
+    with pytest.raises(ValueError, match="normals"):
+        shading.unshadowed_irradiance(np.zeros((2, 3)), np.zeros((2, 3)), RECT)
+
+
+# ----------------------------------------------------------------------------- against Mitsuba
+
+GROUND = Mesh([[-2, -2, 0], [2, -2, 0], [2, 2, 0], [-2, 2, 0]], [[0, 1, 2], [0, 2, 3]])
+
+
+def camera(width=48, height=32):
+    # Off-centre and looking sideways, so a mirrored or flipped image would not line up.
+    return Camera(np.array([0.5, -3.0, 2.5], np.float32), np.array([0.3, 0.0, 0.0], np.float32),
+                  np.array([0, 0, 1], np.float32), 50.0, width, height)
+
+
+def pixel_rays(cam):
+    """Unit directions through pixel centres: row 0 at the top, right = forward x up."""
+    f = unit(cam.target - cam.eye)
+    r = unit(np.cross(f, cam.up))
+    u = np.cross(r, f)
+    th = np.tan(np.radians(cam.fov_y) / 2)
+    j, i = np.meshgrid(np.arange(cam.width), np.arange(cam.height))
+    x = (2 * (j + 0.5) / cam.width - 1) * th * cam.width / cam.height
+    y = (1 - 2 * (i + 0.5) / cam.height) * th
+    d = f + x[..., None] * r + y[..., None] * u
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def plane_gbuffer(cam):
+    """A G-buffer of the ground quad (z = 0, |x|, |y| < 2) by a pinhole camera: row 0 at the top,
+    right = forward x up, rays through pixel centres."""
+    d = pixel_rays(cam)
+    t = -cam.eye[2] / d[..., 2]
+    pos = cam.eye + t[..., None] * d
+    mask = (t > 0) & (np.abs(pos[..., 0]) < 2) & (np.abs(pos[..., 1]) < 2)
+    normals = np.broadcast_to(np.array([0, 0, 1], np.float32), pos.shape)
+    return GBuffer(pos.astype(np.float32), normals.copy(), mask, np.where(mask, 0, -1), None, cam)
+
+
+def sees_light(cam, light):
+    """Pixels whose ray (or a neighbour's) meets a sphere light: they show the emitter."""
+    if not isinstance(light, SphereLight):
+        return np.zeros((cam.height, cam.width), bool)
+    d = pixel_rays(cam)
+    oc = light.center - cam.eye
+    t = np.maximum(d @ oc, 0)
+    dist = np.linalg.norm(cam.eye + t[..., None] * d - light.center, axis=-1)
+    return dist < 1.5 * light.radius
+
+
+@pytest.mark.mitsuba
+@pytest.mark.parametrize(
+    "light",
+    [
+        RectLight([0.8, 0.5, 1.5], [0.5, 0, 0], [0, -0.3, 0.2]),
+        RectLight([0.8, 0.5, 1.5], [0.5, 0, 0], [0, -0.3, 0.2], emission=np.array([[4.0, 0.0], [0.5, 1.0], [0.0, 2.0]])),
+        DiskLight([-0.5, 0.5, 1.0], [0.3, -0.3, -1.0], 0.4),
+        SphereLight([0.8, 0.5, 0.6], 0.3),
+        PointLight([0.5, 0.3, 1.0]),
+    ],
+    ids=["rect", "textured-rect", "disk", "sphere", "point"],
+)
+def test_direct_matches_a_mitsuba_render_of_an_unoccluded_plane(light, tmp_path, monkeypatch):
+    reference = pytest.importorskip("softshadows.reference")
+    monkeypatch.setenv("SOFTSHADOWS_CACHE", str(tmp_path))
+    cam = camera()
+    gb = plane_gbuffer(cam)
+    ours = shading.direct(gb, light, np.ones(gb.shape), 0.8, intensity=1.5)
+    img = reference.mitsuba_render(Scene([GROUND]), light, cam, spp=256, albedo=0.8, intensity=1.5, cache=False)
+    # Pixels inside the plane (their whole footprint on it) that receive a fair amount of light.
+    inner = gb.mask.copy()
+    inner[1:-1, 1:-1] &= gb.mask[:-2, 1:-1] & gb.mask[2:, 1:-1] & gb.mask[1:-1, :-2] & gb.mask[1:-1, 2:]
+    inner[[0, -1], :] = False
+    inner[:, [0, -1]] = False
+    lit = inner & (ours > 0.05 * ours.max()) & ~sees_light(cam, light)
+    assert lit.sum() > 200
+    ratio = img[..., 0][lit].sum() / ours[lit].sum()
+    assert ratio == pytest.approx(1.0, abs=0.01)  # scale 1: same radiance and reflectance units
+    per_pixel = img[..., 0][lit] / ours[lit]
+    assert np.median(np.abs(per_pixel - 1)) < 0.03  # and the same picture, pixel by pixel
