@@ -346,8 +346,8 @@ scene = Scene([quad([[-2, -2, 0], [2, -2, 0], [2, 2, 0], [-2, 2, 0]]),
                quad([[-0.9, -0.8, 0.8], [0.9, -0.8, 0.8], [0.9, 0.8, 0.8], [-0.9, 0.8, 0.8]],
                     uvs=[[0, 0], [2, 0], [2, 1], [0, 1]], alpha=np.array({a1}))])
 light = RectLight({LIGHT.center.tolist()}, {LIGHT.u.tolist()}, {LIGHT.v.tolist()})
-pts = np.array(json.loads(input()))
-vis = reference.mitsuba_visibility(scene, light, (pts[0], pts[1]), pts[2], cache=False, progress=False)
+pts, normals, samples = (np.array(x) for x in json.loads(input()))
+vis = reference.mitsuba_visibility(scene, light, (pts, normals), samples, cache=False, progress=False)
 print(json.dumps([reference.variant(), vis.tolist()]))
 """
     pts, normals = ground_receivers(60)
@@ -363,3 +363,16 @@ print(json.dumps([reference.variant(), vis.tolist()]))
     here = reference.mitsuba_visibility(scene, LIGHT, (pts, normals), samples, cache=False)
     np.testing.assert_array_equal(np.float32(scalar), here)
     assert 0 < here.mean() < 1
+
+
+def test_rays_past_the_alpha_step_limit_count_as_blocked_with_a_warning(monkeypatch):
+    layers = [quad([0, 0, 0.5 + 0.01 * k], [1.5, 0, 0], [0, 1.5, 0], alpha=np.zeros((1, 1))) for k in range(6)]
+    scene = Scene([GROUND, *layers])
+    rx = Receivers(*ground_receivers(20))
+    samples = light_samples(4)
+    free = reference.mitsuba_visibility(scene, LIGHT, rx, samples, cache=False)
+    assert free.mean() > 0.5  # six transparent layers: everything passes
+    monkeypatch.setattr(reference, "MAX_ALPHA_STEPS", 5)
+    with pytest.warns(RuntimeWarning, match="transparent texels"):
+        limited = reference.mitsuba_visibility(scene, LIGHT, rx, samples, cache=False)
+    np.testing.assert_array_equal(limited, 0)

@@ -326,6 +326,28 @@ def test_fence_mesh_covers_exactly_the_opaque_texels(options):
         assert area == pytest.approx(opaque.sum() / (w * h), rel=1e-4)
 
 
+@pytest.mark.parametrize("pattern", ["slats", "grid"])
+def test_fence_and_fence_mesh_share_their_setup_and_cast_the_same_shadow(pattern):
+    textured = scenes.fence(pattern=pattern, width=64, height=64)
+    explicit = scenes.fence_mesh(pattern=pattern, width=64, height=64)
+    for a, b in [
+        (textured.camera.eye, explicit.camera.eye),
+        (textured.camera.target, explicit.camera.target),
+        (textured.light.center, explicit.light.center),
+        (textured.light.u, explicit.light.u),
+        (textured.ground.vertices, explicit.ground.vertices),
+    ]:
+        assert np.array_equal(a, b)
+    gb = ss.gbuffer(textured.scene, textured.camera)
+    assert np.array_equal(gb.mask, ss.gbuffer(explicit.scene, explicit.camera).mask)
+    samples = textured.light.samples(32, pattern="poisson", seed=5)
+    va = ss.ray_traced(textured.scene, textured.light, gb, samples=samples)
+    vb = ss.ray_traced(explicit.scene, explicit.light, gb, samples=samples)
+    hit = gb.mask
+    assert np.mean((va[hit] > 0) & (va[hit] < 1)) > 0.02  # there are penumbrae to compare
+    assert np.mean(va[hit] == vb[hit]) > 0.995  # identical but for rays through texel edges
+
+
 def test_fence_mesh_is_far_heavier_than_the_perforated_fence():
     # Seed 001, Fig. 11: the textured fence needs 2 triangles per panel, the mesh many more.
     assert scenes.fence().scene.num_faces == 2 + 2 * 2
@@ -357,6 +379,18 @@ def test_default_camera_sees_the_occluders_and_their_shadow(name):
     assert inside(cam, shadow[None])[0]
     # The camera is above the ground and looks down at it.
     assert cam.eye[1] > 0 and cam.target[1] < cam.eye[1]
+
+
+@pytest.mark.parametrize("name", ALL)
+def test_rendered_view_shows_occluders_ground_and_penumbra(name):
+    setup = scenes.get(name, width=64, height=64)
+    gb = ss.gbuffer(setup.scene, setup.camera)
+    ground = gb.mask & (gb.face_ids < len(setup.ground.faces))  # the ground's faces come first
+    occluder = gb.mask & (gb.face_ids >= len(setup.ground.faces))
+    assert ground.mean() > 0.3 and occluder.mean() > 0.02
+    vis = ss.ray_traced(setup.scene, setup.light, gb, samples=16)
+    assert np.mean(ground & (vis < 1)) > 0.05  # a sizeable shadow on the ground ...
+    assert np.mean(ground & (vis > 0) & (vis < 1)) > 0.03  # ... with a wide penumbra
 
 
 @pytest.mark.parametrize("name", PROCEDURAL)

@@ -256,3 +256,24 @@ def test_direct_matches_a_mitsuba_render_of_an_unoccluded_plane(light, tmp_path,
     assert ratio == pytest.approx(1.0, abs=0.01)  # scale 1: same radiance and reflectance units
     per_pixel = img[..., 0][lit] / ours[lit]
     assert np.median(np.abs(per_pixel - 1)) < 0.03  # and the same picture, pixel by pixel
+
+
+@pytest.mark.mitsuba
+def test_mitsuba_camera_lines_up_with_the_core_gbuffer(tmp_path, monkeypatch):
+    # The unit check above uses a numpy pinhole; this one uses the core's own G-buffer, so a
+    # mirrored or shifted Mitsuba sensor would show up as a per-pixel mismatch.
+    pytest.importorskip("softshadows._core")
+    import softshadows as ss
+    from softshadows import reference
+
+    monkeypatch.setenv("SOFTSHADOWS_CACHE", str(tmp_path))
+    cam = Camera.look_at([0.5, -3.0, 2.5], [0.3, 0.0, 0.0], up=(0, 0, 1), fov_y=50.0, width=48, height=32)
+    light = RectLight([1.2, -0.5, 1.0], [0.3, 0, 0], [0, -0.2, 0.1])  # small and off-centre: a sharp hot spot
+    gb = ss.gbuffer(Scene([GROUND]), cam)
+    ours = shading.direct(gb, light, np.ones(gb.shape), 0.8)
+    img = reference.mitsuba_render(Scene([GROUND]), light, cam, spp=256, cache=False)[..., 0]
+    lit = gb.mask & (ours > 0.2 * ours.max())
+    assert lit.sum() > 50
+    assert np.median(np.abs(img[lit] / ours[lit] - 1)) < 0.03
+    mirrored = ours[:, ::-1]
+    assert np.median(np.abs(img[lit] / np.maximum(mirrored[lit], 1e-9) - 1)) > 0.2

@@ -11,7 +11,7 @@ Quick start::
 See DESIGN.md for the data model and the definition of visibility.
 """
 
-from . import _core
+from . import _core, io, metrics, plot, reference, scenes, shading
 from .camera import Camera, GBuffer, Receivers, gbuffer
 from .lights import DiskLight, PointLight, RectLight, SphereLight
 from .methods import METHODS, ray_traced, shadow_map
@@ -45,6 +45,12 @@ __all__ = [
     "Scene",
     "SphereLight",
     "gbuffer",
+    "io",
+    "metrics",
+    "plot",
+    "reference",
+    "scenes",
+    "shading",
     "memory_limit",
     "ray_traced",
     "set_memory_limit",

@@ -6,6 +6,9 @@ import numpy as np
 
 __all__ = ["comparison_grid", "show_samples"]
 
+#: The colour of pixels that hit no surface, so they never read as shadow.
+NO_HIT = (0.55, 0.68, 0.82)
+
 
 def _pyplot():
     import matplotlib
@@ -27,7 +30,7 @@ def comparison_grid(reference, results: dict, mask=None, *, path=None, titles: d
     results : dict of str to ndarray, shape (H, W)
         Each method's visibility.
     mask : ndarray, shape (H, W), bool, optional
-        Pixels that hit a surface; others are drawn gray in the error row.
+        Pixels that hit a surface; others are drawn in :data:`NO_HIT` blue on top and gray below.
     path : str or Path, optional
         Where to save the PNG; the figure is returned either way.
     titles : dict of str to str, optional
@@ -43,10 +46,12 @@ def comparison_grid(reference, results: dict, mask=None, *, path=None, titles: d
 
     plt = _pyplot()
     cols = {"reference": reference, **results}
+    cmap = plt.get_cmap("gray").with_extremes(bad=NO_HIT)
     fig, axes = plt.subplots(2, len(cols), figsize=(2.6 * len(cols), 5.6), squeeze=False)
     for k, (name, vis) in enumerate(cols.items()):
         sub = (titles or {}).get(name, "")
-        axes[0, k].imshow(vis, cmap="gray", vmin=0, vmax=1, interpolation="nearest")
+        shown = vis if mask is None else np.where(mask, vis, np.nan)
+        axes[0, k].imshow(shown, cmap=cmap, vmin=0, vmax=1, interpolation="nearest")
         axes[0, k].set_title(name + (f"\n{sub}" if sub else ""), fontsize=9)
         axes[1, k].imshow(error_heatmap(vis, reference, mask, vmax=vmax), interpolation="nearest")
         axes[1, k].set_title("error" if name != "reference" else f"error scale ±{vmax}", fontsize=8)

@@ -45,8 +45,9 @@ Choices made here (where the design is silent)
   (``ray_test``), and survivors march through the perforated one with ``ray_intersect``, looking
   our alpha up at ``si.uv`` (nearest texel, repeat) and, at a transparent texel, restarting on
   the same line just past the hit (clearing the surface by Mitsuba's spawn offset
-  ``(1 + max|p|) * mi.math.RayEpsilon``; see ``_step_past`` for why not along the normal). A ray that is still crossing transparent texels after
-  :data:`MAX_ALPHA_STEPS` hits counts as blocked, with a ``RuntimeWarning`` giving how many.
+  ``(1 + max|p|) * mi.math.RayEpsilon``; see ``_step_past`` for why not along the normal).
+  A ray that is still crossing transparent texels after :data:`MAX_ALPHA_STEPS` hits counts as
+  blocked, with a ``RuntimeWarning`` giving how many.
 * **Renders.** ``integrator="auto"`` is ``path`` (max_depth 2: emitted plus direct light) for
   scenes without perforated meshes and ``volpath`` (max_depth 2) otherwise, because ``path`` and
   ``direct`` shadow rays are stopped by ``mask`` BSDFs whatever their opacity. Measured with
@@ -70,7 +71,7 @@ from pathlib import Path
 import numpy as np
 
 from . import _validate as v
-from .camera import Camera, GBuffer, Receivers, as_receivers
+from .camera import Camera, GBuffer, as_receivers
 from .lights import DiskLight, PointLight, RectLight, SphereLight
 from .scene import Scene
 
@@ -305,8 +306,8 @@ def mitsuba_visibility(scene: Scene, light, receivers, samples, *, epsilon: floa
         A G-buffer (positions (H, W, 3), normals (H, W, 3), mask (H, W)) or explicit points
         (K, 3) and non-zero normals (K, 3), in world units.
     samples : int or array_like, shape (S, 3)
-        World-space light points, or how many to draw with ``light.samples(n)`` (default
-        pattern and seed; this needs the compiled core).
+        World-space light points, or how many to draw with ``light.samples(n)`` (its
+        defaults: pattern ``"poisson"``, seed 0).
     epsilon : float, optional
         Origin offset along the unit normal, world units; default ``scene.epsilon``.
     cache : bool

@@ -414,12 +414,7 @@ def fence(
         not closed).
     """
     panels_, tile, reps = _fence_layout(pattern, panels, panel_width, panel_height, repeats, gap, elevation)
-    meshes = []
-    for i, (origin, u_axis, v_axis) in enumerate(panels_):
-        verts = np.array([origin, origin + u_axis, origin + u_axis + v_axis, origin + v_axis])
-        uvs = np.array([[0, 0], [reps[0], 0], [reps[0], reps[1]], [0, reps[1]]], dtype=np.float32)
-        faces = np.array([[0, 1, 2], [0, 2, 3]], dtype=np.uint32)
-        meshes.append(Mesh(verts, faces, uvs=uvs, alpha=tile, name=f"fence_{i}"))
+    meshes = _fence_quads(panels_, tile, reps)
     return _assemble(
         "fence",
         meshes,
@@ -456,13 +451,14 @@ def fence_mesh(
     into texel-aligned rectangles (runs along u, then identical runs stacked along v), each two
     triangles lying in the panel's plane, so the mesh covers exactly the opaque texels'
     footprint: with the same options, ``fence`` and ``fence_mesh`` cast identical shadows (up to
-    nearest-texel lookups exactly on texel edges). Takes the same options as :func:`fence`.
+    nearest-texel lookups exactly on texel edges). Takes the same options as :func:`fence`, and
+    with the same options gets the same light, ground and camera (framed on the panels' quads).
 
     Returns
     -------
     Setup
         Meshes ``ground`` and ``fence_0``, ``fence_1``, ... (opaque, zero thickness, not closed;
-        about 62 triangles per panel for the default slats, about 1700 for the default grid).
+        124 triangles per panel for the default slats, 1640 for the default grid).
     """
     panels_, tile, reps = _fence_layout(pattern, panels, panel_width, panel_height, repeats, gap, elevation)
     full = np.tile(tile >= 0.5, (reps[1], reps[0]))  # rows: v texels, columns: u texels
@@ -473,11 +469,13 @@ def fence_mesh(
         verts, faces = _rectangles_to_mesh(rects, origin, u_axis / (reps[0] * tw), v_axis / (reps[1] * th))
         meshes.append(Mesh(verts, faces, name=f"fence_{i}"))
     n_tri = sum(len(m.faces) for m in meshes)
+    quads = _fence_quads(panels_, tile, reps)
     return _assemble(
         "fence_mesh",
         meshes,
         f"{len(meshes)} fence panels ({pattern}) as explicit opaque geometry ({n_tri} triangles) "
         "(seed 001, Fig. 11b).",
+        frame_by=quads,
         light=light, light_size=light_size, light_position=light_position, light_distance=light_distance,
         light_dir=(195.0, 50.0), camera_dir=(15.0, 45.0),
         width=width, height=height, fov_y=fov_y, ground_size=ground_size,
@@ -854,9 +852,15 @@ def leaf_texture(size: int = 32) -> np.ndarray:
 
 def _assemble(
     name, occluders, description, *, light, light_size, light_position, light_distance, light_dir, camera_dir,
-    width, height, fov_y, ground_size,
+    width, height, fov_y, ground_size, frame_by=None,
 ) -> Setup:
-    """Adds the ground, places the light and frames the camera around occluders and shadow."""
+    """Adds the ground, places the light and frames the camera around occluders and shadow.
+
+    ``frame_by``: meshes that stand in for the occluders when placing the light and the camera
+    (``fence_mesh`` uses the textured fence's quads so that both get the same setup).
+    """
+    meshes = list(occluders)
+    framed = meshes if frame_by is None else list(frame_by)
     if light not in LIGHT_KINDS:
         raise ValueError(f"light: expected one of {LIGHT_KINDS}, got {light!r}")
     light_size = _v.positive("light_size", light_size)
@@ -866,7 +870,7 @@ def _assemble(
     if not 0 < fov_y < 180:
         raise ValueError(f"fov_y: must be in (0, 180) degrees, got {fov_y}")
 
-    lo, hi = _bounds(occluders).astype(np.float64)
+    lo, hi = _bounds(framed).astype(np.float64)
     target = (lo + hi) / 2
     if light_position is None:
         center = target + light_distance * _direction(*light_dir)
@@ -881,7 +885,7 @@ def _assemble(
 
     # Points to frame: the occluders and their shadow on y = 0 cast from the light's extreme
     # points (which bounds the penumbra); a deterministic subsample of at most 4096 vertices.
-    pts = np.concatenate([m.vertices[m.faces.reshape(-1)] for m in occluders]).astype(np.float64)
+    pts = np.concatenate([m.vertices[m.faces.reshape(-1)] for m in framed]).astype(np.float64)
     extreme = np.concatenate([pts.argmin(axis=0), pts.argmax(axis=0)])
     pts = np.concatenate([pts[:: max(1, len(pts) // 4096)], pts[extreme]])
     shadow = []
@@ -904,7 +908,7 @@ def _assemble(
         name="ground",
     )
     camera = _frame(poi, _direction(*camera_dir), fov_y, width, height)
-    return Setup(name, Scene([ground, *occluders]), lamp, camera, description)
+    return Setup(name, Scene([ground, *meshes]), lamp, camera, description)
 
 
 def _direction(azimuth: float, elevation: float) -> np.ndarray:
@@ -1146,6 +1150,17 @@ def _fence_layout(pattern, panels, panel_width, panel_height, repeats, gap, elev
         origin = np.array([c * 0.6 * panel_width - panel_width / 2, elevation, -c * gap])
         frames.append((origin, np.array([panel_width, 0.0, 0.0]), np.array([0.0, panel_height, 0.0])))
     return frames, tile, reps
+
+
+def _fence_quads(frames, tile, reps):
+    """One perforated quad (2 triangles, uvs over [0, ku] x [0, kv]) per panel frame."""
+    meshes = []
+    uvs = np.array([[0, 0], [reps[0], 0], [reps[0], reps[1]], [0, reps[1]]], dtype=np.float32)
+    faces = np.array([[0, 1, 2], [0, 2, 3]], dtype=np.uint32)
+    for i, (origin, u_axis, v_axis) in enumerate(frames):
+        verts = np.array([origin, origin + u_axis, origin + u_axis + v_axis, origin + v_axis])
+        meshes.append(Mesh(verts, faces, uvs=uvs, alpha=tile, name=f"fence_{i}"))
+    return meshes
 
 
 def _merge_rectangles(mask):

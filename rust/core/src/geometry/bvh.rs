@@ -3,7 +3,7 @@
 //!
 //! Layout: a 4-wide BVH (each node holds the boxes of its up to four children as `Vec4` lanes,
 //! one 64-byte-aligned node per visit) built by binned SAH over a binary tree and collapsed (see
-//! `bvh/build.rs`). Leaves hold at most four triangles, stored as one [`Tri4`] block of
+//! `bvh/build.rs`). Leaves hold at most four triangles, stored as one `Tri4` block of
 //! precomputed vertex coordinates in structure-of-arrays form, so a leaf is one SIMD
 //! watertight test (`bvh/triangle.rs`, after Woop, Benthin and Wald 2013) and no index or
 //! vertex buffer is touched during traversal.
@@ -17,12 +17,20 @@
 //! Traversal", JCGT 2013, needs `1 + 2 gamma_3`), so a triangle hit by the watertight test is
 //! never culled by a box rounding the other way, and the any-hit answer does not depend on the
 //! traversal order. Results are deterministic: the build is, and traversal is sequential per ray.
+//!
+//! Shadow rays: [`Bvh::occluded`] answers one segment; [`Bvh::occluded_many`] answers the
+//! shadow rays of one receiver together, culling with the frustum of their shared origin
+//! (`bvh/frustum.rs`: no triangle test at all for a fully lit receiver) and remembering the
+//! leaf and subtree that blocked the previous ray ([`ShadowCache`]). Traversal stacks are per-thread
+//! arrays sized by the depth bound of the build, so queries allocate nothing.
 
 mod build;
+mod frustum;
 mod triangle;
 
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
+use frustum::{Frustum, MAX_CANDIDATES};
 use glam::{Vec3, Vec4};
 use std::cell::RefCell;
 pub use triangle::intersect_triangle;
@@ -34,6 +42,8 @@ const STACK: usize = 256;
 const LEAF: u32 = 1 << 31;
 /// An unused child slot (its box is empty and never hit).
 const EMPTY: u32 = u32::MAX;
+/// Fewest shadow rays of one receiver for which the frustum pass pays off.
+const FRUSTUM_MIN_RAYS: usize = 4;
 /// Conservative scale of box exit distances (>= 1 + 2 gamma_3 of Ize 2013).
 const ROBUST: f32 = 1.0 + 4.0 * f32::EPSILON;
 
@@ -53,19 +63,26 @@ pub struct Hit {
     pub b2: f32,
 }
 
-/// Remembers the leaf that blocked the last shadow ray of a receiver. Neighbouring shadow rays
-/// of one receiver are usually blocked by the same triangles, so testing that leaf first
-/// answers most umbra rays with a single block test. It only changes speed, never answers.
+/// Remembers where the last shadow ray of a receiver was blocked: the leaf, tested first, and
+/// the subtree a few levels above it, searched before the whole tree. Neighbouring shadow rays
+/// of one receiver are usually blocked by the same or nearby triangles, so most umbra rays are
+/// answered by one leaf test or a small subtree. It only changes speed, never answers (any
+/// opaque hit in the open segment is an answer).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ShadowCache {
     block: u32,
+    /// An ancestor node of `block` ([`SUBTREE_LEVELS`] up), searched before the whole tree.
+    subtree: u32,
 }
 
 impl Default for ShadowCache {
     fn default() -> Self {
-        Self { block: EMPTY }
+        Self { block: EMPTY, subtree: EMPTY }
     }
 }
+
+/// How many levels above the last blocking leaf the cached subtree starts.
+const SUBTREE_LEVELS: usize = 3;
 
 /// One inner node: the bounds of four children (`bounds[0]` minima, `bounds[1]` maxima, each
 /// `[x, y, z]` with one lane per child) and their references.
@@ -77,16 +94,14 @@ struct Node4 {
 }
 
 impl Node4 {
-    const EMPTY_NODE: Node4 = Node4 {
-        bounds: [[Vec4::INFINITY; 3], [Vec4::NEG_INFINITY; 3]],
-        child: [EMPTY; 4],
-    };
+    const EMPTY_NODE: Node4 = Node4 { bounds: [[Vec4::INFINITY; 3], [Vec4::NEG_INFINITY; 3]], child: [EMPTY; 4] };
 
     /// Slab test of the four child boxes: the bitmask of those overlapping (0, `t_max`) and
     /// their entry distances.
     #[inline(always)]
     fn hit(&self, r: &RayData, t_max: f32) -> (u32, Vec4) {
-        let (n, f) = (r.near, r.far);
+        let n = r.near.map(usize::from);
+        let f = r.near.map(|b| usize::from(!b));
         let x0 = (self.bounds[n[0]][0] - r.org_near[0]) * r.inv[0];
         let y0 = (self.bounds[n[1]][1] - r.org_near[1]) * r.inv[1];
         let z0 = (self.bounds[n[2]][2] - r.org_near[2]) * r.inv[2];
@@ -139,6 +154,9 @@ impl Tri4 {
 pub struct Bvh {
     nodes: Vec<Node4>,
     blocks: Vec<Tri4>,
+    /// Parent node of each node (`EMPTY` for the root) and of each block.
+    parents: Vec<u32>,
+    block_parents: Vec<u32>,
     /// A node index, or `LEAF | block` for scenes of at most four triangles.
     root: u32,
     depth: u32,
@@ -206,7 +224,7 @@ impl Bvh {
     /// blocking leaf. Use one cache per receiver for its shadow rays.
     #[inline]
     pub fn occluded_cached(&self, scene: &Scene, origin: Vec3, dir: Vec3, t_max: f32, cache: &mut ShadowCache) -> bool {
-        if !(t_max > 0.0) {
+        if t_max.is_nan() || t_max <= 0.0 {
             return false;
         }
         let Some(r) = RayData::new(origin, dir) else { return false };
@@ -215,31 +233,77 @@ impl Bvh {
                 return true;
             }
         }
-        let found = ANY_STACK.with(|s| match s.try_borrow_mut() {
-            Ok(mut stack) => self.any_hit(scene, &r, t_max, &mut stack),
-            // Only reachable if `is_opaque_at` re-entered the BVH on this thread.
-            Err(_) => self.any_hit(scene, &r, t_max, &mut [0; STACK]),
-        });
-        match found {
+        let search = |start: u32| {
+            ANY_STACK.with(|s| match s.try_borrow_mut() {
+                Ok(mut stack) => self.any_hit(scene, &r, t_max, start, &mut stack),
+                // Only reachable if `is_opaque_at` re-entered the BVH on this thread.
+                Err(_) => self.any_hit(scene, &r, t_max, start, &mut [0; STACK]),
+            })
+        };
+        // The subtree first (unless it is the whole tree): a hit there is as good as any.
+        let found = match cache.subtree {
+            sub if sub == EMPTY || sub == self.root => None,
+            sub => search(sub),
+        };
+        match found.or_else(|| search(self.root)) {
             Some(block) => {
                 cache.block = block;
+                cache.subtree = self.ancestor(block);
                 true
             }
             None => false,
         }
     }
 
-    /// For each target, whether the open segment from `origin` to it is blocked (the shadow rays
-    /// of one receiver; t in (0, 1) with `dir = target - origin`). Clears and fills `out`.
+    /// For each target, whether the open segment from `origin` to it is blocked: the shadow
+    /// rays of one receiver (t in (0, 1) with `dir = target - origin`). Clears and fills `out`.
+    ///
+    /// Same answers as [`Bvh::occluded`] per target, faster: one traversal with the frustum of
+    /// all the segments first collects the few leaves they may hit (none for a fully lit
+    /// receiver), and the rays are tested against those alone; with many candidate leaves the
+    /// rays traverse one by one, sharing a [`ShadowCache`] (see `bvh/frustum.rs`).
     pub fn occluded_many(&self, scene: &Scene, origin: Vec3, targets: &[Vec3], out: &mut Vec<bool>) {
-        let mut cache = ShadowCache::default();
         out.clear();
+        if targets.len() >= FRUSTUM_MIN_RAYS {
+            if let Some(f) = Frustum::new(origin, targets) {
+                let mut cand = [0u32; MAX_CANDIDATES];
+                let found = ANY_STACK.with(|s| match s.try_borrow_mut() {
+                    Ok(mut stack) => f.collect(&self.nodes, self.root, &mut stack, &mut cand),
+                    Err(_) => f.collect(&self.nodes, self.root, &mut [0; STACK], &mut cand),
+                });
+                if let Some(n) = found {
+                    self.occluded_by_candidates(scene, origin, targets, &cand[..n], out);
+                    return;
+                }
+            }
+        }
+        let mut cache = ShadowCache::default();
         out.extend(targets.iter().map(|&y| self.occluded_cached(scene, origin, y - origin, 1.0, &mut cache)));
+    }
+
+    /// Tests every segment `origin -> target` against the candidate blocks only, starting with
+    /// the block that blocked the previous segment.
+    fn occluded_by_candidates(&self, scene: &Scene, origin: Vec3, targets: &[Vec3], cand: &[u32], out: &mut Vec<bool>) {
+        if cand.is_empty() {
+            out.resize(targets.len(), false);
+            return;
+        }
+        let mut last = 0usize;
+        out.extend(targets.iter().map(|&y| {
+            let Some(r) = RayData::new(origin, y - origin) else { return false };
+            let hit = (0..cand.len())
+                .map(|k| (last + k) % cand.len())
+                .find(|&c| self.block_occludes(scene, &self.blocks[cand[c] as usize], &r, 1.0));
+            if let Some(c) = hit {
+                last = c;
+            }
+            hit.is_some()
+        }));
     }
 
     /// The closest opaque hit in the open interval (0, `t_max`), alpha-testing perforated faces.
     pub fn intersect(&self, scene: &Scene, origin: Vec3, dir: Vec3, t_max: f32) -> Option<Hit> {
-        if !(t_max > 0.0) {
+        if t_max.is_nan() || t_max <= 0.0 {
             return None;
         }
         let r = RayData::new(origin, dir)?;
@@ -249,10 +313,20 @@ impl Bvh {
         })
     }
 
-    /// Any-hit traversal; returns the block that holds an opaque hit.
-    fn any_hit(&self, scene: &Scene, r: &RayData, t_max: f32, stack: &mut [u32; STACK]) -> Option<u32> {
+    /// The node [`SUBTREE_LEVELS`] above block `b` (`EMPTY` when that is above the root).
+    fn ancestor(&self, b: u32) -> u32 {
+        let mut n = self.block_parents.get(b as usize).copied().unwrap_or(EMPTY);
+        for _ in 1..SUBTREE_LEVELS {
+            n = self.parents.get(n as usize).copied().unwrap_or(EMPTY);
+        }
+        n
+    }
+
+    /// Any-hit traversal of the subtree `start` (a child reference); returns the block that
+    /// holds an opaque hit.
+    fn any_hit(&self, scene: &Scene, r: &RayData, t_max: f32, start: u32, stack: &mut [u32; STACK]) -> Option<u32> {
         let mut sp = 0usize;
-        let mut cur = self.root;
+        let mut cur = start;
         loop {
             if cur & LEAF == 0 {
                 let node = &self.nodes[cur as usize];
@@ -352,7 +426,9 @@ fn block_closest(scene: &Scene, b: &Tri4, r: &RayData, t_max: f32) -> Option<Hit
     }
     let t = lanes.distances().to_array();
     while mask != 0 {
-        let lane = (0..4).filter(|&i| mask >> i & 1 != 0).fold(4, |best, i| if best == 4 || t[i] < t[best] { i } else { best });
+        let lane = (0..4)
+            .filter(|&i| mask >> i & 1 != 0)
+            .fold(4, |best, i| if best == 4 || t[i] < t[best] { i } else { best });
         if lane_opaque(scene, b, &lanes, lane) {
             let (t, b1, b2) = lanes.get(lane);
             return Some(Hit { t, face: b.ids[lane], b1, b2 });

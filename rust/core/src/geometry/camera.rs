@@ -31,7 +31,14 @@ impl Camera {
     /// A camera at `eye` looking at `target`, with `up` giving the image's upward direction
     /// (orthogonalized). Refuses zero sizes ("width"/"height"), `eye == target` ("target"), an
     /// `up` parallel to the view ("up") and a field of view outside (0, 180) degrees ("fov_y").
-    pub fn look_at(eye: Vec3, target: Vec3, up: Vec3, fov_y_degrees: f32, width: usize, height: usize) -> Result<Camera> {
+    pub fn look_at(
+        eye: Vec3,
+        target: Vec3,
+        up: Vec3,
+        fov_y_degrees: f32,
+        width: usize,
+        height: usize,
+    ) -> Result<Camera> {
         if width == 0 {
             return Err(Error::invalid("width", "must be >= 1, got 0"));
         }
@@ -51,7 +58,7 @@ impl Camera {
         }
         let right = forward.cross(up.normalize_or_zero());
         // Below ~1e-6 (sin of the angle) the frame would be dominated by rounding.
-        if !(right.length() > 1e-6) {
+        if right.length() <= 1e-6 {
             return Err(Error::invalid("up", format!("up = {up} is zero or parallel to the view direction {forward}")));
         }
         let right = right.normalize();

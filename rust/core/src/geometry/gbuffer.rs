@@ -34,6 +34,7 @@ pub struct GBuffer {
 const D3D_2: [(i8, i8); 2] = [(4, 4), (-4, -4)];
 const D3D_4: [(i8, i8); 4] = [(-2, -6), (6, -2), (-6, 2), (2, 6)];
 const D3D_8: [(i8, i8); 8] = [(1, -3), (-1, 3), (5, 1), (-3, -5), (-5, 5), (-7, -1), (3, 7), (7, -7)];
+#[rustfmt::skip]
 const D3D_16: [(i8, i8); 16] = [
     (1, 1), (-1, -3), (-3, 2), (4, -1), (-5, -2), (2, 5), (5, 3), (3, -5),
     (-2, 6), (0, -7), (-4, -6), (-6, 4), (-8, 0), (7, -4), (6, 7), (-7, -8),
@@ -90,10 +91,8 @@ pub fn gbuffer(scene: &Scene, bvh: &Bvh, camera: &Camera, msaa: usize) -> Result
     // The output arrays (33 bytes) and the per-pixel hits collected first (32 bytes).
     let per_pixel = 33 + 32 + if msaa > 1 { 4 * msaa as u64 } else { 0 };
     limits::check_memory("G-buffer", limits::bytes(&[n as u64, per_pixel]))?;
-    let texels: Vec<Texel> = (0..n)
-        .into_par_iter()
-        .map(|i| cast(scene, bvh, camera, (i % w) as f32 + 0.5, (i / w) as f32 + 0.5))
-        .collect();
+    let texels: Vec<Texel> =
+        (0..n).into_par_iter().map(|i| cast(scene, bvh, camera, (i % w) as f32 + 0.5, (i / w) as f32 + 0.5)).collect();
     let sample_depths = if msaa > 1 { depths(scene, bvh, camera, &offsets) } else { Vec::new() };
     Ok(GBuffer {
         width: w,

@@ -9,11 +9,12 @@
 //!
 //! Receivers are processed in parallel chunks; each receiver's result depends only on its own
 //! samples, so the output is the same bits for any thread count. The shadow rays of a receiver
-//! share a [`ShadowCache`] (the leaf that blocked the previous ray is tested first), which
-//! answers umbra rays with one leaf test and changes no answer.
+//! go to [`Bvh::occluded_many`] together: they share their origin, so one frustum traversal
+//! finds the few leaves they may hit (none for a lit receiver), and umbra rays reuse the leaf
+//! that blocked the previous ray; neither changes an answer.
 
 use crate::error::{Error, Result};
-use crate::geometry::bvh::{Bvh, ShadowCache};
+use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
@@ -66,9 +67,13 @@ pub fn ray_traced(
     }
     bvh.check_scene(scene)?;
     let n = receivers.len();
-    let per_thread = limits::bytes(&[samples.count() as u64, 16]);
+    // Per thread: samples, weights, traced targets, their weights and answers (33 bytes each).
+    let per_thread = limits::bytes(&[samples.count() as u64, 40]);
     let threads = rayon::current_num_threads() as u64;
-    limits::check_memory("ray_traced", limits::bytes(&[n as u64, 4]).saturating_add(per_thread.saturating_mul(threads)))?;
+    limits::check_memory(
+        "ray_traced",
+        limits::bytes(&[n as u64, 4]).saturating_add(per_thread.saturating_mul(threads)),
+    )?;
     let mut out = vec![0f32; n];
     let mut stats = Stats::default();
     let rays = stats.time("trace", || trace_all(scene, bvh, light, receivers, samples, opts.epsilon, &mut out));
@@ -78,7 +83,8 @@ pub fn ray_traced(
     Ok((out, stats))
 }
 
-/// Fills `out` in parallel chunks with thread-local sample buffers; returns the rays traced.
+/// Fills `out` in parallel chunks with thread-local buffers; returns the rays traced. When every
+/// receiver uses the same unweighted samples they are read in place instead of copied.
 fn trace_all(
     scene: &Scene,
     bvh: &Bvh,
@@ -88,22 +94,29 @@ fn trace_all(
     epsilon: f32,
     out: &mut [f32],
 ) -> u64 {
+    let shared = samples.is_shared() && !light.is_textured();
+    let ones = if shared { vec![1.0f32; samples.count()] } else { Vec::new() };
     out.par_chunks_mut(CHUNK)
         .enumerate()
         .map_init(
-            || (Vec::with_capacity(samples.count()), Vec::with_capacity(samples.count())),
-            |(ys, ws), (c, chunk)| {
+            || (Vec::with_capacity(samples.count()), Vec::with_capacity(samples.count()), Traced::default()),
+            |(ys, ws, traced), (c, chunk)| {
                 let mut rays = 0;
                 for (k, v) in chunk.iter_mut().enumerate() {
                     let i = c * CHUNK + k;
                     if !receivers.valid[i] {
                         continue;
                     }
-                    samples.fill(light, i, receivers.pixel(i), ys, ws);
-                    let (vis, traced) =
-                        receiver_visibility(scene, bvh, receivers.points[i], receivers.normals[i], ys, ws, epsilon);
+                    let (p, n) = (receivers.points[i], receivers.normals[i]);
+                    let (vis, count) = if shared {
+                        let pattern = samples.pattern_for(0, 0);
+                        receiver_visibility(scene, bvh, p, n, epsilon, pattern, &ones, traced)
+                    } else {
+                        samples.fill(light, i, receivers.pixel(i), ys, ws);
+                        receiver_visibility(scene, bvh, p, n, epsilon, ys, ws, traced)
+                    };
                     *v = vis;
-                    rays += traced;
+                    rays += count;
                 }
                 rays
             },
@@ -111,29 +124,41 @@ fn trace_all(
         .sum()
 }
 
-/// The weighted fraction of unblocked samples of one receiver, and the number of rays traced.
+/// Per-thread buffers: the targets a receiver actually traces, their weights and answers.
+#[derive(Debug, Default)]
+struct Traced {
+    targets: Vec<Vec3>,
+    weights: Vec<f32>,
+    blocked: Vec<bool>,
+}
+
+/// The weighted fraction of unblocked samples `ys` (weights `ws`) of the receiver at `p` with
+/// normal `n`, and the number of rays traced.
+#[allow(clippy::too_many_arguments)]
 fn receiver_visibility(
     scene: &Scene,
     bvh: &Bvh,
     p: Vec3,
     n: Vec3,
+    epsilon: f32,
     ys: &[Vec3],
     ws: &[f32],
-    epsilon: f32,
+    s: &mut Traced,
 ) -> (f32, u64) {
     let origin = p + n * epsilon;
-    let mut cache = ShadowCache::default();
-    let (mut lit, mut total, mut rays) = (0f64, 0f64, 0u64);
+    s.targets.clear();
+    s.weights.clear();
+    let mut total = 0f64;
     for (&y, &w) in ys.iter().zip(ws) {
         total += f64::from(w);
-        if w == 0.0 || !((y - p).dot(n) > 0.0) {
-            continue;
-        }
-        rays += 1;
-        if !bvh.occluded_cached(scene, origin, y - origin, 1.0, &mut cache) {
-            lit += f64::from(w);
+        // Behind the tangent plane, or of weight zero: contributes nothing, traced never.
+        if w != 0.0 && (y - p).dot(n) > 0.0 {
+            s.targets.push(y);
+            s.weights.push(w);
         }
     }
+    bvh.occluded_many(scene, origin, &s.targets, &mut s.blocked);
+    let lit: f64 = s.weights.iter().zip(&s.blocked).filter(|(_, &b)| !b).map(|(&w, _)| f64::from(w)).sum();
     let v = if total > 0.0 { (lit / total).clamp(0.0, 1.0) as f32 } else { 0.0 };
-    (v, rays)
+    (v, s.targets.len() as u64)
 }

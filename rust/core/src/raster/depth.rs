@@ -781,9 +781,16 @@ impl Coverage for ConservativePolygon {
 
 /// A rasterizer bound to one frustum and mode: the reusable core of every depth, ID or list buffer.
 ///
-/// ```ignore
-/// let r = Rasterizer::new(&frustum, RasterMode::Conservative)?;
-/// r.triangle(&tri, TexelRect::full(frustum.width, frustum.height), |f| ids[f.y * w + f.x].push(id));
+/// ```
+/// use glam::Vec3;
+/// use softshadows_core::raster::depth::{LightFrustum, RasterMode, Rasterizer, TexelRect};
+/// let f = LightFrustum::new(Vec3::ZERO, -Vec3::Z, Vec3::Y, 90.0, 1.0, 0.1, 10.0, 64, 64)?;
+/// let r = Rasterizer::new(&f, RasterMode::Conservative)?;
+/// let tri = [Vec3::new(-1.0, -1.0, -2.0), Vec3::new(1.0, -1.0, -2.0), Vec3::new(0.0, 1.0, -2.0)];
+/// let mut lists = vec![Vec::new(); 64 * 64]; // e.g. per-texel triangle lists
+/// r.triangle(&tri, TexelRect::full(64, 64), |frag| lists[frag.y * 64 + frag.x].push(7u32));
+/// assert!(lists[32 * 64 + 32] == [7]);
+/// # Ok::<(), softshadows_core::Error>(())
 /// ```
 #[derive(Debug, Clone)]
 pub struct Rasterizer {
@@ -960,7 +967,7 @@ pub fn rasterize_depth(scene: &Scene, frustum: &LightFrustum, opts: &RasterOptio
     let faces = scene.num_faces() as u64;
     limits::check_memory(
         "depth-map rasterization",
-        limits::bytes(&[w as u64, h as u64, 4]).saturating_add(limits::bytes(&[faces, 64])),
+        limits::bytes(&[w as u64, h as u64, 4]).saturating_add(limits::bytes(&[faces, 96])),
     )?;
     let mut map = DepthMap::empty(w, h)?;
     let casters: Vec<Caster> = scene

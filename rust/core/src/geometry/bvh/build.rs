@@ -79,9 +79,14 @@ struct Node2 {
 pub(super) fn build(scene: &Scene) -> Result<Bvh> {
     let n = scene.num_faces();
     limits::check_memory("BVH", limits::bytes(&[n as u64, BYTES_PER_TRIANGLE]))?;
-    if n >= (LEAF as usize) / 2 {
-        // Leaf references keep 31 bits for the block index; the memory check refuses far earlier.
-        return Err(Error::TooLarge { what: "BVH".into(), bytes: n as u64 * BYTES_PER_TRIANGLE, limit: limits::memory_limit() });
+    if n as u64 >= u64::from(LEAF) {
+        // Leaf references keep 31 bits for the block index (blocks <= faces); the memory check
+        // refuses such sizes far earlier.
+        return Err(Error::TooLarge {
+            what: "BVH".into(),
+            bytes: n as u64 * BYTES_PER_TRIANGLE,
+            limit: limits::memory_limit(),
+        });
     }
     let tris: Vec<[Vec3; 3]> = scene.triangles().map(|(_, t)| t).collect();
     let alpha = perforated_faces(scene);
@@ -95,14 +100,33 @@ pub(super) fn build(scene: &Scene) -> Result<Bvh> {
     let mut idx: Vec<u32> = (0..n as u32).collect();
     let nodes2 = build_subtree(&prims, &mut idx, 0, 0);
     drop(prims);
-    let mut out = Collapse { n2: &nodes2, idx: &idx, tris: &tris, alpha: &alpha, nodes: Vec::new(), blocks: Vec::new(), depth: 0 };
+    let mut out = Collapse {
+        n2: &nodes2,
+        idx: &idx,
+        tris: &tris,
+        alpha: &alpha,
+        nodes: Vec::new(),
+        blocks: Vec::new(),
+        parents: Vec::new(),
+        block_parents: Vec::new(),
+        depth: 0,
+    };
     let root = out.node(0, 1);
     if 3 * out.depth as usize + 1 > STACK {
         // Unreachable by the depth bound of the module doc; refuse rather than risk the stacks.
         return Err(Error::invalid("meshes", format!("BVH depth {} exceeds the traversal stack", out.depth)));
     }
     let b = nodes2[0].b;
-    Ok(Bvh { nodes: out.nodes, blocks: out.blocks, root, depth: out.depth, bounds: (b.lo, b.hi), num_faces: n })
+    Ok(Bvh {
+        nodes: out.nodes,
+        blocks: out.blocks,
+        parents: out.parents,
+        block_parents: out.block_parents,
+        root,
+        depth: out.depth,
+        bounds: (b.lo, b.hi),
+        num_faces: n,
+    })
 }
 
 /// Per global face, whether it belongs to a perforated mesh (precomputed so that opaque meshes
@@ -205,7 +229,8 @@ fn best_sah_split(prims: &[Prim], idx: &[u32], cb: Aabb) -> Option<(usize, usize
     let ext = cb.hi - cb.lo;
     let mut best: Option<(f32, usize, usize, f32)> = None;
     for axis in 0..3 {
-        if !(ext[axis] > 0.0) {
+        // Extents of finite centroids are never NaN.
+        if ext[axis] <= 0.0 {
             continue;
         }
         let scale = BINS as f32 / ext[axis];
@@ -244,7 +269,13 @@ fn best_sah_split(prims: &[Prim], idx: &[u32], cb: Aabb) -> Option<(usize, usize
 fn median_split(prims: &[Prim], idx: &mut [u32], cb: Aabb) -> usize {
     let mid = idx.len() / 2;
     let ext = cb.hi - cb.lo;
-    let axis = if ext.x >= ext.y && ext.x >= ext.z { 0 } else if ext.y >= ext.z { 1 } else { 2 };
+    let axis = if ext.x >= ext.y && ext.x >= ext.z {
+        0
+    } else if ext.y >= ext.z {
+        1
+    } else {
+        2
+    };
     if ext[axis] > 0.0 {
         // A strict total order (coordinate, then index) makes the selection deterministic.
         idx.select_nth_unstable_by(mid, |&a, &b| {
@@ -263,6 +294,9 @@ struct Collapse<'a> {
     alpha: &'a [bool],
     nodes: Vec<Node4>,
     blocks: Vec<Tri4>,
+    /// Parent node of each node (`EMPTY` for the root) and of each block.
+    parents: Vec<u32>,
+    block_parents: Vec<u32>,
     depth: u32,
 }
 
@@ -277,14 +311,17 @@ impl Collapse<'_> {
         let mut kids = vec![left, right];
         while kids.len() < 4 {
             // Open the inner child with the largest area (first on ties).
-            let pick = kids
-                .iter()
-                .enumerate()
-                .filter(|(_, &k)| matches!(self.n2[k].kind, Kind::Inner { .. }))
-                .fold(None::<(usize, f32)>, |acc, (pos, &k)| {
+            let pick = kids.iter().enumerate().filter(|(_, &k)| matches!(self.n2[k].kind, Kind::Inner { .. })).fold(
+                None::<(usize, f32)>,
+                |acc, (pos, &k)| {
                     let a = self.n2[k].b.half_area();
-                    if acc.is_none_or(|(_, best)| a > best) { Some((pos, a)) } else { acc }
-                });
+                    if acc.is_none_or(|(_, best)| a > best) {
+                        Some((pos, a))
+                    } else {
+                        acc
+                    }
+                },
+            );
             let Some((pos, _)) = pick else { break };
             if let Kind::Inner { left, right } = self.n2[kids[pos]].kind {
                 kids.splice(pos..=pos, [left as usize, right as usize]);
@@ -292,11 +329,16 @@ impl Collapse<'_> {
         }
         let me = self.nodes.len();
         self.nodes.push(Node4::EMPTY_NODE);
+        self.parents.push(EMPTY);
         let mut lo = [[f32::INFINITY; 4]; 3];
         let mut hi = [[f32::NEG_INFINITY; 4]; 3];
         let mut child = [EMPTY; 4];
         for (lane, &k) in kids.iter().enumerate() {
             child[lane] = self.node(k, depth + 1);
+            match child[lane] {
+                c if c & LEAF != 0 => self.block_parents[(c & !LEAF) as usize] = me as u32,
+                c => self.parents[c as usize] = me as u32,
+            }
             let b = self.n2[k].b;
             for a in 0..3 {
                 lo[a][lane] = b.lo[a];
@@ -311,6 +353,7 @@ impl Collapse<'_> {
     fn leaf(&mut self, start: usize, count: usize) -> u32 {
         let faces = &self.idx[start..start + count];
         self.blocks.push(Tri4::from_faces(faces, self.tris, self.alpha));
+        self.block_parents.push(EMPTY);
         LEAF | (self.blocks.len() - 1) as u32
     }
 }

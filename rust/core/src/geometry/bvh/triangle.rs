@@ -29,10 +29,9 @@ pub(super) struct RayData {
     pub org_far: [Vec4; 3],
     /// Safe reciprocal direction, broadcast per axis (box test).
     pub inv: [Vec4; 3],
-    /// For each axis, 0 when the box's min plane is the entry plane (non-negative direction), else 1.
-    pub near: [usize; 3],
-    /// `1 - near`.
-    pub far: [usize; 3],
+    /// For each axis, whether the box's max plane is the entry plane (negative direction). As
+    /// `usize::from(bool)` indices they need no bounds checks in the node test.
+    pub near: [bool; 3],
     /// The shear permutation `[kx, ky, kz]`.
     pub k: [usize; 3],
     /// Origin components `org[kx], org[ky], org[kz]`, broadcast.
@@ -43,7 +42,7 @@ pub(super) struct RayData {
 
 impl RayData {
     /// Precomputes the ray; `None` when `dir` is zero (an empty segment hits nothing).
-    #[inline]
+    #[inline(always)]
     pub fn new(org: Vec3, dir: Vec3) -> Option<Self> {
         let a = dir.abs();
         let kz = if a.x >= a.y && a.x >= a.z {
@@ -77,7 +76,7 @@ impl RayData {
             _ => 1.0 / d,
         };
         let inv3 = [safe(dir.x), safe(dir.y), safe(dir.z)];
-        let near = inv3.map(|i| usize::from(i < 0.0));
+        let near = inv3.map(|i| i < 0.0);
         let o3 = org.to_array();
         let nudge = |a: usize, up: bool| match (dir[a] == 0.0, up) {
             (false, _) => Vec4::splat(o3[a]),
@@ -89,7 +88,6 @@ impl RayData {
             org_far: [nudge(0, false), nudge(1, false), nudge(2, false)],
             inv: inv3.map(Vec4::splat),
             near,
-            far: near.map(|n| 1 - n),
             k: [kx, ky, kz],
             ok: [Vec4::splat(org[kx]), Vec4::splat(org[ky]), Vec4::splat(org[kz])],
             s: s3.map(Vec4::splat),

@@ -1,0 +1,160 @@
+//! Shared-origin culling for the shadow rays of one receiver.
+//!
+//! All shadow rays of a receiver leave the same point `o` for targets on the light. Before
+//! tracing them one by one, one traversal collects the leaves whose boxes meet the *frustum*
+//! of these segments: the pyramid with apex `o` bounded by four planes through `o` (the extreme
+//! slopes of the directions over their dominant axis), cut by the bounding box of `o` and the
+//! targets. When that traversal finds no leaf, every ray is unblocked; when it finds a few, each
+//! ray is tested against those leaves only, with the same watertight test as the BVH traversal;
+//! when it finds more than [`MAX_CANDIDATES`] it gives up and the rays traverse the BVH one by one.
+//!
+//! Conservativeness (answers must equal the per-ray traversal): the slopes are widened by
+//! `1e-4` of their magnitude, the plane test accepts a box whose maximal signed distance is
+//! above `-1e-5` times the magnitude of its terms, and the box is widened by `1e-5` of its
+//! extent, all far above the float rounding (~6e-8 relative) of the slopes, of the plane
+//! distances and of the watertight test. A leaf holding a triangle that any ray hits is
+//! therefore always collected; extra leaves cost time only.
+
+use super::{Node4, LEAF, STACK};
+use glam::{Vec3, Vec4};
+
+/// Most leaves collected before falling back to per-ray traversal.
+pub(super) const MAX_CANDIDATES: usize = 16;
+
+/// One bounding plane `n . (p - o) >= 0` with `n` non-zero on axes `a` and `k` only.
+#[derive(Debug, Clone, Copy)]
+struct Plane {
+    a: usize,
+    na: Vec4,
+    /// Which bound (0 min, 1 max) maximizes `n_a (p_a - o_a)`.
+    sel_a: usize,
+    nk: Vec4,
+    sel_k: usize,
+}
+
+/// The frustum of a set of segments sharing their origin.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Frustum {
+    o: [Vec4; 3],
+    k: usize,
+    planes: [Plane; 4],
+    lo: [Vec4; 3],
+    hi: [Vec4; 3],
+}
+
+/// Relative widening of the slope bounds.
+const SLOPE_MARGIN: f32 = 1e-4;
+/// Relative tolerance of the plane test.
+const PLANE_TOL: f32 = 1e-5;
+
+impl Frustum {
+    /// The frustum of the segments `origin -> targets`; `None` when the corners of the targets'
+    /// bounding box do not all lie strictly ahead of `origin` along the dominant axis (then no
+    /// pyramid with apex `origin` bounds them).
+    ///
+    /// The slopes are bounded through the 8 corners of the targets' bounding box rather than
+    /// through every target: a slope `d_i / d_k` is a linear-fractional function, so over a box
+    /// where `d_k > 0` its extrema lie at corners. That costs one pass of min/max over the
+    /// targets and 16 divisions, and loses nothing for axis-aligned lights.
+    pub fn new(origin: Vec3, targets: &[Vec3]) -> Option<Frustum> {
+        let first = *targets.first()?;
+        let (tlo, thi) = targets.iter().fold((first, first), |(lo, hi), &y| (lo.min(y), hi.max(y)));
+        let center = (tlo + thi) * 0.5 - origin;
+        let s = center.abs();
+        let k = if s.x >= s.y && s.x >= s.z {
+            0
+        } else if s.y >= s.z {
+            1
+        } else {
+            2
+        };
+        let sign = if center[k] < 0.0 { -1.0 } else { 1.0 };
+        let (i, j) = ((k + 1) % 3, (k + 2) % 3);
+        let (mut amin, mut amax, mut bmin, mut bmax) =
+            (f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY);
+        for corner in 0..8 {
+            let q = Vec3::select(glam::BVec3::new(corner & 1 != 0, corner & 2 != 0, corner & 4 != 0), thi, tlo);
+            let d = q - origin;
+            let dk = d[k] * sign;
+            if dk.is_nan() || dk <= 0.0 {
+                return None;
+            }
+            let (a, b) = (d[i] / dk, d[j] / dk);
+            (amin, amax, bmin, bmax) = (amin.min(a), amax.max(a), bmin.min(b), bmax.max(b));
+        }
+        let (lo, hi) = (tlo.min(origin), thi.max(origin));
+        if !(amin.is_finite() && amax.is_finite() && bmin.is_finite() && bmax.is_finite()) {
+            return None;
+        }
+        let wa = SLOPE_MARGIN * (amin.abs().max(amax.abs()) + 1e-30);
+        let wb = SLOPE_MARGIN * (bmin.abs().max(bmax.abs()) + 1e-30);
+        let plane = |a: usize, na: f32, nk: f32| Plane {
+            a,
+            na: Vec4::splat(na),
+            sel_a: usize::from(na > 0.0),
+            nk: Vec4::splat(nk),
+            sel_k: usize::from(nk > 0.0),
+        };
+        let planes = [
+            plane(i, 1.0, -(amin - wa) * sign),
+            plane(i, -1.0, (amax + wa) * sign),
+            plane(j, 1.0, -(bmin - wb) * sign),
+            plane(j, -1.0, (bmax + wb) * sign),
+        ];
+        let pad = (hi - lo) * 1e-5 + (lo.abs().max(hi.abs())) * 1e-6 + Vec3::splat(1e-30);
+        let (lo, hi) = (lo - pad, hi + pad);
+        let splat3 = |v: Vec3| [Vec4::splat(v.x), Vec4::splat(v.y), Vec4::splat(v.z)];
+        Some(Frustum { o: splat3(origin), k, planes, lo: splat3(lo), hi: splat3(hi) })
+    }
+
+    /// The bitmask of the children of `node` whose boxes may meet the frustum.
+    #[inline(always)]
+    fn overlaps(&self, node: &Node4) -> u32 {
+        let [lo, hi] = &node.bounds;
+        let mut m = lo[0].cmple(self.hi[0]) & lo[1].cmple(self.hi[1]) & lo[2].cmple(self.hi[2]);
+        m &= hi[0].cmpge(self.lo[0]) & hi[1].cmpge(self.lo[1]) & hi[2].cmpge(self.lo[2]);
+        for p in &self.planes {
+            let t1 = p.na * (node.bounds[p.sel_a][p.a] - self.o[p.a]);
+            let t2 = p.nk * (node.bounds[p.sel_k][self.k] - self.o[self.k]);
+            m &= (t1 + t2).cmpge(-(t1.abs() + t2.abs()) * PLANE_TOL);
+        }
+        m.bitmask()
+    }
+
+    /// Collects into `out` the leaves (block indices) of the tree under `root` that may meet
+    /// the frustum; `None` when there are more than [`MAX_CANDIDATES`].
+    pub fn collect(
+        &self,
+        nodes: &[Node4],
+        root: u32,
+        stack: &mut [u32; STACK],
+        out: &mut [u32; MAX_CANDIDATES],
+    ) -> Option<usize> {
+        let (mut sp, mut n) = (0usize, 0usize);
+        let mut cur = root;
+        loop {
+            if cur & LEAF == 0 {
+                let node = &nodes[cur as usize];
+                let mut mask = self.overlaps(node);
+                while mask != 0 {
+                    // Each level leaves at most 3 siblings behind, the deepest adds 4:
+                    // at most 3 * depth + 1 <= STACK entries (see `build`).
+                    stack[sp] = node.child[mask.trailing_zeros() as usize];
+                    sp += 1;
+                    mask &= mask - 1;
+                }
+            } else {
+                if n == MAX_CANDIDATES {
+                    return None;
+                }
+                out[n] = cur & !LEAF;
+                n += 1;
+            }
+            if sp == 0 {
+                return Some(n);
+            }
+            sp -= 1;
+            cur = stack[sp];
+        }
+    }
+}
