@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from conftest import quad, up_receivers
+from conftest import up_receivers
 
 import softshadows as ss
 
@@ -20,6 +20,7 @@ F = np.array([[0, 1, 2]], dtype=np.uint32)
         (dict(vertices=V.astype(str), faces=F), "vertices"),
         (dict(vertices=V, faces=np.array([[0, 1, 2.5]])), "faces"),
         (dict(vertices=V, faces=np.array([[0, 1, -2]])), "faces"),
+        (dict(vertices=V, faces=np.array([[0, 1, 2**32]])), "faces"),  # would wrap to 0 as uint32
         (dict(vertices=V, faces=F, alpha=np.ones((2, 2))), "uvs"),
         (dict(vertices=V, faces=F, uvs=np.zeros((2, 2)), alpha=np.ones((2, 2))), "uvs"),
         (dict(vertices=V, faces=F, uvs=np.zeros((3, 2)), alpha=np.ones((0, 0))), "alpha"),
@@ -70,6 +71,7 @@ def test_bad_lights(make, arg):
         (dict(width=0), "width"),
         (dict(height=0), "height"),
         (dict(fov_y=0.0), "fov_y"),
+        (dict(fov_y="wide"), "fov_y"),
         (dict(target=(0, 5, 5)), "target"),
         (dict(up=(0, -1, -1)), "up"),
     ],
@@ -98,6 +100,18 @@ def test_bad_method_arguments(ground):
         ss.gbuffer(scene, ss.Camera.look_at((0, 5, 5), (0, 0, 0), width=4, height=4), msaa=3)
     with pytest.raises(ValueError, match="resolution"):
         ss.shadow_map(scene, light, rx, resolution=0)
+    with pytest.raises(ValueError, match="frame"):
+        ss.ray_traced(scene, light, rx, samples=light.samples(4), frame=1)
+    with pytest.raises(ValueError, match="^scene:"):
+        ss.ray_traced([ground], light, rx)
+    with pytest.raises(ValueError, match="^light:"):
+        ss.shadow_map(scene, (0, 4, 0), rx)
+    cam = ss.Camera.look_at((0, 5, 5), (0, 0, 0), width=4, height=4)
+    for msaa in (2.0, True):
+        with pytest.raises(ValueError, match="msaa"):
+            ss.gbuffer(scene, cam, msaa=msaa)
+    with pytest.raises(ValueError, match="^camera:"):
+        ss.gbuffer(scene, None)
 
 
 def test_a_request_too_large_raises_memory_error_before_allocating(ground):
@@ -109,6 +123,9 @@ def test_a_request_too_large_raises_memory_error_before_allocating(ground):
             light.samples(1 << 20)
         with pytest.raises(MemoryError, match="set_memory_limit"):
             ss.shadow_map(scene, light, up_receivers([0.0]), resolution=1 << 14)
+        for bad in (-1, 0, "1G"):
+            with pytest.raises(ValueError, match="bytes"):
+                ss.set_memory_limit(bad)
         # 4 GiB of samples would be refused at the default limit too: nothing is allocated.
         ss.set_memory_limit(None)
         with pytest.raises(MemoryError):

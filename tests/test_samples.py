@@ -69,5 +69,24 @@ def test_frame_jitter_moves_the_pattern_but_keeps_it_on_the_light():
 def test_bad_sampling_options_name_the_argument(bad, arg):
     with pytest.raises(ValueError, match=arg):
         LIGHTS["rect"].samples(16, **bad)
-    with pytest.raises(ValueError, match="n"):
+    with pytest.raises(ValueError, match="^n:"):
         LIGHTS["rect"].samples(0)
+
+
+EMISSION = np.arange(1, 7, dtype=np.float32).reshape(3, 2)  # 3 rows (bands of b) x 2 columns (bands of a)
+
+
+def documented_weights(light, ab):
+    """lights.RectLight's docstring: row i covers b in the i-th of H bands from -1 to 1, column j of a."""
+    h, w = EMISSION.shape
+    i = np.minimum(((ab[:, 1] + 1) / 2 * h).astype(int), h - 1)
+    j = np.minimum(((ab[:, 0] + 1) / 2 * w).astype(int), w - 1)
+    return EMISSION[i, j]
+
+
+@pytest.mark.parametrize("v", [(0.0, -0.7, 0.0), (0.0, -0.7, 0.1)], ids=["orthogonal", "parallelogram"])
+def test_emission_texture_orientation_matches_the_docstring(v):
+    light = ss.RectLight((0.3, 2.0, 0.1), (0.5, 0.0, 0.2), v, emission=EMISSION)
+    ab = np.random.default_rng(0).uniform(-0.98, 0.98, (500, 2))
+    points = light.center + ab[:, :1] * light.u + ab[:, 1:] * light.v
+    np.testing.assert_array_equal(light.weights(points), documented_weights(light, ab))

@@ -11,7 +11,7 @@ Quick start::
 See DESIGN.md for the data model and the definition of visibility.
 """
 
-from . import _core, io, metrics, plot, reference, scenes, shading
+from . import _core, _validate, io, metrics, plot, reference, scenes, shading
 from .camera import Camera, GBuffer, Receivers, gbuffer
 from .lights import DiskLight, PointLight, RectLight, SphereLight
 from .methods import METHODS, ray_traced, shadow_map
@@ -23,9 +23,10 @@ __version__ = "0.1.0"
 def set_memory_limit(bytes: int | None) -> None:
     """Caps the working memory a call may plan to allocate (``None`` restores 75% of RAM).
 
-    A call whose estimate exceeds it raises ``MemoryError`` before allocating.
+    A call whose estimate exceeds it raises ``MemoryError`` before allocating. ``bytes`` must be
+    > 0 (the core reads 0 as "restore the default").
     """
-    _core.set_memory_limit(0 if bytes is None else int(bytes))
+    _core.set_memory_limit(0 if bytes is None else int(_validate.positive("bytes", bytes)))
 
 
 def memory_limit() -> int:

@@ -38,6 +38,10 @@ def array(name: str, value, dtype, shape: tuple, *, finite: bool = True) -> np.n
             raise ValueError(f"{name}: expected integer indices, got non-integer {a.dtype} values")
     if np.dtype(dtype).kind == "u" and a.size and a.min() < 0:
         raise ValueError(f"{name}: indices must be >= 0, got {a.min()}")
+    if np.dtype(dtype).kind in "ui" and a.dtype.kind in "iuf" and a.size:
+        info = np.iinfo(dtype)  # the cast below would wrap (int64 2**32 -> uint32 0) silently
+        if a.max() > info.max or a.min() < info.min:
+            raise ValueError(f"{name}: values must be in [{info.min}, {info.max}] for {np.dtype(dtype)}, got [{a.min()}, {a.max()}]")
     out = np.ascontiguousarray(a, dtype=dtype)
     if finite and out.dtype.kind == "f" and not np.all(np.isfinite(out)):
         raise ValueError(f"{name}: contains NaN or Inf")
@@ -58,6 +62,39 @@ def positive(name: str, value, *, allow_zero: bool = False) -> float:
     if not np.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
         raise ValueError(f"{name}: must be finite and {'>=' if allow_zero else '>'} 0, got {v}")
     return v
+
+
+def nonneg_int(name: str, value) -> int:
+    """A non-negative int such as a seed (bools refused)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+        raise ValueError(f"{name}: expected a non-negative integer, got {value!r}")
+    return int(value)
+
+
+def fov_y(value) -> float:
+    """A vertical field of view in degrees, in (0, 180)."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"fov_y: expected a number of degrees, got {value!r}") from None
+    if not 0 < v < 180:
+        raise ValueError(f"fov_y: must be in (0, 180) degrees, got {v}")
+    return v
+
+
+def light_points(name: str, value) -> np.ndarray:
+    """Explicit world-space light samples: a non-empty finite (S, 3) float32 array."""
+    pts = array(name, value, np.float32, (None, 3))
+    if len(pts) == 0:
+        raise ValueError(f"{name}: expected at least one light sample, got shape (0, 3)")
+    return pts
+
+
+def instance(name: str, value, cls, what: str):
+    """``value`` if it is a ``cls``, else a ValueError naming the argument."""
+    if not isinstance(value, cls):
+        raise ValueError(f"{name}: expected {what}, got {type(value).__name__}")
+    return value
 
 
 def positive_int(name: str, value) -> int:

@@ -7,11 +7,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _validate as v
+from .scene import Scene
 
 __all__ = ["Camera", "GBuffer", "Receivers", "gbuffer"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # array fields: field-wise == and hash() would raise
 class Camera:
     """A pinhole camera. Build it with :meth:`Camera.look_at`.
 
@@ -45,9 +46,7 @@ class Camera:
         """
         eye, target, up = v.vec3("eye", eye), v.vec3("target", target), v.vec3("up", up)
         width, height = v.positive_int("width", width), v.positive_int("height", height)
-        fov_y = float(fov_y)
-        if not 0 < fov_y < 180:
-            raise ValueError(f"fov_y: must be in (0, 180) degrees, got {fov_y}")
+        fov_y = v.fov_y(fov_y)
         cam = cls(eye, target, up, fov_y, width, height)
         cam.native()  # validates eye != target and up not parallel to the view direction
         return cam
@@ -88,7 +87,7 @@ class Receivers:
         return self.points, self.normals, self.mask, len(self.points), 1
 
 
-@dataclass
+@dataclass(eq=False)
 class GBuffer:
     """A G-buffer: what each pixel of a camera sees.
 
@@ -137,8 +136,11 @@ def gbuffer(scene, camera: Camera, msaa: int = 1) -> GBuffer:
     -------
     GBuffer
     """
-    if msaa not in (1, 2, 4, 8, 16):
+    if isinstance(msaa, bool) or not isinstance(msaa, (int, np.integer)) or msaa not in (1, 2, 4, 8, 16):
         raise ValueError(f"msaa: expected one of 1, 2, 4, 8, 16, got {msaa!r}")
+    v.instance("scene", scene, Scene, "a softshadows.Scene")
+    v.instance("camera", camera, Camera, "a softshadows.Camera")
+    msaa = int(msaa)
     pos, nrm, mask, ids, depths = scene.native().gbuffer(camera.native(), msaa)
     h, w = camera.height, camera.width
     return GBuffer(

@@ -67,7 +67,7 @@ class _Light(abc.ABC):
         ndarray, shape (n, 3), float32
         """
         n = v.positive_int("n", n)
-        return self.native().samples(n, _pattern(pattern), _seed(seed), _seed(frame, "frame"))
+        return self.native().samples(n, _pattern(pattern), v.nonneg_int("seed", seed), v.nonneg_int("frame", frame))
 
     def weights(self, samples) -> np.ndarray:
         """Emission weights of world-space light points, shape (S,): 1 without an emission texture."""
@@ -81,10 +81,15 @@ def _pattern(pattern: str) -> str:
     return pattern
 
 
-def _seed(seed, name: str = "seed") -> int:
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"{name}: expected a non-negative integer, got {seed!r}")
-    return int(seed)
+def _tangent_frame(normal) -> tuple[np.ndarray, np.ndarray]:
+    """An orthonormal float64 basis ``(t, b)`` of the plane orthogonal to the unit ``normal``,
+    with ``t x b = normal``: ``t = normalize(normal x X)``, or ``normal x Y`` when ``|normal_x| >= 0.9``.
+    The core (``light::lights::tangent_frame``), Mitsuba's disk and shading's disk polygon use it."""
+    n = np.asarray(normal, np.float64)
+    helper = np.array([1.0, 0, 0]) if abs(n[0]) < 0.9 else np.array([0, 1.0, 0])
+    t = np.cross(n, helper)
+    t /= np.linalg.norm(t)
+    return t, np.cross(n, t)
 
 
 def _emission(emission):
@@ -170,7 +175,11 @@ class DiskLight(_Light):
     radius : float
         Radius in world units, > 0.
     emission : array_like, shape (H, W), optional
-        Relative radiance over the disk through Shirley's concentric map of the unit square.
+        Relative radiance over the disk through Shirley's concentric map of the unit square:
+        column j covers the j-th of W bands of ``s`` and row i the i-th of H bands of ``t``, where
+        the disk point ``center + radius (x t_axis + y b_axis)`` is the concentric image of
+        ``(s, t)`` and ``t_axis = normalize(normal x X)`` (``normal x Y`` when ``|normal_x| >= 0.9``),
+        ``b_axis = normal x t_axis``.
     """
 
     kind = "disk"

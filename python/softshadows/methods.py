@@ -18,7 +18,8 @@ import numpy as np
 from . import _core
 from . import _validate as v
 from .camera import as_receivers
-from .lights import _pattern, _seed
+from .lights import _Light, _pattern
+from .scene import Scene
 
 __all__ = ["ray_traced", "shadow_map", "METHODS"]
 
@@ -40,19 +41,24 @@ def _native_samples(light, samples, *, pattern, seed, rotate, interleaved, frame
     """The core sample set for ``samples`` (an int or an (S, 3) array) and the sampling options."""
     if rotate not in ROTATIONS:
         raise ValueError(f"rotate: expected None or 'per_receiver', got {rotate!r}")
-    seed = _seed(seed)
+    seed = v.nonneg_int("seed", seed)
     if isinstance(samples, (int, np.integer)) and not isinstance(samples, bool):
         n = v.positive_int("samples", samples)
         k = v.positive_int("interleaved", interleaved)
         return _core.NativeSamples.generate(
-            light.native(), n, _pattern(pattern), seed, k, rotate == "per_receiver", _seed(frame, "frame")
+            light.native(), n, _pattern(pattern), seed, k, rotate == "per_receiver", v.nonneg_int("frame", frame)
         )
-    pts = v.array("samples", samples, np.float32, (None, 3))
-    if len(pts) == 0:
-        raise ValueError("samples: expected at least one light sample, got shape (0, 3)")
+    pts = v.light_points("samples", samples)
     if interleaved != 1:
         raise ValueError("interleaved: explicit samples are shared by every receiver; pass samples=n to interleave")
+    if frame != 0:
+        raise ValueError("frame: explicit samples are used as given; pass samples=n to jitter over frames")
     return _core.NativeSamples.explicit(pts, seed if rotate == "per_receiver" else None)
+
+
+def _check(scene, light) -> None:
+    v.instance("scene", scene, Scene, "a softshadows.Scene")
+    v.instance("light", light, _Light, "a PointLight, RectLight, DiskLight or SphereLight")
 
 
 def _finish(receivers, out, return_stats):
@@ -95,7 +101,8 @@ def ray_traced(
     interleaved : int
         Tile ``k x k`` independent patterns over the screen (seed 001 Figure 5f).
     frame : int
-        Temporal jitter: frame ``i > 0`` rotates the whole pattern (seed 000 section 4.3).
+        Temporal jitter: frame ``i > 0`` rotates the whole pattern (seed 000 section 4.3). Only
+        with ``samples=n``, like ``interleaved``; explicit samples are used as given.
     epsilon : float, optional
         Shadow-ray offset along the normal in world units; default ``scene.epsilon``.
     return_stats : bool
@@ -105,6 +112,7 @@ def ray_traced(
     -------
     ndarray, float32, the receivers' shape; with ``return_stats`` a ``(visibility, stats)`` tuple.
     """
+    _check(scene, light)
     receivers = as_receivers(receivers)
     native_samples = _native_samples(
         light, samples, pattern=pattern, seed=seed, rotate=rotate, interleaved=interleaved, frame=frame
@@ -138,15 +146,18 @@ def shadow_map(
     resolution : int
         Shadow-map width and height in texels.
     bias : float, optional
-        Depth bias in world units; default 2 texel footprints at the receiver's depth.
+        Constant depth bias in world units. Default: slope-scaled,
+        ``1.5 (r + 1) texel_size(depth) min(tan theta, 20) + 1e-4 depth`` with ``r = (pcf - 1) / 2``
+        (see ``rust/core/src/methods/shadow_map.rs``).
     pcf : int
-        Percentage-closer filtering taps per side (1 = a single tap, 3 = 3x3, 5 = 5x5).
+        Percentage-closer filtering taps per side, odd, at most 63 (1 = a single tap, 3 = 3x3, ...).
     return_stats : bool
 
     Returns
     -------
     ndarray, float32, the receivers' shape; with ``return_stats`` a ``(visibility, stats)`` tuple.
     """
+    _check(scene, light)
     receivers = as_receivers(receivers)
     resolution = v.positive_int("resolution", resolution)
     pcf = v.positive_int("pcf", pcf)

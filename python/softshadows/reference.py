@@ -39,7 +39,8 @@ Choices made here (where the design is silent)
   to ``scene.epsilon``), unit direction toward the sample and ``maxt = |y_s - origin| (1 - 1e-6)``
   so the segment stops just short of the sample, and v = 0 for samples with
   ``dot(y_s - p, n) <= 0`` (those rays are not traced). Textured lights weight their samples by
-  ``light.weights`` (the core's emission lookup), giving a weighted mean.
+  ``light.weights`` (the core's emission lookup), giving a weighted mean (0 when the weights
+  sum to 0, as in the core).
 * **Perforated meshes.** ``scene.ray_test`` treats a ``mask`` BSDF as opaque, so opaque meshes
   and perforated meshes go into two Mitsuba scenes: rays are first tested against the opaque one
   (``ray_test``), and survivors march through the perforated one with ``ray_intersect``, looking
@@ -71,8 +72,8 @@ from pathlib import Path
 import numpy as np
 
 from . import _validate as v
-from .camera import Camera, GBuffer, as_receivers
-from .lights import DiskLight, PointLight, RectLight, SphereLight
+from .camera import Camera, as_receivers
+from .lights import DiskLight, PointLight, RectLight, SphereLight, _tangent_frame
 from .scene import Scene
 
 __all__ = ["variant", "mitsuba_scene", "mitsuba_visibility", "mitsuba_render", "cache_dir", "CACHE_VERSION"]
@@ -232,7 +233,7 @@ def _light_dict(mi, light, intensity: float) -> dict:
     if isinstance(light, DiskLight):
         if light.emission is not None:
             raise ValueError("light: a textured DiskLight has no Mitsuba equivalent (Mitsuba's disk uv is polar)")
-        t, b = _tangents(light.normal)
+        t, b = _tangent_frame(light.normal)
         to_world = _frame(light.center, light.radius * t, light.radius * b, light.normal)
         return {"type": "disk", "to_world": to_world, "emitter": {"type": "area", "radiance": radiance}}
     if isinstance(light, SphereLight):
@@ -261,14 +262,6 @@ def _frame(center, x, y, z):
     m = np.eye(4)
     m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, y, z, center
     return mi.ScalarTransform4f(m.tolist())
-
-
-def _tangents(n: np.ndarray):
-    n = np.asarray(n, np.float64)
-    a = np.array([1.0, 0, 0]) if abs(n[0]) < 0.9 else np.array([0, 1.0, 0])
-    t = np.cross(n, a)
-    t /= np.linalg.norm(t)
-    return t, np.cross(n, t)
 
 
 def _sensor_dict(mi, camera: Camera, spp: int) -> dict:
@@ -345,26 +338,20 @@ def mitsuba_visibility(scene: Scene, light, receivers, samples, *, epsilon: floa
 def _light_samples(light, samples) -> np.ndarray:
     if isinstance(samples, (int, np.integer)) and not isinstance(samples, bool):
         return np.asarray(light.samples(v.positive_int("samples", samples)), np.float32)
-    pts = v.array("samples", samples, np.float32, (None, 3))
-    if len(pts) == 0:
-        raise ValueError("samples: expected at least one light sample, got shape (0, 3)")
-    return pts
+    return v.light_points("samples", samples)
 
 
 def _receiver_arrays(rx):
-    if isinstance(rx, GBuffer):
-        points = np.asarray(rx.positions, np.float64).reshape(-1, 3)
-        normals = np.asarray(rx.normals, np.float64).reshape(-1, 3)
-        mask = np.asarray(rx.mask, bool).reshape(-1)
-    else:
-        points, normals, mask = rx.points.astype(np.float64), rx.normals.astype(np.float64), rx.mask.copy()
+    points, normals, mask, _, _ = rx._flat()
+    points = np.asarray(points, np.float64)
+    normals = np.array(normals, np.float64)  # a copy: normalized in place below
+    mask = np.array(mask, bool)
     if mask.any():
         if not np.all(np.isfinite(points[mask])):
             raise ValueError("receivers: positions of hit pixels contain NaN or Inf")
         lengths = np.linalg.norm(normals[mask], axis=1)
         if not np.all(np.isfinite(lengths) & (lengths > 0)):
             raise ValueError("receivers: normals of hit pixels must be finite and non-zero")
-    normals = normals.copy()
     normals[mask] /= np.linalg.norm(normals[mask], axis=1, keepdims=True)
     return points, normals, mask
 
@@ -389,7 +376,8 @@ def _visibility(tracer, points, normals, samples, eps, weights, progress) -> np.
             if weights is None:
                 out[k0:k0 + len(p)] = visible.mean(axis=1)
             else:
-                out[k0:k0 + len(p)] = visible @ weights / weights.sum()
+                total = weights.sum()  # zero when every sample sits on black texels: V = 0, as in the core
+                out[k0:k0 + len(p)] = visible @ weights / total if total > 0 else 0.0
             bar.update(visible.size)
     return np.clip(out, 0, 1).astype(np.float32)
 
@@ -571,8 +559,7 @@ def mitsuba_render(scene: Scene, light, camera: Camera, *, spp: int = 64, integr
     spp = v.positive_int("spp", spp)
     if integrator not in _INTEGRATORS:
         raise ValueError(f"integrator: expected one of {_INTEGRATORS}, got {integrator!r}")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed: expected a non-negative integer, got {seed!r}")
+    seed = v.nonneg_int("seed", seed)
     albedo, intensity = _albedo(albedo), v.positive("intensity", intensity)
     if integrator == "auto":
         integrator = "volpath" if any(m.alpha is not None for m in scene.meshes) else "path"
@@ -654,14 +641,11 @@ def _cache_write(key: str, value: np.ndarray) -> None:
 
 
 def _check_scene(scene) -> None:
-    if not isinstance(scene, Scene):
-        raise ValueError(f"scene: expected a softshadows.Scene, got {type(scene).__name__}")
+    v.instance("scene", scene, Scene, "a softshadows.Scene")
 
 
 def _check_camera(camera) -> Camera:
-    if not isinstance(camera, Camera):
-        raise ValueError(f"camera: expected a softshadows.Camera, got {type(camera).__name__}")
-    return camera
+    return v.instance("camera", camera, Camera, "a softshadows.Camera")
 
 
 def _albedo(albedo) -> float:

@@ -84,7 +84,8 @@ class Scene:
         Parameters
         ----------
         mesh : trimesh.Trimesh or trimesh.Scene
-            A scene is flattened with its node transforms applied (``Scene.dump``).
+            A scene is flattened with its node transforms applied (``Scene.dump``); its paths and
+            point clouds are left out.
         alpha : array_like, shape (H, W), optional
             An alpha texture for every mesh, which then needs uvs (``mesh.visual.uv``).
         closed : bool, optional
@@ -92,7 +93,13 @@ class Scene:
         """
         import trimesh
 
-        parts = mesh.dump(concatenate=False) if isinstance(mesh, trimesh.Scene) else [mesh]
+        if isinstance(mesh, trimesh.Scene):
+            # Paths and point clouds in a scene have no faces and cast no shadows.
+            parts = [g for g in mesh.dump(concatenate=False) if isinstance(g, trimesh.Trimesh)]
+        elif isinstance(mesh, trimesh.Trimesh):
+            parts = [mesh]
+        else:
+            raise ValueError(f"mesh: expected a trimesh.Trimesh or trimesh.Scene, got {type(mesh).__name__}")
         meshes = []
         for part in parts:
             uvs = getattr(part.visual, "uv", None)

@@ -183,7 +183,7 @@ def ground_sphere(
     """
     radius = _v.positive("radius", radius)
     elevation = _v.positive("elevation", elevation, allow_zero=True)
-    subdivisions = _nonneg_int("subdivisions", subdivisions)
+    subdivisions = _v.nonneg_int("subdivisions", subdivisions)
     verts, faces = _icosphere(subdivisions)
     verts = verts * radius + np.array([0.0, elevation + radius, 0.0])
     sphere = Mesh(verts, faces, closed=True, name="sphere")
@@ -536,7 +536,7 @@ def leaves(
         Meshes ``ground``, ``trunk`` (closed cylinder) and ``leaves`` (perforated, not closed).
     """
     n = _v.positive_int("n", n)
-    rng = np.random.default_rng(_seed(seed))
+    rng = np.random.default_rng(_v.nonneg_int("seed", seed))
     leaf_size = _v.positive("leaf_size", leaf_size)
     crown_radius = _v.positive("crown_radius", crown_radius)
     crown_height = _v.positive("crown_height", crown_height)
@@ -639,7 +639,7 @@ def hairball(
     strands = _v.positive_int("strands", strands)
     segments = _v.positive_int("segments", segments)
     sides = _at_least("sides", sides, 3)
-    rng = np.random.default_rng(_seed(seed))
+    rng = np.random.default_rng(_v.nonneg_int("seed", seed))
     radius = _v.positive("radius", radius)
     strand_radius = _v.positive("strand_radius", strand_radius)
     strand_length = _v.positive("strand_length", strand_length)
@@ -866,9 +866,7 @@ def _assemble(
     light_size = _v.positive("light_size", light_size)
     light_distance = _v.positive("light_distance", light_distance)
     width, height = _v.positive_int("width", width), _v.positive_int("height", height)
-    fov_y = float(fov_y)
-    if not 0 < fov_y < 180:
-        raise ValueError(f"fov_y: must be in (0, 180) degrees, got {fov_y}")
+    fov_y = _v.fov_y(fov_y)
 
     lo, hi = _bounds(framed).astype(np.float64)
     target = (lo + hi) / 2
@@ -1243,20 +1241,9 @@ def _load_model_arrays(name: str):
 # ----------------------------------------------------------------------------------------------
 
 
-def _nonneg_int(name, value) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-        raise ValueError(f"{name}: expected a non-negative integer, got {value!r}")
-    return int(value)
-
-
 def _at_least(name, value, low) -> int:
     value = _v.positive_int(name, value)
     if value < low:
         raise ValueError(f"{name}: expected an integer >= {low}, got {value}")
     return value
 
-
-def _seed(seed) -> int:
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed: expected a non-negative integer, got {seed!r}")
-    return int(seed)

@@ -42,8 +42,8 @@ from __future__ import annotations
 import numpy as np
 
 from . import _validate as v
-from .camera import GBuffer, Receivers, as_receivers
-from .lights import DiskLight, PointLight, RectLight, SphereLight
+from .camera import as_receivers
+from .lights import DiskLight, PointLight, RectLight, SphereLight, _tangent_frame
 
 __all__ = ["direct", "unshadowed_irradiance", "DISK_EDGES"]
 
@@ -175,11 +175,7 @@ def _textured_rect(p, n, c, u, w, emission):
 
 def _disk_polygon(light) -> np.ndarray:
     """A regular DISK_EDGES-gon with the disk's area, counter-clockwise about the disk normal."""
-    normal = np.asarray(light.normal, np.float64)
-    a = np.array([1.0, 0, 0]) if abs(normal[0]) < 0.9 else np.array([0, 1.0, 0])
-    t = np.cross(normal, a)
-    t /= np.linalg.norm(t)
-    b = np.cross(normal, t)
+    t, b = _tangent_frame(light.normal)
     k = DISK_EDGES
     radius = light.radius * np.sqrt(2 * np.pi / (k * np.sin(2 * np.pi / k)))
     phi = 2 * np.pi * np.arange(k) / k
@@ -246,12 +242,6 @@ def _sphere_irradiance(p, n, center, radius):
 
 
 def _flat(rx):
-    if isinstance(rx, GBuffer):
-        mask = np.asarray(rx.mask, bool).reshape(-1)
-        points = np.asarray(rx.positions, np.float64).reshape(-1, 3)
-        normals = np.asarray(rx.normals, np.float64).reshape(-1, 3)
-    elif isinstance(rx, Receivers):
-        points, normals, mask = rx.points.astype(np.float64), rx.normals.astype(np.float64), rx.mask
-    else:  # pragma: no cover - as_receivers returns one of the two
-        raise ValueError(f"gbuffer: expected a GBuffer or Receivers, got {type(rx).__name__}")
-    return points, normals, mask
+    """Flat float64 points (N, 3), normals (N, 3) and the bool mask (N,) of a GBuffer or Receivers."""
+    points, normals, mask, _, _ = rx._flat()
+    return np.asarray(points, np.float64), np.asarray(normals, np.float64), np.asarray(mask, bool)

@@ -80,9 +80,13 @@ fn positive_radius(r: f32) -> Result<()> {
     }
 }
 
-/// An orthonormal basis `(t, b)` of the plane orthogonal to the unit vector `n`.
+/// An orthonormal basis `(t, b)` of the plane orthogonal to the unit vector `n`, with
+/// `t x b = n`: `t = normalize(n x X)`, or `normalize(n x Y)` when `|n.x| >= 0.9`. The Python
+/// side (`lights._tangent_frame`, shading's disk polygon, Mitsuba's disk) uses the same frame, so a
+/// disk's emission texture has one documented orientation.
 pub fn tangent_frame(n: Vec3) -> (Vec3, Vec3) {
-    let t = n.any_orthonormal_vector();
+    let helper = if n.x.abs() < 0.9 { Vec3::X } else { Vec3::Y };
+    let t = n.cross(helper).normalize();
     (t, n.cross(t))
 }
 
@@ -231,8 +235,13 @@ impl Light {
     fn params(&self, y: Vec3) -> Vec2 {
         match self.shape {
             Shape::Rect { center, u, v } => {
+                // Solve d = a u + b v through the Gram matrix: u and v need not be orthogonal.
                 let d = y - center;
-                Vec2::new((d.dot(u) / u.length_squared() + 1.0) * 0.5, (d.dot(v) / v.length_squared() + 1.0) * 0.5)
+                let (uu, uv, vv) = (u.dot(u), u.dot(v), v.dot(v));
+                let (du, dv) = (d.dot(u), d.dot(v));
+                let det = uu * vv - uv * uv;
+                let (a, b) = ((du * vv - dv * uv) / det, (dv * uu - du * uv) / det);
+                Vec2::new((a + 1.0) * 0.5, (b + 1.0) * 0.5)
             }
             Shape::Disk { center, normal, radius } => {
                 let (t, b) = tangent_frame(normal);
@@ -304,6 +313,23 @@ mod tests {
             assert!((y - Vec3::ONE).length() <= 1.5 + 1e-4);
             let y = rect.rotate(rect.map(p), r);
             assert!(y.x.abs() <= 1.0 + 1e-5 && y.z.abs() <= 0.5 + 1e-5 && y.y.abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn skewed_rectangles_map_back_to_their_parameters() {
+        let rect = Light::rect(Vec3::new(1.0, 2.0, 3.0), Vec3::new(1.0, 0.0, 0.3), Vec3::new(0.4, 0.0, 0.8)).unwrap();
+        for &(s, t) in &[(0.1f32, 0.2f32), (0.9, 0.35), (0.5, 0.5), (0.02, 0.97)] {
+            let st = rect.params(rect.map([s, t, 0.0]));
+            assert!((st - Vec2::new(s, t)).length() < 1e-5, "{s},{t} -> {st}");
+        }
+    }
+
+    #[test]
+    fn disk_frames_are_right_handed_around_the_normal() {
+        for n in [Vec3::Y, -Vec3::Y, Vec3::X, Vec3::new(0.6, 0.0, 0.8), Vec3::new(-0.95, 0.1, 0.0).normalize()] {
+            let (t, b) = tangent_frame(n);
+            assert!((t.cross(b) - n).length() < 1e-6 && t.dot(n).abs() < 1e-6);
         }
     }
 

@@ -1,0 +1,41 @@
+"""Scenes from arrays and from trimesh; G-buffers."""
+
+import numpy as np
+import pytest
+import trimesh
+
+import softshadows as ss
+
+
+def test_from_trimesh_sets_closed_and_keeps_geometry():
+    box = trimesh.creation.box((1, 1, 1))
+    plane = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 0, 1]], [[0, 1, 2]])
+    path = trimesh.load_path(np.array([[0.0, 0, 0], [1, 1, 1]]))
+    scene = ss.Scene.from_trimesh(trimesh.Scene([box, plane, path]))
+    closed = sorted(m.closed for m in scene.meshes)
+    assert closed == [False, True]
+    assert scene.num_faces == 12 + 1
+    with pytest.raises(ValueError, match="mesh"):
+        ss.Scene.from_trimesh(np.zeros((3, 3)))
+
+
+def test_from_trimesh_with_alpha_makes_a_perforated_mesh():
+    quad = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [1, 0, 1], [0, 0, 1]], [[0, 1, 2], [0, 2, 3]], process=False)
+    quad.visual = trimesh.visual.TextureVisuals(uv=np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float))
+    scene = ss.Scene.from_trimesh(quad, alpha=np.eye(4))
+    assert scene.meshes[0].perforated and scene.meshes[0].uvs.shape == (4, 2)
+    with pytest.raises(ValueError, match="uvs"):
+        ss.Scene.from_trimesh(trimesh.creation.box(), alpha=np.eye(4))
+
+
+def test_gbuffer_sees_the_right_faces_and_msaa_depths():
+    v = np.array([[-1, 0, -1], [1, 0, -1], [1, 0, 1], [-1, 0, 1]], dtype=np.float32)
+    scene = ss.Scene([ss.Mesh(v, [[0, 2, 1], [0, 3, 2]])])
+    cam = ss.Camera.look_at((0, 3, 0.01), (0, 0, 0), fov_y=30, width=32, height=32, up=(0, 0, -1))
+    gb = ss.gbuffer(scene, cam, msaa=4)
+    assert gb.mask.all() and set(np.unique(gb.face_ids)) == {0, 1}
+    np.testing.assert_allclose(gb.positions[..., 1], 0, atol=1e-6)
+    np.testing.assert_allclose(gb.normals[..., 1], 1, atol=1e-6)  # facing the camera
+    assert gb.sample_depths.shape == (32, 32, 4)
+    center_depth = np.linalg.norm(gb.positions - cam.eye, axis=-1)
+    assert np.all(np.abs(gb.sample_depths.mean(-1) - center_depth) < 0.1)
