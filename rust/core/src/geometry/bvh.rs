@@ -26,7 +26,6 @@
 
 mod build;
 mod frustum;
-mod packet;
 mod triangle;
 
 use crate::error::{Error, Result};
@@ -48,10 +47,6 @@ const FRUSTUM_MIN_RAYS: usize = 4;
 /// Conservative scale of box exit distances (>= 1 + 2 gamma_3 of Ize 2013).
 const ROBUST: f32 = 1.0 + 4.0 * f32::EPSILON;
 
-pub static DBG: [std::sync::atomic::AtomicU64; 24] = [const { std::sync::atomic::AtomicU64::new(0) }; 24];
-thread_local! { static NODES: std::cell::Cell<u64> = const { std::cell::Cell::new(0) }; static LEAVES: std::cell::Cell<u64> = const { std::cell::Cell::new(0) }; }
-fn dbg_add(i: usize, v: u64) { DBG[i].fetch_add(v, std::sync::atomic::Ordering::Relaxed); }
-fn tsc() -> u64 { unsafe { core::arch::x86_64::_rdtsc() } }
 thread_local! {
     /// Per-thread traversal stacks, so that no query zeroes a fresh kilobyte-sized stack.
     static ANY_STACK: RefCell<[u32; STACK]> = const { RefCell::new([0; STACK]) };
@@ -66,16 +61,6 @@ pub struct Hit {
     pub face: u32,
     pub b1: f32,
     pub b2: f32,
-}
-
-/// Rays with equal keys share their box entry planes and nudged origins.
-fn packet_key(r: &RayData) -> u32 {
-    let mut k = 0;
-    for a in 0..3 {
-        k |= u32::from(r.near[a]) << a;
-        k |= u32::from(r.org_near[a].x != r.org_far[a].x) << (a + 3);
-    }
-    k
 }
 
 /// Remembers where the last shadow ray of a receiver was blocked: the leaf, tested first, and
@@ -245,7 +230,6 @@ impl Bvh {
         let Some(r) = RayData::new(origin, dir) else { return false };
         if let Some(b) = self.blocks.get(cache.block as usize) {
             if self.block_occludes(scene, b, &r, t_max) {
-                dbg_add(16, 1);
                 return true;
             }
         }
@@ -261,7 +245,6 @@ impl Bvh {
             sub if sub == EMPTY || sub == self.root => None,
             sub => search(sub),
         };
-        if found.is_some() { dbg_add(17, 1); }
         match found.or_else(|| search(self.root)) {
             Some(block) => {
                 cache.block = block;
@@ -280,19 +263,6 @@ impl Bvh {
     /// receiver), and the rays are tested against those alone; with many candidate leaves the
     /// rays traverse one by one, sharing a [`ShadowCache`] (see `bvh/frustum.rs`).
     pub fn occluded_many(&self, scene: &Scene, origin: Vec3, targets: &[Vec3], out: &mut Vec<bool>) {
-        let t0 = tsc();
-        let cls = self.occluded_many_x(scene, origin, targets, out);
-        let nb = out.iter().filter(|&&b| b).count();
-        let kind = if nb == 0 { 0 } else if nb == out.len() { 2 } else { 1 };
-        // slots: [kind*4 + 0] receivers, +1 cycles, +2 nodes, +3 leaves ; slot 12.. path counts
-        dbg_add(kind * 4, 1);
-        dbg_add(kind * 4 + 1, tsc() - t0);
-        dbg_add(kind * 4 + 2, NODES.with(|c| c.replace(0)));
-        dbg_add(kind * 4 + 3, LEAVES.with(|c| c.replace(0)));
-        dbg_add(12 + cls, 1);
-        if cls == 2 { dbg_add(15, out.len() as u64); dbg_add(18, nb as u64); }
-    }
-    fn occluded_many_x(&self, scene: &Scene, origin: Vec3, targets: &[Vec3], out: &mut Vec<bool>) -> usize {
         out.clear();
         if targets.len() >= FRUSTUM_MIN_RAYS {
             if let Some(f) = Frustum::new(origin, targets) {
@@ -303,45 +273,12 @@ impl Bvh {
                 });
                 if let Some(n) = found {
                     self.occluded_by_candidates(scene, origin, targets, &cand[..n], out);
-                    return if n == 0 { 0 } else { 1 };
+                    return;
                 }
             }
         }
-        if std::env::var_os("PACKETS").is_some() {
-            self.occluded_packets(scene, origin, targets, out);
-        } else {
-            let mut cache = ShadowCache::default();
-            out.extend(targets.iter().map(|&y| self.occluded_cached(scene, origin, y - origin, 1.0, &mut cache)));
-        }
-        2
-    }
-
-    /// Answers the segments `origin -> targets` in packets of [`packet::LANES`] consecutive
-    /// rays (see `bvh/packet.rs`); appends to `out`.
-    fn occluded_packets(&self, scene: &Scene, origin: Vec3, targets: &[Vec3], out: &mut Vec<bool>) {
-        let mut hint = EMPTY;
-        let start = out.len();
-        out.resize(start + targets.len(), false);
-        // Rays grouped by the signs of their direction (and zero components): packets need a
-        // shared entry plane per axis.
-        let mut rays: Vec<(u32, usize, RayData)> = targets
-            .iter()
-            .enumerate()
-            .filter_map(|(i, &y)| RayData::new(origin, y - origin).map(|r| (packet_key(&r), start + i, r)))
-            .collect();
-        rays.sort_by_key(|&(k, i, _)| (k, i));
-        for group in rays.chunk_by(|a, b| a.0 == b.0) {
-            for chunk in group.chunks(packet::LANES) {
-                let mut rr = [RayData::PLACEHOLDER; packet::LANES];
-                for (l, (_, _, r)) in chunk.iter().enumerate() {
-                    rr[l] = *r;
-                }
-                let blocked = self.occluded_packet(scene, &rr[..chunk.len()], &mut hint);
-                for (l, &(_, k, _)) in chunk.iter().enumerate() {
-                    out[k] = blocked >> l & 1 != 0;
-                }
-            }
-        }
+        let mut cache = ShadowCache::default();
+        out.extend(targets.iter().map(|&y| self.occluded_cached(scene, origin, y - origin, 1.0, &mut cache)));
     }
 
     /// Tests every segment `origin -> target` against the candidate blocks only, starting with
@@ -393,7 +330,6 @@ impl Bvh {
         loop {
             if cur & LEAF == 0 {
                 let node = &self.nodes[cur as usize];
-                NODES.with(|c| c.set(c.get() + 1));
                 let (mut mask, _) = node.hit(r, t_max);
                 if mask != 0 {
                     cur = node.child[mask.trailing_zeros() as usize];
@@ -455,7 +391,6 @@ impl Bvh {
     /// go through the texture.
     #[inline(always)]
     fn block_occludes(&self, scene: &Scene, b: &Tri4, r: &RayData, t_max: f32) -> bool {
-        LEAVES.with(|c| c.set(c.get() + 1));
         let lanes = hit4(b, r, t_max);
         if lanes.mask & !b.alpha != 0 {
             return true;

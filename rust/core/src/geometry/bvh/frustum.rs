@@ -121,30 +121,6 @@ impl Frustum {
         m.bitmask()
     }
 
-    pub fn count(&self, nodes: &[Node4], root: u32, stack: &mut [u32; STACK]) -> (usize, usize) {
-        let (mut sp, mut n, mut nn) = (0usize, 0usize, 0usize);
-        let mut cur = root;
-        loop {
-            if cur & LEAF == 0 {
-                nn += 1;
-                let node = &nodes[cur as usize];
-                let mut mask = self.overlaps(node);
-                while mask != 0 {
-                    stack[sp] = node.child[mask.trailing_zeros() as usize];
-                    sp += 1;
-                    mask &= mask - 1;
-                }
-            } else {
-                n += 1;
-            }
-            if sp == 0 {
-                return (n, nn);
-            }
-            sp -= 1;
-            cur = stack[sp];
-        }
-    }
-
     /// Collects into `out` the leaves (block indices) of the tree under `root` that may meet
     /// the frustum; `None` when there are more than [`MAX_CANDIDATES`].
     pub fn collect(

@@ -41,17 +41,6 @@ pub(super) struct RayData {
 }
 
 impl RayData {
-    /// A valid ray (from the origin along +x) to fill unused array slots; never traced.
-    pub const PLACEHOLDER: RayData = RayData {
-        org_near: [Vec4::ZERO; 3],
-        org_far: [Vec4::ZERO; 3],
-        inv: [Vec4::ONE; 3],
-        near: [false; 3],
-        k: [1, 2, 0],
-        ok: [Vec4::ZERO; 3],
-        s: [Vec4::ZERO, Vec4::ZERO, Vec4::ONE],
-    };
-
     /// Precomputes the ray; `None` when `dir` is zero (an empty segment hits nothing).
     #[inline(always)]
     pub fn new(org: Vec3, dir: Vec3) -> Option<Self> {
