@@ -25,6 +25,20 @@ def test_ray_traced_matches_mitsuba_ray_test(name, tmp_path, monkeypatch):
     assert same >= 0.995, f"{name}: identical on {same:.4%} of hit pixels"
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("light", ["rect", "disk", "sphere"])
+@pytest.mark.parametrize("name", sorted(scenes.SCENES))
+def test_every_scene_and_light_matches_mitsuba_at_full_size(name, light, tmp_path, monkeypatch):
+    monkeypatch.setenv("SOFTSHADOWS_CACHE", str(tmp_path))
+    setup = scenes.get(name, width=256, height=256, light=light)
+    gb = ss.gbuffer(setup.scene, setup.camera)
+    samples = setup.light.samples(128, pattern="sobol", seed=3)
+    ours = ss.ray_traced(setup.scene, setup.light, gb, samples=samples)
+    theirs = reference.mitsuba_visibility(setup.scene, setup.light, gb, samples, progress=False)
+    same = np.mean(ours[gb.mask] == theirs[gb.mask])
+    assert same >= 0.995, f"{name}/{light}: identical on {same:.4%} of hit pixels"
+
+
 def test_textured_light_weights_agree_with_mitsuba_including_all_black_samples(tmp_path, monkeypatch):
     monkeypatch.setenv("SOFTSHADOWS_CACHE", str(tmp_path))
     ground = ss.Mesh([[-3, 0, -3], [3, 0, -3], [3, 0, 3], [-3, 0, 3]], [[0, 2, 1], [0, 3, 2]])

@@ -153,6 +153,22 @@ def test_perforated_quads_match_brute_force_and_not_a_flipped_texture():
     assert np.abs(vis - wrong).mean() > 0.05  # the comparison above can tell a v flip apart
 
 
+@pytest.mark.parametrize("gap", [1e-4, 1e-5])
+def test_opaque_texel_just_behind_a_transparent_one_blocks(gap):
+    # Touching leaves: a fully transparent quad and, `gap` above it, a second perforated quad
+    # (a checkerboard). Rays crossing the first must still be alpha-tested against the second:
+    # stepping past a transparent hit by Mitsuba's spawn offset (~1.8e-4 here) jumped over it.
+    clear = quad([0, 0, 1.0], [1.5, 0, 0], [0, 1.5, 0], alpha=np.zeros((2, 2)))
+    checker = quad([0, 0, 1.0 + gap], [1.5, 0, 0], [0, 1.5, 0], uv_scale=(3.0, 3.0), alpha=np.array([[1.0, 0], [0, 1]]))
+    scene = Scene([GROUND, clear, checker])
+    pts, normals = ground_receivers(300)
+    samples = light_samples(16, seed=4)
+    vis = reference.mitsuba_visibility(scene, LIGHT, Receivers(pts, normals), samples, cache=False)
+    ref = brute_force_visibility(scene, pts, normals, samples, scene.epsilon)
+    assert 0.2 < ref.mean() < 0.8  # the checker blocks about half the rays
+    assert_matches_oracle(vis, ref, 16)
+
+
 def test_fully_transparent_mesh_casts_no_shadow_and_opaque_alpha_does():
     pts, normals = ground_receivers(200)
     samples = light_samples(16)

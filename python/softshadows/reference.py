@@ -45,8 +45,9 @@ Choices made here (where the design is silent)
   and perforated meshes go into two Mitsuba scenes: rays are first tested against the opaque one
   (``ray_test``), and survivors march through the perforated one with ``ray_intersect``, looking
   our alpha up at ``si.uv`` (nearest texel, repeat) and, at a transparent texel, restarting on
-  the same line just past the hit (clearing the surface by Mitsuba's spawn offset
-  ``(1 + max|p|) * mi.math.RayEpsilon``; see ``_step_past`` for why not along the normal).
+  the same line just past the hit (clearing the surface by a few float32 ulps, much less than
+  Mitsuba's spawn offset, which steps over opaque texels of touching leaves; see ``_step_past``
+  for how far and why not along the normal).
   A ray that is still crossing transparent texels after :data:`MAX_ALPHA_STEPS` hits counts as
   blocked, with a ``RuntimeWarning`` giving how many.
 * **Renders.** ``integrator="auto"`` is ``path`` (max_depth 2: emitted plus direct light) for
@@ -79,13 +80,17 @@ from .scene import Scene
 __all__ = ["variant", "mitsuba_scene", "mitsuba_visibility", "mitsuba_render", "cache_dir", "CACHE_VERSION"]
 
 #: Bumped whenever a change here changes results, so stale cache entries are never read.
-CACHE_VERSION = 1
+CACHE_VERSION = 2
 #: Transparent texels a shadow ray may cross before it counts as blocked.
 MAX_ALPHA_STEPS = 64
 #: Rays per Mitsuba call: large enough to amortize the JIT, small enough for memory (~200 MB).
 RAYS_PER_CALL = 1 << 22
 #: Shadow segments stop this fraction of their length short of the light sample.
 _SEGMENT_SHRINK = 1e-6
+#: How far a ray steps past a transparent hit, in units of (1 + max|p|): 2-4 float32 ulps of
+#: the hit's coordinates (see _step_past). Measured on the leaves scene: at half this, rays
+#: start landing back on the surface they left (then _grow_on_rehit lengthens their step).
+_STEP_CLEARANCE = 2.0 ** -22
 
 _VARIANTS = ("llvm_ad_rgb", "scalar_rgb")
 _selected: str | None = None
@@ -437,6 +442,8 @@ class _Tracer:
         blocked = np.zeros(len(origins), bool)
         alive = np.arange(len(origins))
         o = origins
+        growth = np.ones(len(origins))  # step scale, grown while rays keep re-hitting where they left
+        stepped = np.zeros(len(origins))  # length of the step that produced each origin
         for _ in range(MAX_ALPHA_STEPS):
             if not len(alive):
                 return blocked
@@ -448,7 +455,8 @@ class _Tracer:
                 opaque[on] = _alpha_lookup(alpha, uv[on])
             blocked[alive[opaque]] = True
             go_on = hit & ~opaque
-            alive, o = alive[go_on], _step_past(o[go_on], d[go_on], t[go_on], n[go_on])
+            growth = _grow_on_rehit(growth[go_on], t[go_on], stepped[go_on])
+            alive, o, stepped = alive[go_on], *_step_past(o[go_on], d[go_on], t[go_on], n[go_on], growth)
         if len(alive):
             blocked[alive] = True
             warnings.warn(f"{len(alive)} shadow rays crossed more than {MAX_ALPHA_STEPS} transparent texels and count as blocked",
@@ -490,21 +498,37 @@ def _rays(mi, o, d, maxt):
                     mi.Float(np.ascontiguousarray(maxt, np.float32)))
 
 
-def _step_past(o, d, t, n):
-    """A new origin on the same line, just past the hit at ``o + t d`` (d unit length).
+def _step_past(o, d, t, n, growth):
+    """A new origin on the same line just past the hit at ``o + t d`` (d unit), and the step length.
 
     Stepping along the ray (not along the normal, as Mitsuba's ``spawn_ray`` does) keeps the
     continued ray on the original segment, so later hits land where the segment crosses them:
     a normal offset shifts the ray sideways by ~1e-4 and moved texel lookups near texel edges.
-    The step clears the surface by Mitsuba's spawn offset ``(1 + max|p|) * RayEpsilon`` measured
-    along the normal, capped at 20x that length for grazing hits; a ray that lands on the same
-    surface again finds the same transparent texel and just steps again.
+
+    The step must be short: every surface it jumps over is never alpha-tested, and leaves that
+    touch or cross put an opaque texel 1e-4 behind a transparent one. Mitsuba's spawn offset
+    ``(1 + max|p|) * RayEpsilon`` (~2.7e-4 at |p| ~ 2) stepped over such texels, so the step
+    clears the surface by only ``(1 + max|p|) *`` :data:`_STEP_CLEARANCE`, a few float32 ulps
+    (the float32 rounding of the origin and of Mitsuba's t), measured along the normal and
+    capped at 20x that length for grazing hits, times ``growth`` (see :func:`_grow_on_rehit`)
+    for rays that still land on the surface they left.
     """
-    mi = _mitsuba()
     p = o + t[:, None] * d
-    clearance = (1 + np.abs(p).max(axis=1, initial=0)) * float(mi.math.RayEpsilon)
+    clearance = (1 + np.abs(p).max(axis=1, initial=0)) * _STEP_CLEARANCE * growth
     cos = np.abs(np.einsum("ij,ij->i", n, d)) / np.maximum(np.linalg.norm(n, axis=1), 1e-30)
-    return p + (clearance / np.maximum(cos, 0.05))[:, None] * d
+    step = clearance / np.maximum(cos, 0.05)
+    return p + step[:, None] * d, step
+
+
+def _grow_on_rehit(growth, t, stepped):
+    """Step scales for rays that just crossed a transparent texel.
+
+    A hit within twice the step that produced the origin may be the surface the ray just left
+    (the float32 origin rounded back onto it): each such re-hit quadruples the next step, so a
+    ray cannot stall there. A hit farther away is another surface, and the scale resets to 1.
+    Every hit is alpha-tested either way; growth only lengthens the jump past a transparent texel.
+    """
+    return np.where(t < 2 * stepped, growth * 4, 1.0)
 
 
 def _alpha_lookup(opaque_texels: np.ndarray, uv: np.ndarray) -> np.ndarray:
