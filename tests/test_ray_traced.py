@@ -31,6 +31,7 @@ def test_receivers_under_an_infinite_plane_see_nothing(ground):
     light = ss.DiskLight((0, 4, 0), (0, -1, 0), 1.0)
     vis = ss.ray_traced(scene, light, up_receivers(np.linspace(-20, 20, 41)), samples=64)
     np.testing.assert_array_equal(vis, 0.0)
+    assert not np.signbit(vis).any()  # +0.0, not a negative zero
 
 
 def test_receivers_facing_away_from_the_light_see_nothing(ground):

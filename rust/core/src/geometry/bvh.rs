@@ -21,11 +21,14 @@
 //! Shadow rays: [`Bvh::occluded`] answers one segment; [`Bvh::occluded_many`] answers the
 //! shadow rays of one receiver together, culling with the frustum of their shared origin
 //! (`bvh/frustum.rs`: no triangle test at all for a fully lit receiver) and remembering the
-//! leaf and subtree that blocked the previous ray ([`ShadowCache`]). Traversal stacks are per-thread
-//! arrays sized by the depth bound of the build, so queries allocate nothing.
+//! leaf and subtree that blocked the previous ray ([`ShadowCache`]); [`Bvh::occluded_converging`]
+//! answers the rays of many receivers to one light sample as coherent packets (`bvh/packet.rs`).
+//! Traversal stacks are per-thread arrays sized by the depth bound of the build, so queries
+//! allocate nothing.
 
 mod build;
 mod frustum;
+mod packet;
 mod triangle;
 
 use crate::error::{Error, Result};
@@ -263,22 +266,35 @@ impl Bvh {
     /// receiver), and the rays are tested against those alone; with many candidate leaves the
     /// rays traverse one by one, sharing a [`ShadowCache`] (see `bvh/frustum.rs`).
     pub fn occluded_many(&self, scene: &Scene, origin: Vec3, targets: &[Vec3], out: &mut Vec<bool>) {
-        out.clear();
-        if targets.len() >= FRUSTUM_MIN_RAYS {
-            if let Some(f) = Frustum::new(origin, targets) {
-                let mut cand = [0u32; MAX_CANDIDATES];
-                let found = ANY_STACK.with(|s| match s.try_borrow_mut() {
-                    Ok(mut stack) => f.collect(&self.nodes, self.root, &mut stack, &mut cand),
-                    Err(_) => f.collect(&self.nodes, self.root, &mut [0; STACK], &mut cand),
-                });
-                if let Some(n) = found {
-                    self.occluded_by_candidates(scene, origin, targets, &cand[..n], out);
-                    return;
-                }
-            }
+        if self.occluded_by_frustum(scene, origin, targets, out) {
+            return;
         }
         let mut cache = ShadowCache::default();
         out.extend(targets.iter().map(|&y| self.occluded_cached(scene, origin, y - origin, 1.0, &mut cache)));
+    }
+
+    /// The frustum pass of [`Bvh::occluded_many`] alone: when the frustum of the segments
+    /// `origin -> targets` meets at most 16 leaves, fills `out` with the answers and returns
+    /// true; otherwise leaves `out` cleared and returns false (the caller traces the rays
+    /// another way, e.g. [`Bvh::occluded_converging`] across receivers).
+    pub fn occluded_by_frustum(&self, scene: &Scene, origin: Vec3, targets: &[Vec3], out: &mut Vec<bool>) -> bool {
+        out.clear();
+        if targets.len() < FRUSTUM_MIN_RAYS {
+            return false;
+        }
+        let Some(f) = Frustum::new(origin, targets) else { return false };
+        let mut cand = [0u32; MAX_CANDIDATES];
+        let found = ANY_STACK.with(|s| match s.try_borrow_mut() {
+            Ok(mut stack) => f.collect(&self.nodes, self.root, &mut stack, &mut cand),
+            Err(_) => f.collect(&self.nodes, self.root, &mut [0; STACK], &mut cand),
+        });
+        match found {
+            Some(n) => {
+                self.occluded_by_candidates(scene, origin, targets, &cand[..n], out);
+                true
+            }
+            None => false,
+        }
     }
 
     /// Tests every segment `origin -> target` against the candidate blocks only, starting with

@@ -37,6 +37,8 @@ struct Plane {
 pub(super) struct Frustum {
     o: [Vec4; 3],
     k: usize,
+    /// +1 or -1: the direction of the targets from the apex along axis `k`.
+    sign: f32,
     planes: [Plane; 4],
     lo: [Vec4; 3],
     hi: [Vec4; 3],
@@ -104,12 +106,18 @@ impl Frustum {
         let pad = (hi - lo) * 1e-5 + (lo.abs().max(hi.abs())) * 1e-6 + Vec3::splat(1e-30);
         let (lo, hi) = (lo - pad, hi + pad);
         let splat3 = |v: Vec3| [Vec4::splat(v.x), Vec4::splat(v.y), Vec4::splat(v.z)];
-        Some(Frustum { o: splat3(origin), k, planes, lo: splat3(lo), hi: splat3(hi) })
+        Some(Frustum { o: splat3(origin), k, sign, planes, lo: splat3(lo), hi: splat3(hi) })
+    }
+
+    /// The dominant axis `k` and the sign of the targets' offsets from the apex along it: every
+    /// target `y` has `(y[k] - apex[k]) * sign > 0`.
+    pub(super) fn axis(&self) -> (usize, f32) {
+        (self.k, self.sign)
     }
 
     /// The bitmask of the children of `node` whose boxes may meet the frustum.
     #[inline(always)]
-    fn overlaps(&self, node: &Node4) -> u32 {
+    pub(super) fn overlaps(&self, node: &Node4) -> u32 {
         let [lo, hi] = &node.bounds;
         let mut m = lo[0].cmple(self.hi[0]) & lo[1].cmple(self.hi[1]) & lo[2].cmple(self.hi[2]);
         m &= hi[0].cmpge(self.lo[0]) & hi[1].cmpge(self.lo[1]) & hi[2].cmpge(self.lo[2]);
