@@ -126,7 +126,10 @@ def test_a_request_too_large_raises_memory_error_before_allocating(ground):
         for bad in (-1, 0, "1G"):
             with pytest.raises(ValueError, match="bytes"):
                 ss.set_memory_limit(bad)
-        # 4 GiB of samples would be refused at the default limit too: nothing is allocated.
+        cam = ss.Camera.look_at((0, 5, 5), (0, 0, 0), width=1 << 20, height=1 << 20)
+        with pytest.raises(MemoryError, match="G-buffer"):
+            ss.gbuffer(scene, cam)
+        # 12 TiB of samples would be refused at the default limit too: nothing is allocated.
         ss.set_memory_limit(None)
         with pytest.raises(MemoryError):
             light.samples(1 << 40)
