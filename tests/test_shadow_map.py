@@ -46,3 +46,10 @@ def test_area_lights_cast_from_their_center(setup):
     np.testing.assert_array_equal(
         ss.shadow_map(scene, rect, gb, resolution=512), ss.shadow_map(scene, ss.PointLight(center), gb, resolution=512)
     )
+
+
+def test_a_light_among_the_receivers_is_refused_with_a_clear_error(setup):
+    scene, _, _ = setup
+    rx = ss.Receivers([[-5, 0, 0], [5, 6, 0]], [[0, 1, 0], [0, 1, 0]])
+    with pytest.raises(ValueError, match="light.*inside or on the receivers' bounds"):
+        ss.shadow_map(scene, ss.PointLight((0, 3, 0)), rx)

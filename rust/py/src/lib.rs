@@ -144,7 +144,7 @@ impl NativeLight {
         let pattern = Pattern::parse(pattern).or_raise()?;
         softshadows_core::limits::check_memory("light samples", softshadows_core::limits::bytes(&[n as u64, 12])).or_raise()?;
         let pts = py.detach(|| light_samples(&self.light, n, pattern, seed, frame));
-        Ok(convert::flat3(&pts).into_pyarray(py).reshape([n, 3])?)
+        convert::flat3(&pts).into_pyarray(py).reshape([n, 3])
     }
 
     /// Emission weights of world-space light points, shape (S,).

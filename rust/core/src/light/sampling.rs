@@ -81,7 +81,7 @@ impl Rng {
 
     /// A uniform integer in [0, n).
     pub fn below(&mut self, n: usize) -> usize {
-        ((self.next_u64() >> 32) * n as u64 >> 32) as usize
+        (((self.next_u64() >> 32) * n as u64) >> 32) as usize
     }
 }
 
@@ -291,7 +291,7 @@ pub fn light_samples(light: &Light, n: usize, pattern: Pattern, seed: u64, frame
     if frame == 0 {
         pts.collect()
     } else {
-        let r = rotation_seed(seed ^ 0xF4A3_E1, frame);
+        let r = rotation_seed(seed ^ 0x00F4_A3E1, frame);
         pts.map(|y| light.rotate(y, r)).collect()
     }
 }
@@ -320,7 +320,7 @@ mod tests {
             for (i, a) in pts.iter().enumerate() {
                 for b in &pts[i + 1..] {
                     let d = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt();
-                    assert!(d >= r * 0.99f32.powi(30), "{d} < {r}");
+                    assert!(d >= r, "{d} < {r}");
                 }
             }
         }

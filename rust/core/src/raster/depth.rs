@@ -234,8 +234,8 @@ impl LightFrustum {
                     "light",
                     format!(
                         "the light position {eye} lies inside or on the receivers' bounds {points_min}..{points_max}, \
-                         so no single perspective frustum contains them; pass an explicit frustum (LightFrustum::new) \
-                         covering the receivers you need"
+                         so no single perspective frustum contains them; pass only receivers on one side of the \
+                         light (or, from Rust, an explicit frustum made with LightFrustum::new)"
                     ),
                 ))
             }
