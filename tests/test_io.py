@@ -48,7 +48,7 @@ def test_read_environment_latlong(tmp_path):
     np.testing.assert_array_equal(out[1:], env[1:, :, :3])
     io.write_exr(tmp_path / "gray.exr", env[..., 1])
     np.testing.assert_array_equal(io.read_environment(tmp_path / "gray.exr"), np.repeat(env[..., 1:2], 3, -1))
-    with pytest.raises(NotImplementedError):
+    with pytest.raises(ValueError, match="6 square faces"):
         io.read_environment(tmp_path / "env.exr", layout="cube")
     with pytest.raises(ValueError, match="layout"):
         io.read_environment(tmp_path / "env.exr", layout="mirrorball")
@@ -89,3 +89,11 @@ def test_bad_arguments_name_themselves(tmp_path, call, name):
 def test_missing_file(tmp_path):
     with pytest.raises(FileNotFoundError):
         io.read_exr(tmp_path / "nope.exr")
+
+
+def test_read_environment_cube_strip(tmp_path):
+    faces = np.random.default_rng(2).uniform(0, 5, (6, 4, 4, 3)).astype(np.float32)
+    io.write_exr(tmp_path / "cube.exr", faces.reshape(24, 4, 3))
+    out = io.read_environment(tmp_path / "cube.exr", layout="cube")
+    assert out.shape == (6, 4, 4, 3)
+    np.testing.assert_array_equal(out, faces)  # face k is rows 4k..4k+3 of the strip

@@ -3,10 +3,9 @@
 * EXR files are written as single-part scanline images, float32, ZIP-compressed: a (H, W)
   array as one channel ``"Y"``, a (H, W, 3) array as ``"R"``, ``"G"``, ``"B"`` (and (H, W, 4)
   adds ``"A"``). Reading returns float32 whatever the stored pixel type (half included).
-* Environment maps are lat-long images (DESIGN.md section 2): row 0 is the top (+up pole),
-  columns sweep the azimuth. Cube-face layouts are not read yet (``layout="cube"`` raises
-  ``NotImplementedError``); when added they will take six faces in the order
-  +x, -x, +y, -y, +z, -z.
+* Environment maps (DESIGN.md section 2) are lat-long images (row 0 is the top, the +up pole;
+  columns sweep the azimuth) or cube maps stored as a vertical strip of six square faces in the
+  order +x, -x, +y, -y, +z, -z (the OpenGL face order), each face's row 0 at its top.
 * PNGs go through ``matplotlib.image.imsave`` (no pyplot, no GUI backend needed).
 """
 
@@ -73,34 +72,39 @@ def read_exr(path) -> np.ndarray:
 
 
 def read_environment(path, *, layout: str = "latlong") -> np.ndarray:
-    """Reads an environment map for :class:`EnvironmentMap` lights.
+    """Reads an environment map (the input of environment lighting, seed 002 section 4.2).
 
     Parameters
     ----------
     path : str or os.PathLike
         An OpenEXR file. RGBA drops alpha; a single channel is replicated to RGB.
-    layout : {"latlong"}
-        Lat-long (equirectangular): row 0 is the top, width normally twice the height.
-        ``"cube"`` is reserved for cube faces (not implemented yet).
+    layout : {"latlong", "cube"}
+        ``"latlong"`` (equirectangular): row 0 is the top, width normally twice the height.
+        ``"cube"``: a vertical strip of six N x N faces (image height 6 N), in the order
+        +x, -x, +y, -y, +z, -z.
 
     Returns
     -------
-    ndarray, shape (H, W, 3), float32
-        Linear radiance, >= 0 (small negative values, which some tools write, are clamped).
+    ndarray, float32, linear radiance >= 0 (small negative values, which some tools write, are clamped)
+        Shape (H, W, 3) for ``"latlong"``; (6, N, N, 3) for ``"cube"``.
     """
-    if layout == "cube":
-        raise NotImplementedError("layout: cube-face environment maps are not supported yet; convert to lat-long")
-    if layout != "latlong":
-        raise ValueError(f"layout: expected 'latlong', got {layout!r}")
+    if layout not in ("latlong", "cube"):
+        raise ValueError(f"layout: expected 'latlong' or 'cube', got {layout!r}")
     img = read_exr(path)
     if img.ndim == 2:
         img = np.repeat(img[..., None], 3, axis=-1)
     img = img[..., :3]
     if not np.all(np.isfinite(img)):
         raise ValueError(f"path: {os.fspath(path)} contains NaN or Inf")
-    if img.shape[0] < 2 or img.shape[1] < 2:
+    img = np.ascontiguousarray(np.maximum(img, 0), np.float32)
+    h, w = img.shape[:2]
+    if layout == "cube":
+        if h != 6 * w:
+            raise ValueError(f"path: a cube-map strip must be 6 square faces stacked vertically (H = 6 W), got {h}x{w}")
+        return img.reshape(6, w, w, 3)
+    if h < 2 or w < 2:
         raise ValueError(f"path: a lat-long map needs at least 2x2 pixels, got {img.shape[:2]}")
-    return np.ascontiguousarray(np.maximum(img, 0), np.float32)
+    return img
 
 
 def write_png(path, image, *, vmin: float = 0.0, vmax: float = 1.0, cmap: str | None = None) -> None:
