@@ -141,13 +141,15 @@ fn trace_shared(scene: &Scene, bvh: &Bvh, receivers: &Receivers, ys: &[Vec3], ep
         .enumerate()
         .map_init(TileBuffers::default, |buf, (b, band)| {
             let (first, len) = (b * rows * width, band.len());
+            buf.to_packets.clear();
+            buf.to_packets.resize(len, false);
             (0..width)
                 .step_by(cols)
                 .map(|x0| {
                     let tile = (0..rows)
                         .flat_map(|r| (x0..(x0 + cols).min(width)).map(move |x| r * width + x))
                         .filter(move |&k| k < len);
-                    trace_tile(scene, bvh, receivers, ys, epsilon, first, tile, band, buf)
+                    trace_tile(scene, bvh, receivers, ys, epsilon, (first, width), tile, band, buf)
                 })
                 .sum::<u64>()
         })
@@ -165,13 +167,19 @@ struct TileBuffers {
     front: Vec<bool>,
     origins: Vec<Vec3>,
     lanes: Vec<usize>,
+    /// Per receiver of the band, whether it went to the packets (see [`trace_tile`]).
+    to_packets: Vec<bool>,
 }
 
-/// Traces the receivers `tile` (indices into `band`, whose first receiver is `first`) to the
-/// shared samples `ys`; returns the rays traced.
+/// Traces the receivers `tile` (indices into `band`, whose first receiver is `first`, of a grid
+/// `width` receivers wide) to the shared samples `ys`; returns the rays traced.
 ///
 /// First each receiver's own frustum pass ([`Bvh::occluded_by_frustum`]) answers the
-/// receivers whose rays meet few leaves (all fully lit ones). The rays of the others go by
+/// receivers whose rays meet few leaves (all fully lit ones). A receiver whose left and upper
+/// neighbours in the band both went to the packets skips that pass and goes there too: shadow
+/// regions are contiguous, so the pass would almost surely fail after meeting over 16 leaves,
+/// and either path gives the same answers (the left neighbour may lie in the previous tile of
+/// the band, so `b.to_packets` must be reset per band). The rays of the others go by
 /// sample: those of all remaining receivers of the tile to sample `y_s` converge at `y_s` and
 /// are traced as one coherent packet (Benthin and Wald 2009, see `bvh/packet.rs`). Both give
 /// the answers of single rays, so V is the same as [`receiver_visibility`] computes.
@@ -182,7 +190,7 @@ fn trace_tile(
     receivers: &Receivers,
     ys: &[Vec3],
     epsilon: f32,
-    first: usize,
+    (first, width): (usize, usize),
     tile: impl Iterator<Item = usize>,
     band: &mut [f32],
     b: &mut TileBuffers,
@@ -203,9 +211,12 @@ fn trace_tile(
         b.targets.clear();
         b.targets.extend(ys.iter().copied().filter(|&y| (y - p).dot(n) > 0.0));
         rays += b.targets.len() as u64;
-        if bvh.occluded_by_frustum(scene, origin, &b.targets, &mut b.blocked) {
+        let left = k % width > 0 && b.to_packets[k - 1];
+        let up = k >= width && b.to_packets[k - width];
+        if !(left && up) && bvh.occluded_by_frustum(scene, origin, &b.targets, &mut b.blocked) {
             band[k] = visibility(b.blocked.iter().filter(|&&x| !x).count() as u32);
         } else {
+            b.to_packets[k] = true;
             b.hard.push((k, origin, 0));
             b.front.extend(ys.iter().map(|&y| (y - p).dot(n) > 0.0));
         }
