@@ -293,7 +293,7 @@ def test_mitsuba_scene_mask_opacity_follows_our_uv_convention():
     scene = mi.load_dict(reference.mitsuba_scene(Scene([occ]), LIGHT))
     xy = np.random.default_rng(0).uniform(0.01, 0.99, (300, 2))
     if not mi.variant().startswith("llvm"):
-        pytest.skip("vectorized check")
+        pytest.skip("needs the vectorized llvm_ad_rgb variant (install libllvm19); scalar_rgb traces one ray per call")
     o = np.c_[xy, np.full(len(xy), 1.5)].T.astype(np.float32)
     si = scene.ray_intersect(mi.Ray3f(mi.Point3f(o), mi.Vector3f(0, 0, -1)))
     assert np.all(np.asarray(si.is_valid()))
