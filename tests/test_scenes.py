@@ -13,7 +13,7 @@ from softshadows import scenes
 HAVE_PYMESHLAB = importlib.util.find_spec("pymeshlab") is not None
 needs_pymeshlab = pytest.mark.skipif(not HAVE_PYMESHLAB, reason='needs pip install "softshadows[models]"')
 
-PROCEDURAL = ["ground_sphere", "columns", "torus_knot", "fence", "fence_mesh", "leaves", "hairball"]
+PROCEDURAL = ["ground_sphere", "columns", "torus_knot", "fence", "fence_mesh", "leaves", "hairball", "sword"]
 MODELS = ["bunny", "bone", "cow"]
 ALL = PROCEDURAL + [pytest.param(m, marks=needs_pymeshlab) for m in MODELS]
 
@@ -26,10 +26,13 @@ CLOSED = {
     "fence_mesh": {"fence_0": False, "fence_1": False},
     "leaves": {"trunk": True, "leaves": False},
     "hairball": {"hairball": True},
+    "sword": {"sword": True},
     "bunny": {"bunny": True},
     "bone": {"bone": True},
     "cow": {"cow": True},
 }
+# Share of a 64x64 view the occluders cover at least; the sword is thin by design.
+MIN_OCCLUDER_COVER = {"sword": 0.005}
 
 
 def arrays(setup):
@@ -387,7 +390,7 @@ def test_rendered_view_shows_occluders_ground_and_penumbra(name):
     gb = ss.gbuffer(setup.scene, setup.camera)
     ground = gb.mask & (gb.face_ids < len(setup.ground.faces))  # the ground's faces come first
     occluder = gb.mask & (gb.face_ids >= len(setup.ground.faces))
-    assert ground.mean() > 0.3 and occluder.mean() > 0.02
+    assert ground.mean() > 0.3 and occluder.mean() > MIN_OCCLUDER_COVER.get(name, 0.02)
     vis = ss.ray_traced(setup.scene, setup.light, gb, samples=16)
     assert np.mean(ground & (vis < 1)) > 0.05  # a sizeable shadow on the ground ...
     assert np.mean(ground & (vis > 0) & (vis < 1)) > 0.03  # ... with a wide penumbra

@@ -14,7 +14,7 @@ See DESIGN.md for the data model and the definition of visibility.
 from . import _core, _validate, io, metrics, plot, reference, scenes, shading
 from .camera import Camera, GBuffer, Receivers, gbuffer
 from .lights import DiskLight, PointLight, RectLight, SphereLight
-from .methods import METHODS, ray_traced, shadow_map
+from .methods import METHODS, mvr, pcss, ray_traced, shadow_map, vwss
 from .scene import Mesh, Scene
 
 __version__ = "0.1.0"
@@ -53,7 +53,10 @@ __all__ = [
     "scenes",
     "shading",
     "memory_limit",
+    "mvr",
+    "pcss",
     "ray_traced",
     "set_memory_limit",
     "shadow_map",
+    "vwss",
 ]

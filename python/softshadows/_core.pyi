@@ -49,3 +49,40 @@ def ray_traced(
 def shadow_map(
     scene: NativeScene, light: NativeLight, receivers: NativeReceivers, resolution: int, bias: float | None, pcf: int
 ) -> tuple[F32, dict[str, float]]: ...
+def mvr(
+    scene: NativeScene,
+    light: NativeLight,
+    receivers: NativeReceivers,
+    samples: NativeSamples,
+    resolution: int,
+    pcf: int,
+    bias: float | None,
+) -> tuple[F32, dict[str, float]]: ...
+def vwss(
+    scene: NativeScene,
+    light: NativeLight,
+    receivers: NativeReceivers,
+    samples: NativeSamples,
+    resolution: int,
+    pcf: int,
+    bias: float | None,
+    mode: str,
+    parallel: str,
+    views_per_pass: int,
+    cull_backfaces: bool,
+    layered: bool,
+    precision: str,
+    point_density: float,
+    source_resolution: int | None,
+) -> tuple[F32, dict[str, float]]: ...
+def pcss(
+    scene: NativeScene,
+    light: NativeLight,
+    receivers: NativeReceivers,
+    resolution: int,
+    blocker_samples: int,
+    filter_samples: int,
+    bias: float | None,
+    near: float | None,
+    seed: int,
+) -> tuple[F32, dict[str, float]]: ...

@@ -21,7 +21,7 @@ from .camera import as_receivers
 from .lights import _Light, _pattern
 from .scene import Scene
 
-__all__ = ["ray_traced", "shadow_map", "METHODS"]
+__all__ = ["ray_traced", "shadow_map", "mvr", "vwss", "pcss", "METHODS"]
 
 ROTATIONS = (None, "per_receiver")
 
@@ -146,9 +146,8 @@ def shadow_map(
     resolution : int
         Shadow-map width and height in texels.
     bias : float, optional
-        Constant depth bias in world units. Default: slope-scaled,
-        ``1.5 (r + 1) texel_size(depth) min(tan theta, 20) + 1e-4 depth`` with ``r = (pcf - 1) / 2``
-        (see ``rust/core/src/methods/shadow_map.rs``).
+        Constant depth bias in world units. Default: slope-scaled from the receiver plane's depth
+        gradient in the map and the PCF radius (``rust/core/src/raster/pcf.rs``).
     pcf : int
         Percentage-closer filtering taps per side, odd, at most 63 (1 = a single tap, 3 = 3x3, ...).
     return_stats : bool
@@ -166,5 +165,239 @@ def shadow_map(
     return _finish(receivers, out, return_stats)
 
 
+def _view_samples(light, views, *, pattern, seed, frame):
+    """The light samples that multi-view methods render one depth map from each: ``views`` is a
+    count (a ``pattern`` on the light, Poisson by default as in seed 004) or an (S, 3) array."""
+    if isinstance(views, (int, np.integer)) and not isinstance(views, bool):
+        n = v.positive_int("views", views)
+        return _core.NativeSamples.generate(
+            light.native(), n, _pattern(pattern), v.nonneg_int("seed", seed), 1, False, v.nonneg_int("frame", frame)
+        )
+    if frame != 0:
+        raise ValueError("frame: explicit views are used as given; pass views=n to jitter over frames")
+    return _core.NativeSamples.explicit(v.light_points("views", views), None)
+
+
+def _multiview_options(resolution, pcf, bias):
+    resolution = v.positive_int("resolution", resolution)
+    pcf = v.positive_int("pcf", pcf)
+    bias = None if bias is None else v.positive("bias", bias, allow_zero=True)
+    return resolution, pcf, bias
+
+
+_MULTIVIEW_PARAMETERS = """views : int or array_like, shape (S, 3)
+        Light samples, one depth map each: a count of ``pattern`` samples on the light, or explicit
+        world-space samples (e.g. the ones given to ``ray_traced``).
+    resolution : int
+        Side of every light-sample depth map in texels (seed 004: 1024).
+    pcf : int
+        PCF taps per depth map: 5 (the paper's: the texel and its four neighbours), 1, or an odd
+        square such as 9 (3x3) or 25 (5x5).
+    bias : float, optional
+        Constant depth bias in world units. Default: slope-scaled per receiver and map
+        (``rust/core/src/raster/pcf.rs``).
+    pattern : {"poisson", "uniform", "stratified", "sobol", "halton"}
+        Pattern of ``views=n`` samples.
+    seed : int
+    frame : int
+        Temporal jitter of ``views=n`` samples (frame ``i > 0`` rotates the pattern)."""
+
+
+def mvr(
+    scene,
+    light,
+    receivers,
+    *,
+    views=24,
+    resolution: int = 1024,
+    pcf: int = 5,
+    bias: float | None = None,
+    pattern: str = "poisson",
+    seed: int = 0,
+    frame: int = 0,
+    return_stats: bool = False,
+):
+    """Multi-view rasterization: one rasterized depth map per light sample (seed 004's reference).
+
+    Every triangle is rasterized into a perspective depth map from each light sample (all views
+    share one orientation and field of view fitted to the receivers); each receiver averages its
+    PCF shadow tests over the maps, weighted by the light's emission at each sample. With 512
+    views this is the paper's "ultra-high quality" reference.
+
+    Parameters
+    ----------
+    scene : Scene
+    light : RectLight, DiskLight, SphereLight or PointLight
+    receivers : GBuffer or Receivers
+    {params}
+    return_stats : bool
+        Also return ``{{"depth_maps_seconds", "lighting_seconds", "views", "fragments", ...}}``.
+
+    Returns
+    -------
+    ndarray, float32, the receivers' shape; with ``return_stats`` a ``(visibility, stats)`` tuple.
+    """
+    _check(scene, light)
+    receivers = as_receivers(receivers)
+    samples = _view_samples(light, views, pattern=pattern, seed=seed, frame=frame)
+    out = _core.mvr(
+        scene.native(), light.native(), _native_receivers(receivers), samples, *_multiview_options(resolution, pcf, bias)
+    )
+    return _finish(receivers, out, return_stats)
+
+
+def vwss(
+    scene,
+    light,
+    receivers,
+    *,
+    views=24,
+    resolution: int = 1024,
+    pcf: int = 5,
+    mode: str = "buffered",
+    parallel: str = "partial",
+    views_per_pass: int = 8,
+    cull_backfaces: bool = True,
+    layered: bool = True,
+    precision: str = "float32",
+    point_density: float = 2.0,
+    source_resolution: int | None = None,
+    bias: float | None = None,
+    pattern: str = "poisson",
+    seed: int = 0,
+    frame: int = 0,
+    return_stats: bool = False,
+):
+    """View-warped soft shadows (Marrs, Watson and Healey 2018): ``mvr``'s depth maps made by
+    warping one multi-view point cloud instead of rasterizing the scene once per light sample.
+
+    The scene is rasterized once from the light's center moved back along the view direction
+    until its frustum contains every light sample's view (equations 1-2), at the resolution
+    scaled by equation 3, with no depth test: every front-facing fragment along each ray becomes a
+    point. The points are then projected into every light sample's depth map, snapped to the
+    nearest texel and z-buffered by an atomic minimum; the lighting is ``mvr``'s.
+
+    Parameters
+    ----------
+    scene : Scene
+    light : RectLight, DiskLight, SphereLight or PointLight
+    receivers : GBuffer or Receivers
+    {params}
+    mode : {{"buffered", "unbuffered"}}
+        Store the points in a buffer and warp it (the paper's faster variant), or stream the
+        rasterizer's fragments straight into the depth maps, rasterizing once per traversal.
+    parallel : {{"serial", "partial", "full"}}
+        Depth maps written per traversal of the points: one, ``views_per_pass``, or all.
+    views_per_pass : int
+        Maps per traversal with ``parallel="partial"`` (Listing 2: 8).
+    cull_backfaces : bool
+        Drop the fragments of closed meshes' triangles facing away from the source view (open,
+        one-sided meshes always keep both sides); False keeps every back face too: more points,
+        slightly more accurate.
+    layered : bool
+        Keep every fragment along each source ray (the method). False keeps only the nearest
+        one: naive single-layer warping, which leaks light at disocclusions (Figure 4).
+    precision : {{"float32", "float16"}}
+        Storage of the buffered points' world positions.
+    point_density : float
+        Points per target texel at the nearest occluder's depth ``z_n``: the source view's side is
+        equation 3's ``m (z_n + d) / z_n`` times ``sqrt(point_density)`` (capped at 8 m). At 1 the
+        warped maps have holes that leak light; 2 (default) closes them (see
+        ``rust/core/src/methods/vwss.rs``).
+    source_resolution : int, optional
+        Side of the source view in texels, overriding ``point_density``.
+    return_stats : bool
+        Also return the columns of the paper's Tables 1-2: ``point_generation_seconds``,
+        ``depth_maps_seconds``, ``lighting_seconds``, ``points``, ``maps_per_traversal``,
+        ``traversals``, plus ``source_resolution`` and ``pull_back`` (d of equation 1).
+
+    Returns
+    -------
+    ndarray, float32, the receivers' shape; with ``return_stats`` a ``(visibility, stats)`` tuple.
+    """
+    _check(scene, light)
+    receivers = as_receivers(receivers)
+    samples = _view_samples(light, views, pattern=pattern, seed=seed, frame=frame)
+    source = None if source_resolution is None else v.positive_int("source_resolution", source_resolution)
+    out = _core.vwss(
+        scene.native(),
+        light.native(),
+        _native_receivers(receivers),
+        samples,
+        *_multiview_options(resolution, pcf, bias),
+        str(mode),
+        str(parallel),
+        v.positive_int("views_per_pass", views_per_pass),
+        bool(cull_backfaces),
+        bool(layered),
+        str(precision),
+        v.positive("point_density", point_density),
+        source,
+    )
+    return _finish(receivers, out, return_stats)
+
+
+def pcss(
+    scene,
+    light,
+    receivers,
+    *,
+    blocker_samples: int = 64,
+    filter_samples: int = 96,
+    resolution: int = 1024,
+    bias: float | None = None,
+    near: float | None = None,
+    seed: int = 0,
+    return_stats: bool = False,
+):
+    """Percentage-closer soft shadows (Fernando 2005) from one depth map at the light's center.
+
+    A Poisson-disk blocker search over the region where occluders could hide the light averages
+    the blockers' depths; the parallel-planes estimate turns that into a penumbra width; PCF over
+    that width gives the visibility. Seed 004's configuration: 64 search and 96 filter taps.
+
+    Parameters
+    ----------
+    scene : Scene
+    light : RectLight, DiskLight, SphereLight or PointLight
+        Its center casts; its half extents along the map's axes set the search and filter sizes.
+    receivers : GBuffer or Receivers
+    blocker_samples, filter_samples : int
+        Poisson-disk taps of the blocker search and of the filter (at most 4096 each).
+    resolution : int
+        Depth-map side in texels.
+    bias : float, optional
+        Constant depth bias in world units. Default: slope-scaled for each tap's distance.
+    near : float, optional
+        Near plane of the blocker search (linear depth from the light's center, world units);
+        default the nearest depth in the map.
+    seed : int
+        Seed of the two tap patterns.
+    return_stats : bool
+        Also return ``{"depth_map_seconds", "lighting_seconds", "search_near", "no_blocker", ...}``.
+
+    Returns
+    -------
+    ndarray, float32, the receivers' shape; with ``return_stats`` a ``(visibility, stats)`` tuple.
+    """
+    _check(scene, light)
+    receivers = as_receivers(receivers)
+    out = _core.pcss(
+        scene.native(),
+        light.native(),
+        _native_receivers(receivers),
+        v.positive_int("resolution", resolution),
+        v.positive_int("blocker_samples", blocker_samples),
+        v.positive_int("filter_samples", filter_samples),
+        None if bias is None else v.positive("bias", bias, allow_zero=True),
+        None if near is None else v.positive("near", near),
+        v.nonneg_int("seed", seed),
+    )
+    return _finish(receivers, out, return_stats)
+
+
+mvr.__doc__ = mvr.__doc__.format(params=_MULTIVIEW_PARAMETERS)
+vwss.__doc__ = vwss.__doc__.format(params=_MULTIVIEW_PARAMETERS)
+
 #: Every method by name, for the CLI and the evaluation suite.
-METHODS = {"ray_traced": ray_traced, "shadow_map": shadow_map}
+METHODS = {"ray_traced": ray_traced, "shadow_map": shadow_map, "pcss": pcss, "mvr": mvr, "vwss": vwss}

@@ -72,6 +72,7 @@ __all__ = [
     "fence_mesh",
     "leaves",
     "hairball",
+    "sword",
     "load_model",
     "fence_texture",
     "leaf_texture",
@@ -680,6 +681,74 @@ def hairball(
     )
 
 
+def sword(
+    *,
+    blade_length: float = 1.6,
+    blade_width: float = 0.03,
+    blade_thickness: float = 0.01,
+    tip_height: float = 0.1,
+    tilt: float = 25.0,
+    light: str = "rect",
+    light_size: float = 1.0,
+    light_position=None,
+    light_distance: float = 3.0,
+    width: int = 256,
+    height: int = 256,
+    fov_y: float = 40.0,
+    ground_size: float | None = None,
+) -> Setup:
+    """A thin sword held tip down over the ground: seed 004's thin-occluder case (Figure 10).
+
+    The blade is only a few shadow-map texels wide and rises from its tip near the ground to the
+    hilt. A blocker search sized for the nearest occluder (PCSS) spreads its taps wide under the
+    tip, steps over the blade and leaves holes in its shadow, while methods that test every light
+    sample's own depth map (MVR, VWSS) keep it.
+
+    Parameters
+    ----------
+    blade_length, blade_width, blade_thickness : float
+        The blade: a closed box along x, its width along z and thickness along y (world units).
+    tip_height : float
+        Height of the blade's tip over the ground.
+    tilt : float
+        Angle of the blade over the horizontal in degrees (0 to 80), hilt up.
+    light, light_size, light_position, light_distance, width, height, fov_y, ground_size
+        See the module docstring.
+
+    Returns
+    -------
+    Setup
+        Meshes ``ground`` and ``sword`` (closed: the blade, a crossguard and a grip; 36 triangles).
+    """
+    length = _v.positive("blade_length", blade_length)
+    w = _v.positive("blade_width", blade_width)
+    t = _v.positive("blade_thickness", blade_thickness)
+    tip = _v.positive("tip_height", tip_height)
+    tilt = float(tilt)
+    if not 0.0 <= tilt <= 80.0:
+        raise ValueError(f"tilt: expected degrees in [0, 80], got {tilt}")
+    guard = 4 * w
+    parts = [  # the tip at the origin, the hilt towards -x
+        _box((-length, -t / 2, -w / 2), (0.0, t / 2, w / 2)),
+        _box((-length - 2 * t, -t, -guard), (-length, t, guard)),
+        _box((-length * 1.12, -t, -w / 2), (-length - 2 * t, t, w / 2)),
+    ]
+    verts, faces = _merge(parts)
+    a = np.radians(tilt)
+    rot = np.array([[np.cos(a), np.sin(a), 0.0], [-np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]])
+    verts = verts @ rot.T + np.array([length / 2, tip, 0.0])
+    mesh = Mesh(verts, faces, closed=True, name="sword")
+    return _assemble(
+        "sword",
+        [mesh],
+        f"A sword, blade {length:g} long and {w:g} wide, tip {tip:g} over the ground, tilted {tilt:g} degrees "
+        "(seed 004, Figure 10).",
+        light=light, light_size=light_size, light_position=light_position, light_distance=light_distance,
+        light_dir=(-120.0, 60.0), camera_dir=(20.0, 45.0),
+        width=width, height=height, fov_y=fov_y, ground_size=ground_size,
+    )
+
+
 def load_model(
     name: str,
     *,
@@ -773,6 +842,7 @@ SCENES = {
     "fence_mesh": fence_mesh,
     "leaves": leaves,
     "hairball": hairball,
+    "sword": sword,
     **{model: _model_factory(model) for model in MODELS},
 }
 
@@ -784,7 +854,7 @@ def get(name: str, **options) -> Setup:
     ----------
     name : str
         One of ``SCENES`` (``"ground_sphere"``, ``"columns"``, ``"torus_knot"``, ``"fence"``,
-        ``"fence_mesh"``, ``"leaves"``, ``"hairball"``, ``"bunny"``, ``"bone"``, ``"cow"``).
+        ``"fence_mesh"``, ``"leaves"``, ``"hairball"``, ``"sword"``, ``"bunny"``, ``"bone"``, ``"cow"``).
     **options
         Keyword options of that factory, e.g. ``width=128, height=128``.
     """

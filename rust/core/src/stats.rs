@@ -17,6 +17,12 @@ impl Stats {
         }
     }
 
+    /// Adds `value` to the value recorded under `name` (0 when absent).
+    pub fn add(&mut self, name: &str, value: f64) {
+        let total = self.get(name).unwrap_or(0.0) + value;
+        self.set(name, total);
+    }
+
     /// The value recorded under `name`.
     pub fn get(&self, name: &str) -> Option<f64> {
         self.entries.iter().find(|(n, _)| n == name).map(|(_, v)| *v)
@@ -27,6 +33,15 @@ impl Stats {
         let start = Instant::now();
         let out = f();
         self.set(&format!("{stage}_seconds"), start.elapsed().as_secs_f64());
+        out
+    }
+
+    /// Like [`Stats::time`], but adds the wall time to `"<stage>_seconds"`: for stages run in
+    /// several passes.
+    pub fn time_add<T>(&mut self, stage: &str, f: impl FnOnce() -> T) -> T {
+        let start = Instant::now();
+        let out = f();
+        self.add(&format!("{stage}_seconds"), start.elapsed().as_secs_f64());
         out
     }
 }

@@ -6,8 +6,12 @@ use crate::{NativeLight, NativeReceivers, NativeSamples, NativeScene};
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use softshadows_core::methods::mvr::{mvr as mvr_core, MultiViewOptions};
+use softshadows_core::methods::pcss::{pcss as pcss_core, PcssOptions};
 use softshadows_core::methods::ray_traced::{ray_traced as ray_traced_core, RayTracedOptions};
 use softshadows_core::methods::shadow_map::{shadow_map as shadow_map_core, ShadowMapOptions};
+use softshadows_core::methods::vwss::{vwss as vwss_core, Mode, Parallel, Precision, VwssOptions};
+use softshadows_core::Error;
 use softshadows_core::Stats;
 
 type Output<'py> = (Bound<'py, PyArray1<f32>>, Bound<'py, PyDict>);
@@ -53,8 +57,102 @@ fn shadow_map<'py>(
     output(py, out)
 }
 
+/// Multi-view rasterization: one rasterized depth map per light sample.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+fn mvr<'py>(
+    py: Python<'py>,
+    scene: &NativeScene,
+    light: &NativeLight,
+    receivers: &NativeReceivers,
+    samples: &NativeSamples,
+    resolution: usize,
+    pcf: usize,
+    bias: Option<f32>,
+) -> PyResult<Output<'py>> {
+    let opts = MultiViewOptions { resolution, pcf, bias };
+    let out = py
+        .detach(|| mvr_core(&scene.scene, &light.light, &receivers.receivers, &samples.samples, &opts))
+        .or_raise()?;
+    output(py, out)
+}
+
+fn choice<T: Copy>(arg: &str, value: &str, options: &[(&str, T)]) -> Result<T, Error> {
+    options.iter().find(|(name, _)| *name == value).map(|(_, v)| *v).ok_or_else(|| {
+        let names: Vec<String> = options.iter().map(|(n, _)| format!("{n:?}")).collect();
+        Error::invalid(arg, format!("expected one of {}, got {value:?}", names.join(", ")))
+    })
+}
+
+/// View-warped soft shadows: one source rasterization warped into every light sample's map.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+fn vwss<'py>(
+    py: Python<'py>,
+    scene: &NativeScene,
+    light: &NativeLight,
+    receivers: &NativeReceivers,
+    samples: &NativeSamples,
+    resolution: usize,
+    pcf: usize,
+    bias: Option<f32>,
+    mode: &str,
+    parallel: &str,
+    views_per_pass: usize,
+    cull_backfaces: bool,
+    layered: bool,
+    precision: &str,
+    point_density: f32,
+    source_resolution: Option<usize>,
+) -> PyResult<Output<'py>> {
+    let opts = VwssOptions {
+        multiview: MultiViewOptions { resolution, pcf, bias },
+        mode: choice("mode", mode, &[("buffered", Mode::Buffered), ("unbuffered", Mode::Unbuffered)]).or_raise()?,
+        parallel: choice(
+            "parallel",
+            parallel,
+            &[("serial", Parallel::Serial), ("partial", Parallel::Partial), ("full", Parallel::Full)],
+        )
+        .or_raise()?,
+        views_per_pass,
+        cull_backfaces,
+        layered,
+        precision: choice("precision", precision, &[("float32", Precision::Float32), ("float16", Precision::Float16)])
+            .or_raise()?,
+        point_density,
+        source_resolution,
+    };
+    let out = py
+        .detach(|| vwss_core(&scene.scene, &light.light, &receivers.receivers, &samples.samples, &opts))
+        .or_raise()?;
+    output(py, out)
+}
+
+/// Percentage-closer soft shadows from one light-center depth map.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+fn pcss<'py>(
+    py: Python<'py>,
+    scene: &NativeScene,
+    light: &NativeLight,
+    receivers: &NativeReceivers,
+    resolution: usize,
+    blocker_samples: usize,
+    filter_samples: usize,
+    bias: Option<f32>,
+    near: Option<f32>,
+    seed: u64,
+) -> PyResult<Output<'py>> {
+    let opts = PcssOptions { resolution, blocker_samples, filter_samples, bias, near, seed };
+    let out = py.detach(|| pcss_core(&scene.scene, &light.light, &receivers.receivers, &opts)).or_raise()?;
+    output(py, out)
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(ray_traced, m)?)?;
     m.add_function(wrap_pyfunction!(shadow_map, m)?)?;
+    m.add_function(wrap_pyfunction!(mvr, m)?)?;
+    m.add_function(wrap_pyfunction!(vwss, m)?)?;
+    m.add_function(wrap_pyfunction!(pcss, m)?)?;
     Ok(())
 }

@@ -168,6 +168,11 @@ impl Scene {
         }
     }
 
+    /// Whether global face `id` belongs to a mesh flagged `closed`.
+    pub fn is_closed_face(&self, id: u32) -> bool {
+        self.meshes[self.face_ref(id).mesh as usize].closed
+    }
+
     /// Whether global face `id` belongs to a perforated mesh.
     pub fn is_perforated_face(&self, id: u32) -> bool {
         self.meshes[self.face_ref(id).mesh as usize].is_perforated()

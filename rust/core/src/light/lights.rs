@@ -91,7 +91,7 @@ pub fn tangent_frame(n: Vec3) -> (Vec3, Vec3) {
 }
 
 /// Shirley and Chiu's concentric map from the unit square to the unit disk.
-fn concentric_disk(s: f32, t: f32) -> Vec2 {
+pub(crate) fn concentric_disk(s: f32, t: f32) -> Vec2 {
     let (a, b) = (2.0 * s - 1.0, 2.0 * t - 1.0);
     if a == 0.0 && b == 0.0 {
         return Vec2::ZERO;
@@ -199,6 +199,17 @@ impl Light {
             Shape::Point { .. } => 0.0,
             Shape::Rect { u, v, .. } => (u + v).length().max((u - v).length()),
             Shape::Disk { radius, .. } | Shape::Sphere { radius, .. } => radius,
+        }
+    }
+
+    /// The half extent of the light along the unit direction `axis`: the largest `|(y − c) · axis|`
+    /// over its points `y` (`c` its center), in world units.
+    pub fn half_extent_along(&self, axis: Vec3) -> f32 {
+        match self.shape {
+            Shape::Point { .. } => 0.0,
+            Shape::Rect { u, v, .. } => u.dot(axis).abs() + v.dot(axis).abs(),
+            Shape::Disk { normal, radius, .. } => radius * (1.0 - normal.dot(axis).powi(2)).max(0.0).sqrt(),
+            Shape::Sphere { radius, .. } => radius,
         }
     }
 

@@ -121,6 +121,12 @@ pub fn unit_pattern(pattern: Pattern, n: usize, dim: usize, seed: u64) -> Vec<[f
     }
 }
 
+/// `n` points of `pattern` in the unit disk (the unit square mapped by Shirley and Chiu's
+/// concentric map, which keeps strata and Poisson spacing), e.g. the tap patterns of PCSS.
+pub fn unit_disk_pattern(pattern: Pattern, n: usize, seed: u64) -> Vec<glam::Vec2> {
+    unit_pattern(pattern, n, 2, seed).into_iter().map(|p| crate::light::lights::concentric_disk(p[0], p[1])).collect()
+}
+
 fn point(dim: usize, mut f: impl FnMut(usize) -> f32) -> [f32; 3] {
     let mut p = [0.0; 3];
     for (d, c) in p.iter_mut().enumerate().take(dim) {

@@ -1,3 +1,6 @@
 //! One module per soft-shadow method, named as in the Python API.
+pub mod mvr;
+pub mod pcss;
 pub mod ray_traced;
 pub mod shadow_map;
+pub mod vwss;

@@ -17,21 +17,15 @@
 //!   map hold `+inf` and count as lit).
 //!
 //! **Bias.** `bias = Some(b)` subtracts a constant `b` world units of linear depth. `None` (the
-//! default) uses [`auto_bias`], a slope-scaled bias that removes self-shadowing acne on flat and
-//! curved receivers for every PCF size: the depth of the receiver's own surface can differ from the
-//! value stored at a tap `k` texels away by at most about `(k + 0.71) texels × tan θ` (θ between
-//! the receiver's normal and the direction to the eye), so the auto bias is
-//! `1.5 · (r + 1) · texel_world_size(depth) · min(tan θ, 20) + 1e-4 · depth` with `r = (pcf − 1)/2`
-//! the PCF radius; the relative term absorbs float round-off of the receiver positions. Like every
-//! bias it lets light leak over that distance at contact points ("peter panning").
-
+//! default) uses [`slope_bias`] for the PCF radius `(pcf − 1)/2`, which removes self-shadowing
+//! acne on flat and curved receivers for every PCF size.
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
 use crate::raster::depth::{rasterize_depth, DepthMap, LightFrustum, RasterOptions};
+use crate::raster::pcf::PcfKernel;
 use crate::stats::Stats;
-use glam::Vec3;
 use rayon::prelude::*;
 
 /// Options of [`shadow_map`].
@@ -39,7 +33,7 @@ use rayon::prelude::*;
 pub struct ShadowMapOptions {
     /// Map side in texels when the frustum is fitted (default 1024); ignored with `frustum`.
     pub resolution: usize,
-    /// Constant depth bias in world units (>= 0), or `None` for [`auto_bias`] (default).
+    /// Constant depth bias in world units (>= 0), or `None` for [`slope_bias`](crate::raster::pcf::slope_bias) (default).
     pub bias: Option<f32>,
     /// PCF taps per side, odd: 1 = a single tap (pure hard shadow, default), 3 = 3 × 3, 5 = 5 × 5.
     pub pcf: usize,
@@ -52,9 +46,6 @@ impl Default for ShadowMapOptions {
         Self { resolution: 1024, bias: None, pcf: 1, frustum: None }
     }
 }
-
-/// The largest PCF kernel side accepted.
-pub const MAX_PCF: usize = 63;
 
 impl ShadowMapOptions {
     /// Checks every option (the frustum too).
@@ -70,40 +61,12 @@ impl ShadowMapOptions {
                 return Err(Error::invalid("bias", format!("must be finite and >= 0 (or None for auto), got {b}")));
             }
         }
-        if self.pcf & 1 == 0 || self.pcf > MAX_PCF {
-            return Err(Error::invalid("pcf", format!("must be odd and in 1..={MAX_PCF} (taps per side), got {}", self.pcf)));
-        }
+        PcfKernel::square(self.pcf)?;
         match &self.frustum {
             Some(f) => f.validate(),
             None => Ok(()),
         }
     }
-}
-
-/// The slope-scaled depth bias (world units of linear depth) for a receiver at `p` with unit
-/// normal `n`, at linear depth `depth`, read with a PCF kernel of `pcf` taps per side (see the
-/// module documentation).
-pub fn auto_bias(frustum: &LightFrustum, p: Vec3, n: Vec3, depth: f32, pcf: usize) -> f32 {
-    let to_eye = (frustum.eye - p).normalize_or_zero();
-    let cos = n.dot(to_eye).abs().max(1e-6);
-    let tan = ((1.0 - cos * cos).max(0.0).sqrt() / cos).min(20.0);
-    let radius = (pcf.saturating_sub(1) / 2) as f32;
-    1.5 * (radius + 1.0) * frustum.texel_world_size(depth) * tan + 1e-4 * depth
-}
-
-/// Percentage-closer filtering: the fraction of the `pcf × pcf` texels centered on the texel that
-/// contains `(sx, sy)` whose stored depth is `>= depth` (taps outside the map are lit). `depth` is
-/// the receiver's linear depth with the bias already subtracted.
-pub fn pcf_lookup(map: &DepthMap, sx: f32, sy: f32, depth: f32, pcf: usize) -> f32 {
-    let r = (pcf / 2) as i64;
-    let (cx, cy) = (sx.floor() as i64, sy.floor() as i64);
-    let mut lit = 0u32;
-    for dy in -r..=r {
-        for dx in -r..=r {
-            lit += u32::from(depth <= map.get(cx + dx, cy + dy));
-        }
-    }
-    lit as f32 / ((2 * r + 1) * (2 * r + 1)) as f32
 }
 
 /// Hard-shadow visibility of every receiver from the light's center by a shadow map.
@@ -128,29 +91,17 @@ pub fn shadow_map(scene: &Scene, light: &Light, receivers: &Receivers, opts: &Sh
         }
     };
     let map = stats.time("render", || rasterize_depth(scene, &frustum, &RasterOptions::default()))?;
-    let vis = stats.time("lookup", || lookup_all(&map, &frustum, receivers, opts));
+    let vis = stats.time("lookup", || lookup_all(&map, &frustum, receivers, opts))?;
     stats.set("resolution", frustum.width as f64);
     stats.set("texels_drawn", map.drawn_texels() as f64);
     stats.set("fragments", map.fragments as f64);
     Ok((vis, stats))
 }
 
-fn lookup_all(map: &DepthMap, frustum: &LightFrustum, rx: &Receivers, opts: &ShadowMapOptions) -> Vec<f32> {
-    (0..rx.len())
+fn lookup_all(map: &DepthMap, frustum: &LightFrustum, rx: &Receivers, opts: &ShadowMapOptions) -> Result<Vec<f32>> {
+    let kernel = PcfKernel::square(opts.pcf)?;
+    Ok((0..rx.len())
         .into_par_iter()
-        .map(|i| if rx.valid[i] { lookup(map, frustum, rx.points[i], rx.normals[i], opts) } else { 0.0 })
-        .collect()
-}
-
-/// Visibility of one valid receiver (see the module documentation for the rules).
-fn lookup(map: &DepthMap, frustum: &LightFrustum, p: Vec3, n: Vec3, opts: &ShadowMapOptions) -> f32 {
-    if n.dot(frustum.eye - p) <= 0.0 {
-        return 0.0;
-    }
-    let Some(s) = frustum.project(p) else { return 1.0 };
-    if !(s.x >= 0.0 && s.y >= 0.0 && s.x < map.width as f32 && s.y < map.height as f32) {
-        return 1.0;
-    }
-    let bias = opts.bias.unwrap_or_else(|| auto_bias(frustum, p, n, s.z, opts.pcf));
-    pcf_lookup(map, s.x, s.y, s.z - bias, opts.pcf)
+        .map(|i| if rx.valid[i] { kernel.visibility(map, frustum, rx.points[i], rx.normals[i], opts.bias) } else { 0.0 })
+        .collect())
 }

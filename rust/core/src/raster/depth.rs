@@ -423,6 +423,9 @@ pub enum FaceFilter {
     /// Back-facing triangles of meshes flagged `closed`, every triangle of the other meshes (a
     /// closed caster's back faces suffice and need no depth bias, seed 000).
     BackFacingIfClosed,
+    /// Front-facing triangles of meshes flagged `closed`, every triangle of the other meshes
+    /// (back-face culling that keeps open, one-sided meshes such as quads and planes).
+    FrontFacingIfClosed,
 }
 
 impl FaceFilter {
@@ -436,10 +439,8 @@ impl FaceFilter {
             FaceFilter::All => true,
             FaceFilter::FrontFacing => facing() > 0.0,
             FaceFilter::BackFacing => facing() < 0.0,
-            FaceFilter::BackFacingIfClosed => {
-                let closed = scene.meshes[scene.face_ref(id).mesh as usize].closed;
-                !closed || facing() < 0.0
-            }
+            FaceFilter::BackFacingIfClosed => !scene.is_closed_face(id) || facing() < 0.0,
+            FaceFilter::FrontFacingIfClosed => !scene.is_closed_face(id) || facing() > 0.0,
         }
     }
 }
@@ -953,8 +954,35 @@ pub fn rasterize_triangle(
     Ok(())
 }
 
-/// A triangle to draw: global face id, world vertices, whether its mesh is perforated.
-type Caster = (u32, [Vec3; 3], bool);
+/// A triangle to draw: global face id, world vertices, whether to alpha-test it (its mesh is
+/// perforated and the alpha test is on).
+pub type Caster = (u32, [Vec3; 3], bool);
+
+/// The triangles of `scene` that pass `opts.faces` as seen from `eye`, in face order.
+pub fn casters(scene: &Scene, opts: &RasterOptions, eye: Vec3) -> Vec<Caster> {
+    scene
+        .triangles()
+        .filter(|(id, t)| opts.faces.keeps(scene, *id, t, eye))
+        .map(|(id, t)| (id, t, opts.alpha_test && scene.is_perforated_face(id)))
+        .collect()
+}
+
+impl Rasterizer {
+    /// [`Rasterizer::triangle`] for a caster, dropping the fragments where its perforated mesh is
+    /// transparent (when the caster is alpha-tested).
+    pub fn opaque_fragments(&self, scene: &Scene, caster: &Caster, region: TexelRect, mut visit: impl FnMut(Fragment<'_>)) {
+        let (id, tri, alpha) = caster;
+        self.triangle(tri, region, |f| {
+            if *alpha {
+                let (b1, b2) = f.barycentrics();
+                if !scene.is_opaque_at(*id, b1, b2) {
+                    return;
+                }
+            }
+            visit(f);
+        });
+    }
+}
 
 /// Rasterizes the linear depth of every triangle of `scene` that passes `opts.faces` into a
 /// `frustum.width × frustum.height` map (minimum depth per texel, `+inf` where nothing was drawn),
@@ -970,11 +998,7 @@ pub fn rasterize_depth(scene: &Scene, frustum: &LightFrustum, opts: &RasterOptio
         limits::bytes(&[w as u64, h as u64, 4]).saturating_add(limits::bytes(&[faces, 96])),
     )?;
     let mut map = DepthMap::empty(w, h)?;
-    let casters: Vec<Caster> = scene
-        .triangles()
-        .filter(|(id, t)| opts.faces.keeps(scene, *id, t, frustum.eye))
-        .map(|(id, t)| (id, t, opts.alpha_test && scene.is_perforated_face(id)))
-        .collect();
+    let casters = casters(scene, opts, frustum.eye);
     let band = band_rows(h);
     let bins = bin_rows(&raster, &casters, band, h.div_ceil(band));
     map.fragments = map
@@ -1014,14 +1038,7 @@ fn draw_band(scene: &Scene, raster: &Rasterizer, casters: &[Caster], bin: &[u32]
     let region = TexelRect { x0: 0, y0, x1: w, y1: y0 + rows.len() / w };
     let mut fragments = 0u64;
     for &i in bin {
-        let (id, tri, alpha) = &casters[i as usize];
-        raster.triangle(tri, region, |f| {
-            if *alpha {
-                let (b1, b2) = f.barycentrics();
-                if !scene.is_opaque_at(*id, b1, b2) {
-                    return;
-                }
-            }
+        raster.opaque_fragments(scene, &casters[i as usize], region, |f| {
             fragments += 1;
             // The region keeps f.x < w and y0 <= f.y < y0 + rows.len() / w: the index is in range.
             let texel = &mut rows[(f.y - y0) * w + f.x];

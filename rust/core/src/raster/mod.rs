@@ -1,3 +1,5 @@
 //! Shadow-map machinery shared by every image-based method.
 pub mod depth;
+pub mod multiview;
+pub mod pcf;
 pub mod pyramid;

@@ -1,0 +1,423 @@
+//! `vwss`: view-warped multi-view soft shadows (Marrs, Watson and Healey 2018, seed 004).
+//!
+//! The depth maps of [`mvr`](crate::methods::mvr) are made without rasterizing the scene once
+//! per light sample: the occluders are rasterized once into a multi-view point cloud, and the
+//! points are warped into every light sample's depth map.
+//!
+//! 1. **Source view** (section 3.1, equations 1–3). The views of all light samples share one
+//!    orientation and field of view ([`ViewSet`]). The source view keeps them and moves its eye
+//!    from the light's center `l_c` back along the view direction `f` by `d` (eq. 2,
+//!    `v_e = l_c − d·f`), so that its frustum contains every light sample's frustum: `d` is the
+//!    smallest pull-back that puts every sample inside the source pyramid,
+//!    `d = max_s max(|x_s|, |y_s|) / tan(fov/2) − z_s` with `(x_s, y_s, z_s)` the sample's offset
+//!    from `l_c` in view axes. For a `w × h` rectangle facing `f` with samples at its corners this
+//!    is eq. 1, `max(w, h) / (2 tan(fov/2))`; pull-back by the actual samples keeps the source map
+//!    smallest. Its near plane lies in the plane of the nearest sample (the light's plane), so
+//!    nothing behind the light is rasterized. Its resolution follows eq. 3, `m · (z_n + d) / z_n`,
+//!    which matches the sampling rate of the light-sample views at depth `z_n`, times
+//!    `√point_density`. `z_n` is the depth (from the light's center along `f`) of the nearest
+//!    scene vertex inside the source pyramid, at least 5% of the receivers' nearest depth (the
+//!    paper uses the light's near plane, which in an engine lies in front of the occluders).
+//!    `point_density` (default 2) is the number of points per target texel at that depth: at 1 the
+//!    point lattice snaps onto the target texels with gaps wherever the two grids drift half a
+//!    texel apart, and silhouettes seen more frontally from a sample than from the source get
+//!    fewer points still, so the maps have holes that leak light (measured: +0.01 to +0.02 mean
+//!    visibility against `mvr` on the columns and bunny scenes); at 2 the holes are gone and the
+//!    slight bloat of Figure 6 remains. The scale is capped at 8 (a CPU memory guard;
+//!    `source_resolution` overrides all of this).
+//! 2. **Point generation** (section 3.1). The source view is rasterized with no depth test:
+//!    every front-facing fragment along each ray becomes a point (back faces too when
+//!    `cull_backfaces` is off; perforated meshes alpha-tested), its world position at the texel
+//!    center in f32, or rounded to f16 (`Precision::Float16`). Back-face culling applies to meshes
+//!    flagged `closed` only: the paper's occluders are closed characters, and culling an open,
+//!    one-sided mesh (a quad, a fence, a ground plane) seen from behind would drop it entirely.
+//!    `layered = false` is the naive single-layer warping of Figure 4 (left): only the nearest
+//!    fragment of each source texel.
+//! 3. **Depth-map rendering** (section 3.2, Listing 2). Every point is projected into each target
+//!    view, snapped to the texel that contains it, and written by an atomic minimum on the bit
+//!    pattern of its (positive) linear depth, which orders like the float. One traversal of the
+//!    points writes one map (`Parallel::Serial`), `views_per_pass` maps (`Partial`) or all of them
+//!    (`Full`). `Mode::Unbuffered` streams the source rasterizer's fragments straight into the
+//!    maps without the point buffer (Figure 3), rasterizing the source once per traversal. The
+//!    minimum does not depend on the order of the writes, so the maps (and the result) are the same
+//!    for every mode, pass size and thread count.
+//! 4. **Lighting**: the PCF shadow test on every map and the weighted average, as in `mvr`.
+
+use crate::error::{Error, Result};
+use crate::geometry::mesh::Scene;
+use crate::geometry::receivers::Receivers;
+use crate::light::lights::Light;
+use crate::light::sampling::SampleSet;
+use crate::limits;
+use crate::methods::mvr::{shared_eyes, MultiViewOptions};
+use crate::raster::depth::{
+    casters, rasterize_depth, Caster, DepthMap, FaceFilter, LightFrustum, RasterMode, RasterOptions, Rasterizer,
+    TexelRect, MAX_RESOLUTION, NEAR_FRACTION,
+};
+use crate::raster::multiview::{accumulate, resolve, ViewSet};
+use crate::stats::Stats;
+use glam::Vec3;
+use half::f16;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU32, Ordering};
+
+/// Whether points go through an intermediate buffer (section 3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Mode {
+    /// Rasterize once into a point buffer, then warp the buffer (Figure 2).
+    #[default]
+    Buffered,
+    /// Warp the source rasterizer's fragments directly, once per traversal (Figure 3).
+    Unbuffered,
+}
+
+/// How many depth maps one traversal of the points writes (section 3.2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Parallel {
+    /// One map per traversal.
+    Serial,
+    /// `views_per_pass` maps per traversal.
+    #[default]
+    Partial,
+    /// Every map in one traversal.
+    Full,
+}
+
+/// Storage of the buffered points' world positions (section 3.1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Precision {
+    #[default]
+    Float32,
+    Float16,
+}
+
+/// Options of [`vwss`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VwssOptions {
+    /// Target depth maps and lighting (resolution, PCF taps, bias), as in `mvr`.
+    pub multiview: MultiViewOptions,
+    pub mode: Mode,
+    pub parallel: Parallel,
+    /// Maps per traversal with [`Parallel::Partial`] (default 8, Listing 2).
+    pub views_per_pass: usize,
+    /// Cull the back faces of closed meshes (default true; false keeps back faces too).
+    pub cull_backfaces: bool,
+    /// Keep every fragment along each source ray (true, the method) or only the nearest (false:
+    /// naive single-layer warping, for comparison).
+    pub layered: bool,
+    pub precision: Precision,
+    /// Points per target texel at the nearest occluder's depth (default 2; see the module doc).
+    pub point_density: f32,
+    /// Source-view side in texels; `None` scales the target resolution by eq. 3 and
+    /// `point_density`.
+    pub source_resolution: Option<usize>,
+}
+
+impl Default for VwssOptions {
+    fn default() -> Self {
+        Self {
+            multiview: MultiViewOptions::default(),
+            mode: Mode::Buffered,
+            parallel: Parallel::Partial,
+            views_per_pass: 8,
+            cull_backfaces: true,
+            layered: true,
+            precision: Precision::Float32,
+            point_density: 2.0,
+            source_resolution: None,
+        }
+    }
+}
+
+impl VwssOptions {
+    fn validate(&self) -> Result<()> {
+        if self.views_per_pass == 0 {
+            return Err(Error::invalid("views_per_pass", "must be >= 1"));
+        }
+        if !(self.point_density.is_finite() && self.point_density > 0.0) {
+            return Err(Error::invalid("point_density", format!("must be finite and > 0, got {}", self.point_density)));
+        }
+        if let Some(r) = self.source_resolution {
+            if !(1..=MAX_RESOLUTION).contains(&r) {
+                return Err(Error::invalid("source_resolution", format!("must be in 1..={MAX_RESOLUTION}, got {r}")));
+            }
+        }
+        if self.mode == Mode::Unbuffered && !self.layered {
+            return Err(Error::invalid("layered", "single-layer warping needs the source depth test: use mode='buffered'"));
+        }
+        if self.mode == Mode::Unbuffered && self.precision == Precision::Float16 {
+            return Err(Error::invalid("precision", "unbuffered mode stores no points: float16 applies to mode='buffered'"));
+        }
+        Ok(())
+    }
+
+    /// Maps written per traversal for `views` views.
+    fn maps_per_traversal(&self, views: usize) -> usize {
+        match self.parallel {
+            Parallel::Serial => 1,
+            Parallel::Partial => self.views_per_pass.min(views),
+            Parallel::Full => views,
+        }
+    }
+
+    fn raster_options(&self) -> RasterOptions {
+        let faces = if self.cull_backfaces { FaceFilter::FrontFacingIfClosed } else { FaceFilter::All };
+        RasterOptions { mode: RasterMode::Standard, faces, alpha_test: true }
+    }
+}
+
+/// The largest eq. 3 scale of the source resolution (a memory guard; see the module doc).
+pub const MAX_SOURCE_SCALE: f32 = 8.0;
+/// The nearest occluder depth eq. 3 assumes, as a fraction of the receivers' nearest depth.
+const MIN_OCCLUDER_FRACTION: f32 = 0.05;
+
+/// The source view of section 3.1: the light-sample views' shape with the eye pulled back so its
+/// frustum contains all of them (eq. 1–2) and the resolution of eq. 3 with `opts.point_density`
+/// (or `opts.source_resolution`).
+pub fn source_view(scene: &Scene, light: &Light, views: &ViewSet, opts: &VwssOptions) -> Result<LightFrustum> {
+    let v0 = views.views[0];
+    let center = light.center();
+    let offsets: Vec<Vec3> = views.views.iter().map(|v| v0.to_view(v.eye) - v0.to_view(center)).collect();
+    let tan = v0.tan_half_x;
+    let pull_back = offsets.iter().map(|o| o.x.abs().max(o.y.abs()) / tan - o.z).fold(0.0f32, f32::max);
+    let eye = center - v0.forward * pull_back;
+    let nearest_sample = offsets.iter().map(|o| o.z).fold(f32::INFINITY, f32::min);
+    let farthest_sample = offsets.iter().map(|o| o.z).fold(f32::NEG_INFINITY, f32::max);
+    let near = (pull_back + nearest_sample).max(0.0) + v0.near;
+    let far = v0.far + pull_back + farthest_sample.max(0.0);
+    let resolution = match opts.source_resolution {
+        Some(r) => r,
+        None => {
+            let receivers_near = v0.near / NEAR_FRACTION;
+            let z_n = nearest_occluder(scene, eye, v0.forward, v0.right, v0.up, tan, pull_back)
+                .unwrap_or(receivers_near)
+                .max(MIN_OCCLUDER_FRACTION * receivers_near);
+            let scale = (opts.point_density.sqrt() * (z_n + pull_back) / z_n).min(MAX_SOURCE_SCALE);
+            ((v0.width as f32 * scale).ceil() as usize).min(MAX_RESOLUTION)
+        }
+    };
+    LightFrustum::from_axes(eye, v0.forward, v0.up, tan, tan, near, far.max(near * 2.0), resolution, resolution)
+}
+
+/// The depth beyond the light's center (along `forward`) of the nearest scene vertex inside the
+/// source pyramid and in front of the light, if any: `z_n` of eq. 3.
+fn nearest_occluder(scene: &Scene, eye: Vec3, forward: Vec3, right: Vec3, up: Vec3, tan: f32, pull_back: f32) -> Option<f32> {
+    scene
+        .meshes
+        .par_iter()
+        .flat_map_iter(|m| m.positions.iter())
+        .filter_map(|&p| {
+            let d = p - eye;
+            let z = d.dot(forward);
+            let inside = z > pull_back && d.dot(right).abs() <= tan * z && d.dot(up).abs() <= tan * z;
+            inside.then_some(z - pull_back)
+        })
+        .reduce_with(f32::min)
+}
+
+/// The multi-view point cloud of section 3.1.
+#[derive(Debug, Clone)]
+pub enum Points {
+    Float32(Vec<Vec3>),
+    Float16(Vec<[f16; 3]>),
+}
+
+impl Points {
+    /// The number of points.
+    pub fn len(&self) -> usize {
+        match self {
+            Points::Float32(p) => p.len(),
+            Points::Float16(p) => p.len(),
+        }
+    }
+
+    /// Whether there are no points.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Visits every point's world position, in parallel chunks.
+    fn par_for_each(&self, visit: impl Fn(Vec3) + Sync) {
+        const CHUNK: usize = 4096;
+        match self {
+            Points::Float32(p) => p.par_chunks(CHUNK).for_each(|c| c.iter().for_each(|&q| visit(q))),
+            Points::Float16(p) => p.par_chunks(CHUNK).for_each(|c| {
+                c.iter().for_each(|q| visit(Vec3::new(q[0].to_f32(), q[1].to_f32(), q[2].to_f32())))
+            }),
+        }
+    }
+}
+
+/// Triangles per parallel work item of the source rasterization.
+const CASTER_CHUNK: usize = 256;
+
+/// Rasterizes `source` and returns the points of section 3.1 (see the module documentation).
+///
+/// Errors: `TooLarge` when the points could exceed the memory limit (estimated from the
+/// triangles' texel bounds before rasterizing).
+pub fn generate_points(scene: &Scene, source: &LightFrustum, opts: &VwssOptions) -> Result<Points> {
+    let bytes_per_point = match opts.precision {
+        Precision::Float32 => 12,
+        Precision::Float16 => 6,
+    };
+    let world: Vec<Vec3> = if opts.layered {
+        let raster = Rasterizer::new(source, RasterMode::Standard)?;
+        let casters = casters(scene, &opts.raster_options(), source.eye);
+        let bound: u64 = casters
+            .par_iter()
+            .filter_map(|(_, t, _)| raster.bounds(t))
+            .map(|r| ((r.x1 - r.x0) * (r.y1 - r.y0)) as u64)
+            .sum();
+        limits::check_memory("vwss point buffer", limits::bytes(&[bound, bytes_per_point]))?;
+        let full = TexelRect::full(source.width, source.height);
+        let chunks: Vec<Vec<Vec3>> = casters
+            .par_chunks(CASTER_CHUNK)
+            .map(|chunk| {
+                let mut out = Vec::new();
+                for caster in chunk {
+                    raster.opaque_fragments(scene, caster, full, |f| out.push(source.texel_center(f.x, f.y, f.depth)));
+                }
+                out
+            })
+            .collect();
+        chunks.concat()
+    } else {
+        let map = rasterize_depth(scene, source, &opts.raster_options())?;
+        (0..map.depth.len())
+            .filter(|&i| map.depth[i].is_finite())
+            .map(|i| source.texel_center(i % map.width, i / map.width, map.depth[i]))
+            .collect()
+    };
+    Ok(match opts.precision {
+        Precision::Float32 => Points::Float32(world),
+        Precision::Float16 => Points::Float16(world.iter().map(|p| p.to_array().map(f16::from_f32)).collect()),
+    })
+}
+
+/// Depth maps under construction: one atomic texel array per target view (bit patterns of
+/// positive linear depths, `+inf` where nothing landed).
+struct AtomicMaps<'a> {
+    views: &'a [LightFrustum],
+    texels: Vec<Vec<AtomicU32>>,
+}
+
+impl<'a> AtomicMaps<'a> {
+    fn new(views: &'a [LightFrustum]) -> Result<Self> {
+        let texels_per_map = views.first().map_or(0, |v| v.width * v.height);
+        limits::check_memory("vwss depth maps", limits::bytes(&[views.len() as u64, texels_per_map as u64, 4]))?;
+        let texels = views
+            .iter()
+            .map(|v| (0..v.width * v.height).map(|_| AtomicU32::new(f32::INFINITY.to_bits())).collect())
+            .collect();
+        Ok(Self { views, texels })
+    }
+
+    /// Projects world point `p` into every view, snaps it to the texel containing it and keeps
+    /// the minimum depth there (Listing 2).
+    #[inline]
+    fn splat(&self, p: Vec3) {
+        for (view, texels) in self.views.iter().zip(&self.texels) {
+            if let Some((x, y, depth)) = view.texel_of(p) {
+                texels[y * view.width + x].fetch_min(depth.to_bits(), Ordering::Relaxed);
+            }
+        }
+    }
+
+    fn into_maps(self) -> Vec<DepthMap> {
+        self.views
+            .iter()
+            .zip(self.texels)
+            .map(|(v, t)| DepthMap {
+                width: v.width,
+                height: v.height,
+                depth: t.into_iter().map(|a| f32::from_bits(a.into_inner())).collect(),
+                fragments: 0,
+            })
+            .collect()
+    }
+}
+
+/// Warps every point into each of `views` (one traversal) and returns their depth maps.
+pub fn warp_points(points: &Points, views: &[LightFrustum]) -> Result<Vec<DepthMap>> {
+    let maps = AtomicMaps::new(views)?;
+    points.par_for_each(|p| maps.splat(p));
+    Ok(maps.into_maps())
+}
+
+/// Rasterizes `source` and warps each fragment straight into `views` (unbuffered, Figure 3);
+/// returns the maps and the number of fragments.
+pub fn warp_fragments(
+    scene: &Scene,
+    source: &LightFrustum,
+    opts: &VwssOptions,
+    views: &[LightFrustum],
+) -> Result<(Vec<DepthMap>, usize)> {
+    let raster = Rasterizer::new(source, RasterMode::Standard)?;
+    let casters: Vec<Caster> = casters(scene, &opts.raster_options(), source.eye);
+    let maps = AtomicMaps::new(views)?;
+    let full = TexelRect::full(source.width, source.height);
+    let fragments = casters
+        .par_chunks(CASTER_CHUNK)
+        .map(|chunk| {
+            let mut count = 0;
+            for caster in chunk {
+                raster.opaque_fragments(scene, caster, full, |f| {
+                    count += 1;
+                    maps.splat(source.texel_center(f.x, f.y, f.depth));
+                });
+            }
+            count
+        })
+        .sum();
+    Ok((maps.into_maps(), fragments))
+}
+
+/// Soft-shadow visibility of every receiver by view-warped multi-view soft shadows.
+///
+/// Returns the visibility (receivers' order) and stats as in the paper's Tables 1–2:
+/// `point_generation_seconds` (0 when unbuffered), `depth_maps_seconds`, `lighting_seconds`,
+/// `points` (buffered; the fragments streamed per traversal when unbuffered), `maps_per_traversal`,
+/// `traversals`, `views`, `resolution`, `source_resolution`, `pull_back` (`d` of eq. 1, world
+/// units).
+///
+/// Errors: invalid options; rotated or interleaved samples; a sample inside the receivers'
+/// bounds; `TooLarge` past the memory limit.
+pub fn vwss(scene: &Scene, light: &Light, receivers: &Receivers, samples: &SampleSet, opts: &VwssOptions) -> Result<(Vec<f32>, Stats)> {
+    let kernel = opts.multiview.kernel()?;
+    opts.validate()?;
+    let eyes = shared_eyes(samples)?;
+    let mut stats = Stats::default();
+    for name in ["point_generation_seconds", "depth_maps_seconds", "lighting_seconds", "points", "traversals"] {
+        stats.set(name, 0.0);
+    }
+    let per_pass = opts.maps_per_traversal(eyes.len());
+    stats.set("maps_per_traversal", per_pass as f64);
+    stats.set("views", eyes.len() as f64);
+    stats.set("resolution", opts.multiview.resolution as f64);
+    let Some(bounds) = receivers.bounds() else { return Ok((vec![0.0; receivers.len()], stats)) };
+    let views = ViewSet::fit(light, eyes, bounds, opts.multiview.resolution)?;
+    let source = source_view(scene, light, &views, opts)?;
+    stats.set("source_resolution", source.width as f64);
+    stats.set("pull_back", f64::from((light.center() - source.eye).dot(source.forward)));
+    let points = match opts.mode {
+        Mode::Buffered => Some(stats.time("point_generation", || generate_points(scene, &source, opts))?),
+        Mode::Unbuffered => None,
+    };
+    if let Some(p) = &points {
+        stats.set("points", p.len() as f64);
+    }
+    let mut sums = vec![0.0f32; receivers.len()];
+    for (pass, targets) in views.views.chunks(per_pass).enumerate() {
+        let (maps, streamed) = stats.time_add("depth_maps", || match &points {
+            Some(p) => warp_points(p, targets).map(|maps| (maps, None)),
+            None => warp_fragments(scene, &source, opts, targets).map(|(maps, n)| (maps, Some(n))),
+        })?;
+        if let Some(n) = streamed {
+            stats.set("points", n as f64);
+        }
+        stats.add("traversals", 1.0);
+        let indexed: Vec<(usize, DepthMap)> = maps.into_iter().enumerate().map(|(k, m)| (pass * per_pass + k, m)).collect();
+        stats.time_add("lighting", || accumulate(&mut sums, &views, &indexed, receivers, &kernel, opts.multiview.bias));
+    }
+    Ok((resolve(&sums, &views, receivers), stats))
+}
