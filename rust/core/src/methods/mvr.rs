@@ -14,7 +14,7 @@ use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
 use crate::raster::depth::{rasterize_depth, RasterOptions};
 use crate::raster::multiview::{accumulate, resolve, ViewSet};
-use crate::raster::pcf::PcfKernel;
+use crate::raster::pcf::{DepthBias, PcfKernel, RASTERIZED_SLACK};
 use crate::stats::Stats;
 
 /// Options shared by [`mvr`] and `vwss`'s lighting stage.
@@ -35,20 +35,16 @@ impl Default for MultiViewOptions {
 }
 
 impl MultiViewOptions {
-    /// Checks the options and returns the PCF kernel.
-    pub fn kernel(&self) -> Result<PcfKernel> {
+    /// Checks the options and returns the PCF kernel and the depth bias for maps whose texels
+    /// hold depths with `slack` (see [`crate::raster::pcf`]).
+    pub fn shadow_test(&self, slack: f32) -> Result<(PcfKernel, DepthBias)> {
         if !(1..=crate::raster::depth::MAX_RESOLUTION).contains(&self.resolution) {
             return Err(Error::invalid(
                 "resolution",
                 format!("must be in 1..={}, got {}", crate::raster::depth::MAX_RESOLUTION, self.resolution),
             ));
         }
-        if let Some(b) = self.bias {
-            if !(b.is_finite() && b >= 0.0) {
-                return Err(Error::invalid("bias", format!("must be finite and >= 0 (or None for auto), got {b}")));
-            }
-        }
-        PcfKernel::with_taps(self.pcf)
+        Ok((PcfKernel::with_taps(self.pcf)?, DepthBias::new(self.bias, slack)?))
     }
 }
 
@@ -78,7 +74,7 @@ pub fn mvr(
     samples: &SampleSet,
     opts: &MultiViewOptions,
 ) -> Result<(Vec<f32>, Stats)> {
-    let kernel = opts.kernel()?;
+    let (kernel, bias) = opts.shadow_test(RASTERIZED_SLACK)?;
     let eyes = shared_eyes(samples)?;
     let mut stats = Stats::default();
     for name in ["depth_maps_seconds", "lighting_seconds", "fragments"] {
@@ -92,7 +88,7 @@ pub fn mvr(
     for (s, view) in views.views.iter().enumerate() {
         let map = stats.time_add("depth_maps", || rasterize_depth(scene, view, &RasterOptions::default()))?;
         stats.add("fragments", map.fragments as f64);
-        stats.time_add("lighting", || accumulate(&mut sums, &views, &[(s, map)], receivers, &kernel, opts.bias));
+        stats.time_add("lighting", || accumulate(&mut sums, &views, &[(s, map)], receivers, &kernel, bias));
     }
     Ok((resolve(&sums, &views, receivers), stats))
 }

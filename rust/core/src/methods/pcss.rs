@@ -19,9 +19,8 @@
 //! 3. **Filtering**: `filter_samples` Poisson-disk taps over that region, the fraction lit.
 //!
 //! Both tap patterns are Poisson disks (the platform's pattern in the unit disk, seeded by `seed`)
-//! shared by every receiver, as in Fernando's implementation. Each tap's depth bias is the
-//! slope-scaled bias for its own distance from the receiver's texel (a receiver-plane-aware
-//! bias), unless a constant `bias` is given. A receiver facing away from the light's center gets 0,
+//! shared by every receiver, as in Fernando's implementation. Each tap compares with the depth of
+//! the receiver's tangent plane at that tap ([`ReceiverDepth`]), unless a constant `bias` is given. A receiver facing away from the light's center gets 0,
 //! as in `shadow_map`.
 //!
 //! Its known failures, which seed 004 shows in Figure 10, are reproduced on purpose: thin
@@ -34,7 +33,7 @@ use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
 use crate::light::sampling::{unit_disk_pattern, Pattern};
 use crate::raster::depth::{rasterize_depth, DepthMap, LightFrustum, RasterOptions, MAX_RESOLUTION};
-use crate::raster::pcf::slope_bias;
+use crate::raster::pcf::{DepthBias, ReceiverDepth, RASTERIZED_SLACK};
 use crate::stats::Stats;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -51,7 +50,7 @@ pub struct PcssOptions {
     pub blocker_samples: usize,
     /// Poisson taps of the PCF filter (default 96).
     pub filter_samples: usize,
-    /// Constant depth bias in world units, or `None` for the per-tap slope-scaled bias (default).
+    /// Constant depth bias in world units, or `None` for the receiver plane per tap (default).
     pub bias: Option<f32>,
     /// Near plane of the blocker search (linear depth from the light's center, world units), or
     /// `None` for the nearest depth in the map (default).
@@ -76,11 +75,7 @@ impl PcssOptions {
                 return Err(Error::invalid(arg, format!("must be in 1..={MAX_TAPS}, got {n}")));
             }
         }
-        if let Some(b) = self.bias {
-            if !(b.is_finite() && b >= 0.0) {
-                return Err(Error::invalid("bias", format!("must be finite and >= 0 (or None for auto), got {b}")));
-            }
-        }
+        DepthBias::new(self.bias, RASTERIZED_SLACK)?;
         if let Some(z) = self.near {
             if !(z.is_finite() && z > 0.0) {
                 return Err(Error::invalid("near", format!("must be finite and > 0 (or None), got {z}")));
@@ -99,7 +94,7 @@ struct Lookup<'a> {
     near: f32,
     blocker_taps: Vec<Vec2>,
     filter_taps: Vec<Vec2>,
-    bias: Option<f32>,
+    bias: DepthBias,
 }
 
 /// The outcome of one receiver's lookup.
@@ -116,13 +111,14 @@ impl Lookup<'_> {
         (self.light_texels * ((z_r - z) / (z_r * z))).min(limit)
     }
 
-    /// Visits the depth and the receiver's biased depth at every tap of `taps` scaled by `region`.
-    fn taps<'t>(&'t self, taps: &'t [Vec2], region: Vec2, s: Vec3, p: Vec3, n: Vec3) -> impl Iterator<Item = (f32, f32)> + 't {
+    /// Visits the stored depth and the receiver depth to compare it with at every tap of `taps`
+    /// scaled by `region` around the receiver.
+    fn taps<'t>(&'t self, taps: &'t [Vec2], region: Vec2, receiver: &'t ReceiverDepth) -> impl Iterator<Item = (f32, f32)> + 't {
+        let s = receiver.texel_coords();
         taps.iter().map(move |q| {
-            let o = *q * region;
-            let stored = self.map.get((s.x + o.x).floor() as i64, (s.y + o.y).floor() as i64);
-            let bias = self.bias.unwrap_or_else(|| slope_bias(self.frustum, p, n, s.z, o.abs().max_element()));
-            (stored, s.z - bias)
+            let t = s + *q * region;
+            let (x, y) = (t.x.floor() as i64, t.y.floor() as i64);
+            (self.map.get(x, y), receiver.at(x, y))
         })
     }
 
@@ -134,9 +130,10 @@ impl Lookup<'_> {
         if !(s.x >= 0.0 && s.y >= 0.0 && s.x < self.map.width as f32 && s.y < self.map.height as f32) || s.z <= self.near {
             return Outcome::NoBlocker;
         }
+        let receiver = ReceiverDepth::new(self.frustum, p, n, s, self.bias);
         let search = self.light_region(s.z, self.near);
         let (sum, count) = self
-            .taps(&self.blocker_taps, search, s, p, n)
+            .taps(&self.blocker_taps, search, &receiver)
             .filter(|(stored, depth)| stored < depth)
             .fold((0.0f64, 0u32), |(sum, count), (stored, _)| (sum + f64::from(stored), count + 1));
         if count == 0 {
@@ -144,7 +141,7 @@ impl Lookup<'_> {
         }
         let z_avg = ((sum / f64::from(count)) as f32).max(self.near);
         let filter = self.light_region(s.z, z_avg);
-        let lit = self.taps(&self.filter_taps, filter, s, p, n).filter(|(stored, depth)| depth <= stored).count();
+        let lit = self.taps(&self.filter_taps, filter, &receiver).filter(|(stored, depth)| depth <= stored).count();
         Outcome::Filtered(lit as f32 / self.filter_taps.len() as f32)
     }
 }
@@ -180,7 +177,7 @@ pub fn pcss(scene: &Scene, light: &Light, receivers: &Receivers, opts: &PcssOpti
         near,
         blocker_taps: unit_disk_pattern(Pattern::Poisson, opts.blocker_samples, opts.seed),
         filter_taps: unit_disk_pattern(Pattern::Poisson, opts.filter_samples, opts.seed ^ 0x5EED_F117),
-        bias: opts.bias,
+        bias: DepthBias::new(opts.bias, RASTERIZED_SLACK)?,
     };
     let outcomes: Vec<Option<Outcome>> = stats.time("lighting", || {
         (0..receivers.len())

@@ -17,14 +17,15 @@
 //!   map hold `+inf` and count as lit).
 //!
 //! **Bias.** `bias = Some(b)` subtracts a constant `b` world units of linear depth. `None` (the
-//! default) uses [`slope_bias`] for the PCF radius `(pcf − 1)/2`, which removes self-shadowing
-//! acne on flat and curved receivers for every PCF size.
+//! default) compares each tap with the receiver's tangent plane
+//! ([`ReceiverDepth`](crate::raster::pcf::ReceiverDepth)), which removes
+//! self-shadowing acne on flat and curved receivers for every PCF size.
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
 use crate::raster::depth::{rasterize_depth, DepthMap, LightFrustum, RasterOptions};
-use crate::raster::pcf::PcfKernel;
+use crate::raster::pcf::{DepthBias, PcfKernel, RASTERIZED_SLACK};
 use crate::stats::Stats;
 use rayon::prelude::*;
 
@@ -33,7 +34,7 @@ use rayon::prelude::*;
 pub struct ShadowMapOptions {
     /// Map side in texels when the frustum is fitted (default 1024); ignored with `frustum`.
     pub resolution: usize,
-    /// Constant depth bias in world units (>= 0), or `None` for [`slope_bias`](crate::raster::pcf::slope_bias) (default).
+    /// Constant depth bias in world units (>= 0), or `None` for the receiver's tangent plane per tap (default).
     pub bias: Option<f32>,
     /// PCF taps per side, odd: 1 = a single tap (pure hard shadow, default), 3 = 3 × 3, 5 = 5 × 5.
     pub pcf: usize,
@@ -56,11 +57,7 @@ impl ShadowMapOptions {
                 format!("must be in 1..={}, got {}", crate::raster::depth::MAX_RESOLUTION, self.resolution),
             ));
         }
-        if let Some(b) = self.bias {
-            if !(b.is_finite() && b >= 0.0) {
-                return Err(Error::invalid("bias", format!("must be finite and >= 0 (or None for auto), got {b}")));
-            }
-        }
+        DepthBias::new(self.bias, RASTERIZED_SLACK)?;
         PcfKernel::square(self.pcf)?;
         match &self.frustum {
             Some(f) => f.validate(),
@@ -100,8 +97,9 @@ pub fn shadow_map(scene: &Scene, light: &Light, receivers: &Receivers, opts: &Sh
 
 fn lookup_all(map: &DepthMap, frustum: &LightFrustum, rx: &Receivers, opts: &ShadowMapOptions) -> Result<Vec<f32>> {
     let kernel = PcfKernel::square(opts.pcf)?;
+    let bias = DepthBias::new(opts.bias, RASTERIZED_SLACK)?;
     Ok((0..rx.len())
         .into_par_iter()
-        .map(|i| if rx.valid[i] { kernel.visibility(map, frustum, rx.points[i], rx.normals[i], opts.bias) } else { 0.0 })
+        .map(|i| if rx.valid[i] { kernel.visibility(map, frustum, rx.points[i], rx.normals[i], bias) } else { 0.0 })
         .collect())
 }

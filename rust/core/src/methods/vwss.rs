@@ -41,7 +41,9 @@
 //!    maps without the point buffer (Figure 3), rasterizing the source once per traversal. The
 //!    minimum does not depend on the order of the writes, so the maps (and the result) are the same
 //!    for every mode, pass size and thread count.
-//! 4. **Lighting**: the PCF shadow test on every map and the weighted average, as in `mvr`.
+//! 4. **Lighting**: the PCF shadow test on every map and the weighted average, as in `mvr`, with
+//!    the receiver-plane slack of warped maps ([`WARPED_SLACK`]): a texel keeps the nearest point
+//!    anywhere inside it rather than the surface's depth at its center.
 
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
@@ -55,6 +57,7 @@ use crate::raster::depth::{
     TexelRect, MAX_RESOLUTION, NEAR_FRACTION,
 };
 use crate::raster::multiview::{accumulate, resolve, ViewSet};
+use crate::raster::pcf::WARPED_SLACK;
 use crate::stats::Stats;
 use glam::Vec3;
 use half::f16;
@@ -383,7 +386,7 @@ pub fn warp_fragments(
 /// Errors: invalid options; rotated or interleaved samples; a sample inside the receivers'
 /// bounds; `TooLarge` past the memory limit.
 pub fn vwss(scene: &Scene, light: &Light, receivers: &Receivers, samples: &SampleSet, opts: &VwssOptions) -> Result<(Vec<f32>, Stats)> {
-    let kernel = opts.multiview.kernel()?;
+    let (kernel, bias) = opts.multiview.shadow_test(WARPED_SLACK)?;
     opts.validate()?;
     let eyes = shared_eyes(samples)?;
     let mut stats = Stats::default();
@@ -417,7 +420,7 @@ pub fn vwss(scene: &Scene, light: &Light, receivers: &Receivers, samples: &Sampl
         }
         stats.add("traversals", 1.0);
         let indexed: Vec<(usize, DepthMap)> = maps.into_iter().enumerate().map(|(k, m)| (pass * per_pass + k, m)).collect();
-        stats.time_add("lighting", || accumulate(&mut sums, &views, &indexed, receivers, &kernel, opts.multiview.bias));
+        stats.time_add("lighting", || accumulate(&mut sums, &views, &indexed, receivers, &kernel, bias));
     }
     Ok((resolve(&sums, &views, receivers), stats))
 }

@@ -17,7 +17,7 @@ use crate::error::{Error, Result};
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
 use crate::raster::depth::{DepthMap, LightFrustum, FOV_MARGIN, MAX_FIT_TAN, NEAR_FRACTION};
-use crate::raster::pcf::PcfKernel;
+use crate::raster::pcf::{DepthBias, PcfKernel};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -97,7 +97,7 @@ pub fn accumulate(
     maps: &[(usize, DepthMap)],
     rx: &Receivers,
     kernel: &PcfKernel,
-    bias: Option<f32>,
+    bias: DepthBias,
 ) {
     sums.par_iter_mut().enumerate().for_each(|(i, sum)| {
         if rx.valid[i] {

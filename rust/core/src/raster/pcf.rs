@@ -1,43 +1,115 @@
 //! Percentage-closer filtering (Reeves et al. 1987) and the slope-scaled depth bias: the shadow
 //! test every depth-map method shares (`shadow_map`, `mvr`, `vwss`, `pcss`).
 //!
-//! A tap compares the receiver's linear depth, less the bias, with the depth stored in one texel
-//! and counts as lit when `receiver_depth − bias <= stored` (texels outside the map hold `+inf`,
-//! so they count as lit).
+//! A tap compares a receiver depth with the depth stored in one texel and counts as lit when
+//! `receiver_depth <= stored` (texels outside the map hold `+inf`, so they count as lit).
 //!
-//! **Slope-scaled bias.** Maps store linear depth (along the frustum's `forward`), so on the
-//! receiver's tangent plane the stored depth changes across texels by the plane's screen-space
-//! depth gradient: with `v` the receiver's view-space position (depth `z = v.z`) and `n_v` its
-//! view-space normal, `|∂z/∂sx| = z² |n_v.x| / (k_x |n_v · v|)` (and likewise for `sy`), with
-//! `k_x = width / (2 tan_half_x)` texels per unit of `x/z`. A tap `r` texels from the receiver's
-//! own texel can then hold the receiver's own surface at a depth up to
-//! `(r + 0.5) (|∂z/∂sx| + |∂z/∂sy|)` nearer, so [`slope_bias`] is
-//! `1.5 · (r + 1) · min(|∂z/∂sx| + |∂z/∂sy|, 20 · texel_world_size(z)) + 1e-4 · z`; the factor 1.5
-//! covers curved receivers and the relative term float round-off of the receiver positions. On
-//! the frustum's axis this is the textbook `texel · tan θ`; off axis, where the direction to the
-//! eye and `forward` differ, the gradient is not small even for a receiver that faces the eye.
-//! Like every bias it lets light leak over that distance at contact points ("peter panning").
+//! **Receiver depth per tap.** With a constant `bias`, every tap uses the receiver's linear depth
+//! less `bias`. By default ([`ReceiverDepth`]) each tap uses the depth of the receiver's tangent
+//! plane at the tap's texel center (receiver plane depth bias; Schüler 2005, Isidoro 2006), so a
+//! planar receiver never shadows itself however far the tap or however steep the plane, and the
+//! bias left over is a small slack for curvature. Maps store linear depth (along the frustum's
+//! `forward`), and on a plane `1/z` is an affine function of the texel coordinates: with `v` the
+//! receiver's view-space position, `n_v` its view-space normal and `k = width / (2 tan_half_x)`
+//! texels per unit of `x/z`, `∂(1/z)/∂sx = n_v.x / (k_x (n_v · v))` and
+//! `∂(1/z)/∂sy = −n_v.y / (k_y (n_v · v))`. The slack is [`RASTERIZED_SLACK`] (or, for maps of
+//! warped points, [`WARPED_SLACK`]) texels of the plane's depth gradient
+//! `g = z² (|∂(1/z)/∂sx| + |∂(1/z)/∂sy|)`, capped at 10 texels of world size, plus
+//! `1e-4 · z` for the round-off of the receiver positions; the predicted depth is kept within
+//! `20 · (r + 1)` texels of world size of the receiver's own depth (`r` the tap's distance in
+//! texels), where a plane seen nearly edge-on stops being a useful prediction. The plane lets
+//! light leak only where an occluder lies within the slack of the receiver's plane; a single
+//! worst-case slope bias for the whole kernel (`(r + 1)` texels of gradient) leaked far more on
+//! curved, self-shadowing receivers (the bunny's ears and flanks).
 
 use crate::error::{Error, Result};
 use crate::raster::depth::{DepthMap, LightFrustum};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 /// The largest square PCF kernel side accepted.
 pub const MAX_PCF_SIDE: usize = 63;
 
-/// The slope-scaled depth bias (world units of linear depth) for a receiver at `p` with unit
-/// normal `n` at linear depth `depth` in `frustum`, read by taps up to `radius` texels from its
-/// own texel (see the module documentation).
-pub fn slope_bias(frustum: &LightFrustum, p: Vec3, n: Vec3, depth: f32, radius: f32) -> f32 {
-    let v = frustum.to_view(p);
-    let n_v = Vec3::new(n.dot(frustum.right), n.dot(frustum.up), n.dot(frustum.forward));
-    let texel = frustum.texel_world_size(depth);
-    let per_x = 2.0 * frustum.tan_half_x / frustum.width as f32;
-    let per_y = 2.0 * frustum.tan_half_y / frustum.height as f32;
-    let rise = depth * depth * (n_v.x.abs() * per_x + n_v.y.abs() * per_y);
-    let facing = n_v.dot(v).abs();
-    let gradient = if rise < 20.0 * texel * facing { rise / facing } else { 20.0 * texel };
-    1.5 * (radius + 1.0) * gradient + 1e-4 * depth
+/// Slack of the receiver plane for maps rasterized at texel centers, in texels of the plane's
+/// depth gradient: a stored depth is the plane's own depth at the texel center.
+pub const RASTERIZED_SLACK: f32 = 0.5;
+/// Slack for maps of warped points (`vwss`): a texel keeps the nearest point anywhere inside it,
+/// up to half a texel of gradient nearer than its center, so the slack doubles.
+pub const WARPED_SLACK: f32 = 1.0;
+
+/// How shadow tests offset the receiver's depth.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum DepthBias {
+    /// A constant offset in world units of linear depth.
+    Constant(f32),
+    /// The receiver's tangent plane per tap, less `slack` texels of its depth gradient.
+    ReceiverPlane { slack: f32 },
+}
+
+impl DepthBias {
+    /// `Some(b)`: a constant bias `b >= 0`; `None`: the receiver plane with `slack`.
+    pub fn new(bias: Option<f32>, slack: f32) -> Result<Self> {
+        match bias {
+            None => Ok(DepthBias::ReceiverPlane { slack }),
+            Some(b) if b.is_finite() && b >= 0.0 => Ok(DepthBias::Constant(b)),
+            Some(b) => Err(Error::invalid("bias", format!("must be finite and >= 0 (or None for auto), got {b}"))),
+        }
+    }
+}
+
+/// The receiver depth each tap of a shadow test compares with (see the module documentation).
+#[derive(Debug, Clone, Copy)]
+pub struct ReceiverDepth {
+    /// Texel coordinates and linear depth of the receiver.
+    s: Vec3,
+    /// `∂(1/z)/∂sx`, `∂(1/z)/∂sy` of the receiver's tangent plane (0 with a constant bias).
+    grad: Vec2,
+    /// Subtracted from every predicted depth.
+    slack: f32,
+    /// The largest distance of a prediction from `s.z`, per texel of tap distance plus one.
+    reach: f32,
+}
+
+impl ReceiverDepth {
+    /// The receiver at `p` (unit normal `n`) whose projection into `frustum` is `s = (sx, sy, z)`.
+    pub fn new(frustum: &LightFrustum, p: Vec3, n: Vec3, s: Vec3, bias: DepthBias) -> Self {
+        let slack_texels = match bias {
+            DepthBias::Constant(b) => return Self { s, grad: Vec2::ZERO, slack: b, reach: 0.0 },
+            DepthBias::ReceiverPlane { slack } => slack,
+        };
+        let v = frustum.to_view(p);
+        let n_v = Vec3::new(n.dot(frustum.right), n.dot(frustum.up), n.dot(frustum.forward));
+        let facing = n_v.dot(v);
+        let k = Vec2::new(
+            frustum.width as f32 / (2.0 * frustum.tan_half_x),
+            frustum.height as f32 / (2.0 * frustum.tan_half_y),
+        );
+        let grad = if facing != 0.0 { Vec2::new(n_v.x / k.x, -n_v.y / k.y) / facing } else { Vec2::ZERO };
+        let texel = frustum.texel_world_size(s.z);
+        let gradient = s.z * s.z * (grad.x.abs() + grad.y.abs());
+        let slack = slack_texels * gradient.min(10.0 * texel) + 1e-4 * s.z;
+        let grad = if grad.is_finite() { grad } else { Vec2::ZERO };
+        Self { s, grad, slack, reach: 20.0 * texel }
+    }
+
+    /// The receiver's linear depth.
+    pub fn depth(&self) -> f32 {
+        self.s.z
+    }
+
+    /// The receiver's texel coordinates.
+    pub fn texel_coords(&self) -> Vec2 {
+        Vec2::new(self.s.x, self.s.y)
+    }
+
+    /// The depth to compare with the depth stored in texel `(x, y)`.
+    #[inline]
+    pub fn at(&self, x: i64, y: i64) -> f32 {
+        let (dx, dy) = (x as f32 + 0.5 - self.s.x, y as f32 + 0.5 - self.s.y);
+        let inv = 1.0 / self.s.z + self.grad.x * dx + self.grad.y * dy;
+        let limit = self.reach * (dx.abs().max(dy.abs()) + 1.0);
+        let plane = if inv > 0.0 { (1.0 / inv).clamp(self.s.z - limit, self.s.z + limit) } else { self.s.z + limit };
+        plane - self.slack
+    }
 }
 
 /// A PCF kernel: texel offsets around the texel that contains the receiver's projection.
@@ -85,21 +157,25 @@ impl PcfKernel {
         self.radius
     }
 
-    /// The fraction of taps around the texel containing `(sx, sy)` whose stored depth is
-    /// `>= depth` (`depth`: the receiver's linear depth with the bias already subtracted).
+    /// The fraction of taps around the receiver's texel whose stored depth is at least the
+    /// receiver depth for that tap.
     #[inline]
-    pub fn lit_fraction(&self, map: &DepthMap, sx: f32, sy: f32, depth: f32) -> f32 {
-        let (cx, cy) = (sx.floor() as i64, sy.floor() as i64);
-        let lit = self.offsets.iter().filter(|(dx, dy)| depth <= map.get(cx + dx, cy + dy)).count();
+    pub fn lit_fraction(&self, map: &DepthMap, receiver: &ReceiverDepth) -> f32 {
+        let s = receiver.texel_coords();
+        let (cx, cy) = (s.x.floor() as i64, s.y.floor() as i64);
+        let lit = self
+            .offsets
+            .iter()
+            .filter(|(dx, dy)| receiver.at(cx + dx, cy + dy) <= map.get(cx + dx, cy + dy))
+            .count();
         lit as f32 / self.offsets.len() as f32
     }
 
     /// Hard-shadow visibility of a receiver at `p` (unit normal `n`) through `map` rendered from
     /// `frustum`: 0 when the receiver faces away from the eye (`n · (eye − p) <= 0`, as in the
     /// ray-traced definition), 1 when it lies nearer than the near plane or projects outside the
-    /// map (the map says nothing about it), else the lit fraction with `bias` (`None`:
-    /// [`slope_bias`] for this kernel's radius).
-    pub fn visibility(&self, map: &DepthMap, frustum: &LightFrustum, p: Vec3, n: Vec3, bias: Option<f32>) -> f32 {
+    /// map (the map says nothing about it), else the lit fraction with `bias`.
+    pub fn visibility(&self, map: &DepthMap, frustum: &LightFrustum, p: Vec3, n: Vec3, bias: DepthBias) -> f32 {
         if n.dot(frustum.eye - p) <= 0.0 {
             return 0.0;
         }
@@ -107,8 +183,7 @@ impl PcfKernel {
         if !(s.x >= 0.0 && s.y >= 0.0 && s.x < map.width as f32 && s.y < map.height as f32) {
             return 1.0;
         }
-        let bias = bias.unwrap_or_else(|| slope_bias(frustum, p, n, s.z, self.radius as f32));
-        self.lit_fraction(map, s.x, s.y, s.z - bias)
+        self.lit_fraction(map, &ReceiverDepth::new(frustum, p, n, s, bias))
     }
 }
 
@@ -131,7 +206,9 @@ mod tests {
         let mut map = DepthMap::empty(3, 3).unwrap();
         map.depth[1] = 0.5; // the texel above the center
         let k = PcfKernel::with_taps(5).unwrap();
-        assert_eq!(k.lit_fraction(&map, 1.5, 1.5, 1.0), 0.8);
-        assert_eq!(k.lit_fraction(&map, 1.5, 1.5, 0.25), 1.0);
+        let frustum = LightFrustum::new(Vec3::ZERO, Vec3::Z, Vec3::Y, 90.0, 1.0, 0.1, 10.0, 3, 3).unwrap();
+        let at = |depth: f32| ReceiverDepth::new(&frustum, Vec3::ZERO, Vec3::Z, Vec3::new(1.5, 1.5, depth), DepthBias::Constant(0.0));
+        assert_eq!(k.lit_fraction(&map, &at(1.0)), 0.8);
+        assert_eq!(k.lit_fraction(&map, &at(0.25)), 1.0);
     }
 }
