@@ -83,3 +83,15 @@ def test_bad_options_name_the_argument(columns, options, match):
     setup, gb = columns
     with pytest.raises(ValueError, match=match):
         ss.mvr(setup.scene, setup.light, gb, **options)
+
+
+def test_casters_leave_meshes_out_of_the_depth_maps(columns):
+    setup, gb = columns
+    everything = ss.mvr(setup.scene, setup.light, gb, views=4, resolution=256)
+    occluders = ss.mvr(setup.scene, setup.light, gb, views=4, resolution=256, casters=["columns"])
+    ground_only = ss.mvr(setup.scene, setup.light, gb, views=4, resolution=256, casters=[0])
+    assert np.mean((everything != occluders)[gb.mask]) < 0.01  # the ground shadows nothing here
+    assert np.all(ground_only[gb.mask & (everything < 1)] >= everything[gb.mask & (everything < 1)])
+    assert np.mean(ground_only[gb.mask] == 1) > np.mean(everything[gb.mask] == 1) + 0.05
+    with pytest.raises(ValueError, match="casters.*no mesh named 'roof'"):
+        ss.mvr(setup.scene, setup.light, gb, casters=["roof"])

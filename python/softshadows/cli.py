@@ -13,15 +13,20 @@ from pathlib import Path
 
 
 
+#: The keyword through which each sample-based method takes the shared light samples; the other
+#: methods do not sample the light.
+SAMPLE_KEYWORDS = {"ray_traced": "samples", "mvr": "views", "vwss": "views"}
+
+
 def _run_methods(setup, gb, samples, progress):
-    """Each method's visibility and seconds on the shared light samples (image methods ignore them)."""
+    """Each method's visibility and seconds on the shared light samples."""
     from .methods import METHODS
 
     results, seconds = {}, {}
     for name, method in METHODS.items():
         progress.set_description(name)
         start = time.perf_counter()
-        kwargs = {"samples": samples} if name == "ray_traced" else {}
+        kwargs = {SAMPLE_KEYWORDS[name]: samples} if name in SAMPLE_KEYWORDS else {}
         results[name] = method(setup.scene, setup.light, gb, **kwargs)
         seconds[name] = time.perf_counter() - start
         progress.update()

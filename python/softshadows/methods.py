@@ -61,6 +61,22 @@ def _check(scene, light) -> None:
     v.instance("light", light, _Light, "a PointLight, RectLight, DiskLight or SphereLight")
 
 
+def _casting(scene, casters):
+    """The scene whose meshes the depth maps are rendered from: all, or ``casters``."""
+    if casters is None:
+        return scene
+    try:
+        return scene.subset(casters)
+    except ValueError as err:
+        raise ValueError(f"casters: {err}") from None
+
+
+_CASTERS_PARAMETER = """casters : sequence of int or str, optional
+        The meshes (indices or names) rendered into the depth maps; default every mesh. Leaving
+        out meshes that shadow nothing (a ground plane) saves work, as seed 004 renders only the
+        occluders within the light's influence (section 3.1)."""
+
+
 def _finish(receivers, out, return_stats):
     vis, stats = out
     vis = vis.reshape(receivers.shape)
@@ -130,6 +146,7 @@ def shadow_map(
     resolution: int = 1024,
     bias: float | None = None,
     pcf: int = 1,
+    casters=None,
     return_stats: bool = False,
 ):
     """Hard shadows from one shadow map rendered at the light's center: the aliasing baseline.
@@ -146,10 +163,11 @@ def shadow_map(
     resolution : int
         Shadow-map width and height in texels.
     bias : float, optional
-        Constant depth bias in world units. Default: slope-scaled from the receiver plane's depth
-        gradient in the map and the PCF radius (``rust/core/src/raster/pcf.rs``).
+        Constant depth bias in world units. Default: every tap compares with the receiver's
+        tangent plane, less half a texel of its depth gradient (``rust/core/src/raster/pcf.rs``).
     pcf : int
         Percentage-closer filtering taps per side, odd, at most 63 (1 = a single tap, 3 = 3x3, ...).
+    {casters}
     return_stats : bool
 
     Returns
@@ -161,7 +179,7 @@ def shadow_map(
     resolution = v.positive_int("resolution", resolution)
     pcf = v.positive_int("pcf", pcf)
     bias = None if bias is None else v.positive("bias", bias, allow_zero=True)
-    out = _core.shadow_map(scene.native(), light.native(), _native_receivers(receivers), resolution, bias, pcf)
+    out = _core.shadow_map(_casting(scene, casters).native(), light.native(), _native_receivers(receivers), resolution, bias, pcf)
     return _finish(receivers, out, return_stats)
 
 
@@ -194,8 +212,8 @@ _MULTIVIEW_PARAMETERS = """views : int or array_like, shape (S, 3)
         PCF taps per depth map: 5 (the paper's: the texel and its four neighbours), 1, or an odd
         square such as 9 (3x3) or 25 (5x5).
     bias : float, optional
-        Constant depth bias in world units. Default: slope-scaled per receiver and map
-        (``rust/core/src/raster/pcf.rs``).
+        Constant depth bias in world units. Default: every tap compares with the receiver's
+        tangent plane (``rust/core/src/raster/pcf.rs``).
     pattern : {"poisson", "uniform", "stratified", "sobol", "halton"}
         Pattern of ``views=n`` samples.
     seed : int
@@ -215,6 +233,7 @@ def mvr(
     pattern: str = "poisson",
     seed: int = 0,
     frame: int = 0,
+    casters=None,
     return_stats: bool = False,
 ):
     """Multi-view rasterization: one rasterized depth map per light sample (seed 004's reference).
@@ -230,8 +249,9 @@ def mvr(
     light : RectLight, DiskLight, SphereLight or PointLight
     receivers : GBuffer or Receivers
     {params}
+    {casters}
     return_stats : bool
-        Also return ``{{"depth_maps_seconds", "lighting_seconds", "views", "fragments", ...}}``.
+        Also return ``{"depth_maps_seconds", "lighting_seconds", "views", "fragments", ...}``.
 
     Returns
     -------
@@ -241,7 +261,7 @@ def mvr(
     receivers = as_receivers(receivers)
     samples = _view_samples(light, views, pattern=pattern, seed=seed, frame=frame)
     out = _core.mvr(
-        scene.native(), light.native(), _native_receivers(receivers), samples, *_multiview_options(resolution, pcf, bias)
+        _casting(scene, casters).native(), light.native(), _native_receivers(receivers), samples, *_multiview_options(resolution, pcf, bias)
     )
     return _finish(receivers, out, return_stats)
 
@@ -266,6 +286,7 @@ def vwss(
     pattern: str = "poisson",
     seed: int = 0,
     frame: int = 0,
+    casters=None,
     return_stats: bool = False,
 ):
     """View-warped soft shadows (Marrs, Watson and Healey 2018): ``mvr``'s depth maps made by
@@ -283,10 +304,10 @@ def vwss(
     light : RectLight, DiskLight, SphereLight or PointLight
     receivers : GBuffer or Receivers
     {params}
-    mode : {{"buffered", "unbuffered"}}
+    mode : {"buffered", "unbuffered"}
         Store the points in a buffer and warp it (the paper's faster variant), or stream the
         rasterizer's fragments straight into the depth maps, rasterizing once per traversal.
-    parallel : {{"serial", "partial", "full"}}
+    parallel : {"serial", "partial", "full"}
         Depth maps written per traversal of the points: one, ``views_per_pass``, or all.
     views_per_pass : int
         Maps per traversal with ``parallel="partial"`` (Listing 2: 8).
@@ -297,7 +318,7 @@ def vwss(
     layered : bool
         Keep every fragment along each source ray (the method). False keeps only the nearest
         one: naive single-layer warping, which leaks light at disocclusions (Figure 4).
-    precision : {{"float32", "float16"}}
+    precision : {"float32", "float16"}
         Storage of the buffered points' world positions.
     point_density : float
         Points per target texel at the nearest occluder's depth ``z_n``: the source view's side is
@@ -306,6 +327,7 @@ def vwss(
         ``rust/core/src/methods/vwss.rs``).
     source_resolution : int, optional
         Side of the source view in texels, overriding ``point_density``.
+    {casters}
     return_stats : bool
         Also return the columns of the paper's Tables 1-2: ``point_generation_seconds``,
         ``depth_maps_seconds``, ``lighting_seconds``, ``points``, ``maps_per_traversal``,
@@ -320,7 +342,7 @@ def vwss(
     samples = _view_samples(light, views, pattern=pattern, seed=seed, frame=frame)
     source = None if source_resolution is None else v.positive_int("source_resolution", source_resolution)
     out = _core.vwss(
-        scene.native(),
+        _casting(scene, casters).native(),
         light.native(),
         _native_receivers(receivers),
         samples,
@@ -348,6 +370,7 @@ def pcss(
     bias: float | None = None,
     near: float | None = None,
     seed: int = 0,
+    casters=None,
     return_stats: bool = False,
 ):
     """Percentage-closer soft shadows (Fernando 2005) from one depth map at the light's center.
@@ -367,12 +390,14 @@ def pcss(
     resolution : int
         Depth-map side in texels.
     bias : float, optional
-        Constant depth bias in world units. Default: slope-scaled for each tap's distance.
+        Constant depth bias in world units. Default: every tap compares with the receiver's
+        tangent plane.
     near : float, optional
         Near plane of the blocker search (linear depth from the light's center, world units);
         default the nearest depth in the map.
     seed : int
         Seed of the two tap patterns.
+    {casters}
     return_stats : bool
         Also return ``{"depth_map_seconds", "lighting_seconds", "search_near", "no_blocker", ...}``.
 
@@ -383,7 +408,7 @@ def pcss(
     _check(scene, light)
     receivers = as_receivers(receivers)
     out = _core.pcss(
-        scene.native(),
+        _casting(scene, casters).native(),
         light.native(),
         _native_receivers(receivers),
         v.positive_int("resolution", resolution),
@@ -396,8 +421,8 @@ def pcss(
     return _finish(receivers, out, return_stats)
 
 
-mvr.__doc__ = mvr.__doc__.format(params=_MULTIVIEW_PARAMETERS)
-vwss.__doc__ = vwss.__doc__.format(params=_MULTIVIEW_PARAMETERS)
+for _method in (shadow_map, pcss, mvr, vwss):
+    _method.__doc__ = _method.__doc__.replace("{params}", _MULTIVIEW_PARAMETERS).replace("{casters}", _CASTERS_PARAMETER)
 
 #: Every method by name, for the CLI and the evaluation suite.
 METHODS = {"ray_traced": ray_traced, "shadow_map": shadow_map, "pcss": pcss, "mvr": mvr, "vwss": vwss}

@@ -115,6 +115,27 @@ class Scene:
             )
         return cls(meshes)
 
+    def subset(self, meshes) -> "Scene":
+        """A scene of some of these meshes (the same Mesh objects), e.g. the shadow casters.
+
+        Parameters
+        ----------
+        meshes : sequence of int or str
+            Mesh indices or mesh names, in any order; the scene keeps this scene's order.
+        """
+        picked = set()
+        names = [m.name for m in self.meshes]
+        for key in meshes:
+            if isinstance(key, str):
+                if key not in names:
+                    raise ValueError(f"meshes: no mesh named {key!r}; the scene has {names}")
+                picked.add(names.index(key))
+            elif isinstance(key, (int, np.integer)) and not isinstance(key, bool) and 0 <= key < len(self.meshes):
+                picked.add(int(key))
+            else:
+                raise ValueError(f"meshes: expected mesh names or indices in [0, {len(self.meshes)}), got {key!r}")
+        return Scene([m for i, m in enumerate(self.meshes) if i in picked])
+
     @property
     def bounds(self) -> np.ndarray:
         """Axis-aligned bounds of the referenced vertices, shape (2, 3): min and max."""

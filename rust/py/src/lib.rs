@@ -12,6 +12,7 @@ use error::OrRaise;
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use softshadows_core::geometry::bvh::Bvh;
+use std::sync::OnceLock;
 use softshadows_core::geometry::camera::Camera;
 use softshadows_core::geometry::gbuffer::gbuffer;
 use softshadows_core::geometry::mesh::{AlphaTexture, Mesh, Scene};
@@ -23,7 +24,19 @@ use softshadows_core::light::sampling::{light_samples, Pattern, SampleSet};
 #[pyclass(frozen, module = "softshadows._core")]
 pub struct NativeScene {
     pub scene: Scene,
-    pub bvh: Bvh,
+    /// Built on first use: image-based methods never trace rays.
+    bvh: OnceLock<Bvh>,
+}
+
+impl NativeScene {
+    /// The scene's BVH, built (with the GIL released) the first time it is needed.
+    pub fn bvh(&self, py: Python<'_>) -> PyResult<&Bvh> {
+        if let Some(bvh) = self.bvh.get() {
+            return Ok(bvh);
+        }
+        let built = py.detach(|| Bvh::build(&self.scene)).or_raise()?;
+        Ok(self.bvh.get_or_init(|| built))
+    }
 }
 
 type MeshArgs<'py> = (
@@ -51,11 +64,10 @@ fn mesh(args: MeshArgs<'_>) -> PyResult<Mesh> {
 impl NativeScene {
     /// `meshes`: a list of `(vertices, faces, uvs, alpha, closed)`.
     #[new]
-    fn new(py: Python<'_>, meshes: Vec<MeshArgs<'_>>) -> PyResult<Self> {
+    fn new(meshes: Vec<MeshArgs<'_>>) -> PyResult<Self> {
         let meshes = meshes.into_iter().map(mesh).collect::<PyResult<Vec<_>>>()?;
         let scene = Scene::new(meshes).or_raise()?;
-        let bvh = py.detach(|| Bvh::build(&scene)).or_raise()?;
-        Ok(Self { scene, bvh })
+        Ok(Self { scene, bvh: OnceLock::new() })
     }
 
     #[getter]
@@ -77,7 +89,8 @@ impl NativeScene {
         Bound<'py, PyArray1<i64>>,
         Bound<'py, PyArray1<f32>>,
     )> {
-        let gb = py.detach(|| gbuffer(&self.scene, &self.bvh, &camera.camera, msaa)).or_raise()?;
+        let bvh = self.bvh(py)?;
+        let gb = py.detach(|| gbuffer(&self.scene, bvh, &camera.camera, msaa)).or_raise()?;
         let n = gb.positions.len();
         let as2 = |v: Vec<f32>| v.into_pyarray(py).reshape([n, 3]);
         Ok((

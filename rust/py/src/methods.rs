@@ -35,8 +35,9 @@ fn ray_traced<'py>(
     epsilon: f32,
 ) -> PyResult<Output<'py>> {
     let opts = RayTracedOptions { epsilon };
+    let bvh = scene.bvh(py)?;
     let out = py
-        .detach(|| ray_traced_core(&scene.scene, &scene.bvh, &light.light, &receivers.receivers, &samples.samples, &opts))
+        .detach(|| ray_traced_core(&scene.scene, bvh, &light.light, &receivers.receivers, &samples.samples, &opts))
         .or_raise()?;
     output(py, out)
 }

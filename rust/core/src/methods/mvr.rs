@@ -24,7 +24,7 @@ pub struct MultiViewOptions {
     pub resolution: usize,
     /// PCF taps per depth map: 1, 5 (the paper's, default) or an odd square (9, 25, ...).
     pub pcf: usize,
-    /// Constant depth bias in world units, or `None` for the slope-scaled bias (default).
+    /// Constant depth bias in world units, or `None` for the receiver plane per tap (default).
     pub bias: Option<f32>,
 }
 

@@ -1,4 +1,4 @@
-//! Percentage-closer filtering (Reeves et al. 1987) and the slope-scaled depth bias: the shadow
+//! Percentage-closer filtering (Reeves et al. 1987) and the receiver-plane depth bias: the shadow
 //! test every depth-map method shares (`shadow_map`, `mvr`, `vwss`, `pcss`).
 //!
 //! A tap compares a receiver depth with the depth stored in one texel and counts as lit when
