@@ -88,7 +88,7 @@ pub fn mvr(
     for (s, view) in views.views.iter().enumerate() {
         let map = stats.time_add("depth_maps", || rasterize_depth(scene, view, &RasterOptions::default()))?;
         stats.add("fragments", map.fragments as f64);
-        stats.time_add("lighting", || accumulate(&mut sums, &views, &[(s, map)], receivers, &kernel, bias));
+        stats.time_add("lighting", || accumulate(&mut sums, &views, &[(s, &map)], receivers, &kernel, bias));
     }
     Ok((resolve(&sums, &views, receivers), stats))
 }

@@ -297,54 +297,94 @@ pub fn generate_points(scene: &Scene, source: &LightFrustum, opts: &VwssOptions)
     })
 }
 
-/// Depth maps under construction: one atomic texel array per target view (bit patterns of
-/// positive linear depths, `+inf` where nothing landed).
-struct AtomicMaps<'a> {
-    views: &'a [LightFrustum],
+/// Depth maps under construction, allocated once and reused by every traversal: atomic texel
+/// arrays (bit patterns of positive linear depths, `+inf` where nothing landed).
+struct AtomicMaps {
     texels: Vec<Vec<AtomicU32>>,
 }
 
-impl<'a> AtomicMaps<'a> {
-    fn new(views: &'a [LightFrustum]) -> Result<Self> {
-        let texels_per_map = views.first().map_or(0, |v| v.width * v.height);
-        limits::check_memory("vwss depth maps", limits::bytes(&[views.len() as u64, texels_per_map as u64, 4]))?;
-        let texels = views
-            .iter()
-            .map(|v| (0..v.width * v.height).map(|_| AtomicU32::new(f32::INFINITY.to_bits())).collect())
-            .collect();
-        Ok(Self { views, texels })
+impl AtomicMaps {
+    /// `count` maps of `texels` texels each, after checking their memory (and that of the plain
+    /// maps they are copied into) against the limit.
+    fn new(count: usize, texels: usize) -> Result<Self> {
+        limits::check_memory("vwss depth maps", limits::bytes(&[count as u64, texels as u64, 8]))?;
+        let texels = (0..count).map(|_| (0..texels).map(|_| AtomicU32::new(f32::INFINITY.to_bits())).collect()).collect();
+        Ok(Self { texels })
+    }
+
+    /// Empties the first `count` maps.
+    fn clear(&self, count: usize) {
+        let empty = f32::INFINITY.to_bits();
+        self.texels[..count].par_iter().for_each(|t| t.iter().for_each(|a| a.store(empty, Ordering::Relaxed)));
     }
 
     /// Projects world point `p` into every view, snaps it to the texel containing it and keeps
     /// the minimum depth there (Listing 2).
     #[inline]
-    fn splat(&self, p: Vec3) {
-        for (view, texels) in self.views.iter().zip(&self.texels) {
+    fn splat(&self, views: &[LightFrustum], p: Vec3) {
+        for (view, texels) in views.iter().zip(&self.texels) {
             if let Some((x, y, depth)) = view.texel_of(p) {
                 texels[y * view.width + x].fetch_min(depth.to_bits(), Ordering::Relaxed);
             }
         }
     }
 
-    fn into_maps(self) -> Vec<DepthMap> {
-        self.views
-            .iter()
-            .zip(self.texels)
-            .map(|(v, t)| DepthMap {
-                width: v.width,
-                height: v.height,
-                depth: t.into_iter().map(|a| f32::from_bits(a.into_inner())).collect(),
-                fragments: 0,
-            })
-            .collect()
+    /// Copies the first `out.len()` maps into `out`.
+    fn copy_into(&self, out: &mut [DepthMap]) {
+        out.par_iter_mut().zip(&self.texels).for_each(|(map, texels)| {
+            map.depth.iter_mut().zip(texels).for_each(|(d, a)| *d = f32::from_bits(a.load(Ordering::Relaxed)));
+        });
     }
+}
+
+/// One traversal's source of world points: the buffer, or the source rasterizer (unbuffered).
+enum PointSource<'a> {
+    Buffer(&'a Points),
+    Raster { scene: &'a Scene, source: &'a LightFrustum, opts: &'a VwssOptions },
+}
+
+impl PointSource<'_> {
+    /// Splats every point into `views`; returns the number of points.
+    fn warp(&self, maps: &AtomicMaps, views: &[LightFrustum]) -> Result<usize> {
+        match self {
+            PointSource::Buffer(points) => {
+                points.par_for_each(|p| maps.splat(views, p));
+                Ok(points.len())
+            }
+            PointSource::Raster { scene, source, opts } => {
+                let raster = Rasterizer::new(source, RasterMode::Standard)?;
+                let casters: Vec<Caster> = casters(scene, &opts.raster_options(), source.eye);
+                let full = TexelRect::full(source.width, source.height);
+                Ok(casters
+                    .par_chunks(CASTER_CHUNK)
+                    .map(|chunk| {
+                        let mut count = 0;
+                        for caster in chunk {
+                            raster.opaque_fragments(scene, caster, full, |f| {
+                                count += 1;
+                                maps.splat(views, source.texel_center(f.x, f.y, f.depth));
+                            });
+                        }
+                        count
+                    })
+                    .sum())
+            }
+        }
+    }
+}
+
+fn warp_once(source: PointSource<'_>, views: &[LightFrustum]) -> Result<(Vec<DepthMap>, usize)> {
+    let texels = views.first().map_or(0, |v| v.width * v.height);
+    let maps = AtomicMaps::new(views.len(), texels)?;
+    let count = source.warp(&maps, views)?;
+    let mut out: Vec<DepthMap> = views.iter().map(|v| DepthMap::empty(v.width, v.height)).collect::<Result<_>>()?;
+    maps.copy_into(&mut out);
+    Ok((out, count))
 }
 
 /// Warps every point into each of `views` (one traversal) and returns their depth maps.
 pub fn warp_points(points: &Points, views: &[LightFrustum]) -> Result<Vec<DepthMap>> {
-    let maps = AtomicMaps::new(views)?;
-    points.par_for_each(|p| maps.splat(p));
-    Ok(maps.into_maps())
+    Ok(warp_once(PointSource::Buffer(points), views)?.0)
 }
 
 /// Rasterizes `source` and warps each fragment straight into `views` (unbuffered, Figure 3);
@@ -355,24 +395,7 @@ pub fn warp_fragments(
     opts: &VwssOptions,
     views: &[LightFrustum],
 ) -> Result<(Vec<DepthMap>, usize)> {
-    let raster = Rasterizer::new(source, RasterMode::Standard)?;
-    let casters: Vec<Caster> = casters(scene, &opts.raster_options(), source.eye);
-    let maps = AtomicMaps::new(views)?;
-    let full = TexelRect::full(source.width, source.height);
-    let fragments = casters
-        .par_chunks(CASTER_CHUNK)
-        .map(|chunk| {
-            let mut count = 0;
-            for caster in chunk {
-                raster.opaque_fragments(scene, caster, full, |f| {
-                    count += 1;
-                    maps.splat(source.texel_center(f.x, f.y, f.depth));
-                });
-            }
-            count
-        })
-        .sum();
-    Ok((maps.into_maps(), fragments))
+    warp_once(PointSource::Raster { scene, source, opts }, views)
 }
 
 /// Soft-shadow visibility of every receiver by view-warped multi-view soft shadows.
@@ -406,20 +429,24 @@ pub fn vwss(scene: &Scene, light: &Light, receivers: &Receivers, samples: &Sampl
         Mode::Buffered => Some(stats.time("point_generation", || generate_points(scene, &source, opts))?),
         Mode::Unbuffered => None,
     };
-    if let Some(p) = &points {
-        stats.set("points", p.len() as f64);
-    }
+    let point_source = match &points {
+        Some(p) => PointSource::Buffer(p),
+        None => PointSource::Raster { scene, source: &source, opts },
+    };
+    let side = opts.multiview.resolution;
+    let atomic = AtomicMaps::new(per_pass, side * side)?;
+    let mut maps: Vec<DepthMap> = (0..per_pass).map(|_| DepthMap::empty(side, side)).collect::<Result<_>>()?;
     let mut sums = vec![0.0f32; receivers.len()];
     for (pass, targets) in views.views.chunks(per_pass).enumerate() {
-        let (maps, streamed) = stats.time_add("depth_maps", || match &points {
-            Some(p) => warp_points(p, targets).map(|maps| (maps, None)),
-            None => warp_fragments(scene, &source, opts, targets).map(|(maps, n)| (maps, Some(n))),
+        let count = stats.time_add("depth_maps", || {
+            atomic.clear(targets.len());
+            let count = point_source.warp(&atomic, targets)?;
+            atomic.copy_into(&mut maps[..targets.len()]);
+            Ok::<_, Error>(count)
         })?;
-        if let Some(n) = streamed {
-            stats.set("points", n as f64);
-        }
+        stats.set("points", count as f64);
         stats.add("traversals", 1.0);
-        let indexed: Vec<(usize, DepthMap)> = maps.into_iter().enumerate().map(|(k, m)| (pass * per_pass + k, m)).collect();
+        let indexed: Vec<(usize, &DepthMap)> = maps[..targets.len()].iter().enumerate().map(|(k, m)| (pass * per_pass + k, m)).collect();
         stats.time_add("lighting", || accumulate(&mut sums, &views, &indexed, receivers, &kernel, bias));
     }
     Ok((resolve(&sums, &views, receivers), stats))

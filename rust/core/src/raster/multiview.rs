@@ -94,7 +94,7 @@ impl ViewSet {
 pub fn accumulate(
     sums: &mut [f32],
     views: &ViewSet,
-    maps: &[(usize, DepthMap)],
+    maps: &[(usize, &DepthMap)],
     rx: &Receivers,
     kernel: &PcfKernel,
     bias: DepthBias,
