@@ -20,6 +20,7 @@
 //! default) compares each tap with the receiver's tangent plane
 //! ([`ReceiverDepth`](crate::raster::pcf::ReceiverDepth)), which removes
 //! self-shadowing acne on flat and curved receivers for every PCF size.
+
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
