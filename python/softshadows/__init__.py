@@ -14,7 +14,7 @@ See DESIGN.md for the data model and the definition of visibility.
 from . import _core, _validate, io, metrics, plot, reference, scenes, shading
 from .camera import Camera, GBuffer, Receivers, gbuffer
 from .lights import DiskLight, PointLight, RectLight, SphereLight
-from .methods import METHODS, mvr, pcss, ray_traced, shadow_map, vwss
+from .methods import METHODS, cssm, mvr, pcss, ray_traced, shadow_map, vwss
 from .scene import Mesh, Scene
 
 __version__ = "0.1.0"
@@ -52,6 +52,7 @@ __all__ = [
     "reference",
     "scenes",
     "shading",
+    "cssm",
     "memory_limit",
     "mvr",
     "pcss",

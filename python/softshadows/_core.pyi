@@ -86,3 +86,16 @@ def pcss(
     near: float | None,
     seed: int,
 ) -> tuple[F32, dict[str, float]]: ...
+def cssm(
+    scene: NativeScene,
+    light: NativeLight,
+    receivers: NativeReceivers,
+    resolution: int,
+    order: int,
+    prefilter: str,
+    near: float | None,
+    offset: float | None,
+    scale: float,
+    sharpen_a: float,
+    sharpen_b: float,
+) -> tuple[F32, dict[str, float]]: ...

@@ -6,6 +6,7 @@ use crate::{NativeLight, NativeReceivers, NativeSamples, NativeScene};
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use softshadows_core::methods::cssm::{cssm as cssm_core, CssmOptions, Prefilter};
 use softshadows_core::methods::mvr::{mvr as mvr_core, MultiViewOptions};
 use softshadows_core::methods::pcss::{pcss as pcss_core, PcssOptions};
 use softshadows_core::methods::ray_traced::{ray_traced as ray_traced_core, RayTracedOptions};
@@ -149,11 +150,35 @@ fn pcss<'py>(
     output(py, out)
 }
 
+/// Convolution soft shadow maps (CSM with CSM-Z average blocker depth).
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+fn cssm<'py>(
+    py: Python<'py>,
+    scene: &NativeScene,
+    light: &NativeLight,
+    receivers: &NativeReceivers,
+    resolution: usize,
+    order: usize,
+    prefilter: &str,
+    near: Option<f32>,
+    offset: Option<f32>,
+    scale: f32,
+    sharpen_a: f32,
+    sharpen_b: f32,
+) -> PyResult<Output<'py>> {
+    let prefilter = choice("prefilter", prefilter, &[("sat", Prefilter::Sat), ("mipmap", Prefilter::Mipmap)]).or_raise()?;
+    let opts = CssmOptions { resolution, order, prefilter, near, offset, scale, sharpen_a, sharpen_b };
+    let out = py.detach(|| cssm_core(&scene.scene, &light.light, &receivers.receivers, &opts)).or_raise()?;
+    output(py, out)
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(ray_traced, m)?)?;
     m.add_function(wrap_pyfunction!(shadow_map, m)?)?;
     m.add_function(wrap_pyfunction!(mvr, m)?)?;
     m.add_function(wrap_pyfunction!(vwss, m)?)?;
     m.add_function(wrap_pyfunction!(pcss, m)?)?;
+    m.add_function(wrap_pyfunction!(cssm, m)?)?;
     Ok(())
 }

@@ -1,4 +1,5 @@
 //! One module per soft-shadow method, named as in the Python API.
+pub mod cssm;
 pub mod mvr;
 pub mod pcss;
 pub mod ray_traced;

@@ -6,16 +6,14 @@
 //!
 //! 1. **Blocker search.** Occluders that can hide part of the light from the receiver lie in the
 //!    cone from the receiver to the light; between the depths `z_n` and `z_r` that cone projects
-//!    into the map as the region of half extents
-//!    `k · h · (z_r − z_n) / (z_r · z_n)` texels around `(sx, sy)` (per axis: `k = width / (2 tan)`,
-//!    `h` the light's half extent along the map's axis), Fernando's
+//!    into the map as the light's footprint through depth `z_n`
+//!    ([`LightFootprint`](crate::raster::footprint::LightFootprint)), Fernando's
 //!    `LIGHT_SIZE_UV · (z_r − NEAR) / z_r` written for a perspective map. `z_n` is the search's near
 //!    plane: `near`, or by default the nearest depth stored in the map (no occluder lies nearer).
 //!    `blocker_samples` Poisson-disk taps over that region average the depths of the texels
 //!    nearer than the receiver: `z_avg`. No blocker found: the receiver is lit.
 //! 2. **Penumbra estimate** by parallel planes: the penumbra seen from the receiver spans the
-//!    projection of the light through a blocker at `z_avg`, `k · h · (z_r − z_avg) / (z_r · z_avg)`
-//!    texels (half extent per axis).
+//!    light's footprint through a blocker at `z_avg`.
 //! 3. **Filtering**: `filter_samples` Poisson-disk taps over that region, the fraction lit.
 //!
 //! Both tap patterns are Poisson disks (the platform's pattern in the unit disk, seeded by `seed`)
@@ -33,6 +31,7 @@ use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
 use crate::light::sampling::{unit_disk_pattern, Pattern};
 use crate::raster::depth::{rasterize_depth, DepthMap, LightFrustum, RasterOptions, MAX_RESOLUTION};
+use crate::raster::footprint::LightFootprint;
 use crate::raster::pcf::{DepthBias, ReceiverDepth, RASTERIZED_SLACK};
 use crate::stats::Stats;
 use glam::{Vec2, Vec3};
@@ -89,8 +88,7 @@ impl PcssOptions {
 struct Lookup<'a> {
     map: &'a DepthMap,
     frustum: &'a LightFrustum,
-    /// `k · h` per axis: texels per unit of `(z_r − z) / (z_r · z)`.
-    light_texels: Vec2,
+    footprint: LightFootprint,
     near: f32,
     blocker_taps: Vec<Vec2>,
     filter_taps: Vec<Vec2>,
@@ -105,12 +103,6 @@ enum Outcome {
 }
 
 impl Lookup<'_> {
-    /// Half extents in texels of the light's projection through depth `z` seen from depth `z_r`.
-    fn light_region(&self, z_r: f32, z: f32) -> Vec2 {
-        let limit = Vec2::new(self.map.width as f32, self.map.height as f32);
-        (self.light_texels * ((z_r - z) / (z_r * z))).min(limit)
-    }
-
     /// Visits the stored depth and the receiver depth to compare it with at every tap of `taps`
     /// scaled by `region` around the receiver.
     fn taps<'t>(&'t self, taps: &'t [Vec2], region: Vec2, receiver: &'t ReceiverDepth) -> impl Iterator<Item = (f32, f32)> + 't {
@@ -131,7 +123,7 @@ impl Lookup<'_> {
             return Outcome::NoBlocker;
         }
         let receiver = ReceiverDepth::new(self.frustum, p, n, s, self.bias);
-        let search = self.light_region(s.z, self.near);
+        let search = self.footprint.through(s.z, self.near);
         let (sum, count) = self
             .taps(&self.blocker_taps, search, &receiver)
             .filter(|(stored, depth)| stored < depth)
@@ -140,7 +132,7 @@ impl Lookup<'_> {
             return Outcome::NoBlocker;
         }
         let z_avg = ((sum / f64::from(count)) as f32).max(self.near);
-        let filter = self.light_region(s.z, z_avg);
+        let filter = self.footprint.through(s.z, z_avg);
         let lit = self.taps(&self.filter_taps, filter, &receiver).filter(|(stored, depth)| depth <= stored).count();
         Outcome::Filtered(lit as f32 / self.filter_taps.len() as f32)
     }
@@ -161,19 +153,15 @@ pub fn pcss(scene: &Scene, light: &Light, receivers: &Receivers, opts: &PcssOpti
     }
     stats.set("resolution", opts.resolution as f64);
     let Some(bounds) = receivers.bounds() else { return Ok((vec![0.0; receivers.len()], stats)) };
-    let frustum = LightFrustum::for_light(light, bounds, opts.resolution)?;
+    let frustum = LightFrustum::for_light_aligned(light, bounds, opts.resolution)?;
     let map = stats.time("depth_map", || rasterize_depth(scene, &frustum, &RasterOptions::default()))?;
     let nearest_stored = map.depth.iter().copied().fold(f32::INFINITY, f32::min);
     let near = opts.near.unwrap_or(nearest_stored).max(frustum.near);
     stats.set("search_near", f64::from(near));
-    let texels_per_unit = Vec2::new(
-        frustum.width as f32 / (2.0 * frustum.tan_half_x) * light.half_extent_along(frustum.right),
-        frustum.height as f32 / (2.0 * frustum.tan_half_y) * light.half_extent_along(frustum.up),
-    );
     let lookup = Lookup {
         map: &map,
         frustum: &frustum,
-        light_texels: texels_per_unit,
+        footprint: LightFootprint::new(&frustum, light),
         near,
         blocker_taps: unit_disk_pattern(Pattern::Poisson, opts.blocker_samples, opts.seed),
         filter_taps: unit_disk_pattern(Pattern::Poisson, opts.filter_samples, opts.seed ^ 0x5EED_F117),

@@ -213,6 +213,12 @@ impl LightFrustum {
     /// single perspective frustum can contain it: pass an explicit frustum
     /// ([`LightFrustum::new`]) that covers the receivers of interest instead.
     pub fn fit(eye: Vec3, points_min: Vec3, points_max: Vec3, resolution: usize) -> Result<Self> {
+        Self::fit_with_up(eye, points_min, points_max, resolution, None)
+    }
+
+    /// [`LightFrustum::fit`] with the map's `up` axis as close as possible to `up` (when it is
+    /// not parallel to the chosen view direction) instead of world +Y.
+    pub fn fit_with_up(eye: Vec3, points_min: Vec3, points_max: Vec3, resolution: usize, up: Option<Vec3>) -> Result<Self> {
         finite3("eye", eye)?;
         finite3("points_min", points_min)?;
         finite3("points_max", points_max)?;
@@ -225,7 +231,7 @@ impl LightFrustum {
         });
         let best = fit_candidates(eye, points_min, points_max, &corners)
             .into_iter()
-            .filter_map(|f| square_fit(eye, f, &corners))
+            .filter_map(|f| square_fit(eye, f, up, &corners))
             .min_by(|a, b| a.tan.total_cmp(&b.tan));
         let fit = match best {
             Some(fit) if fit.tan <= MAX_FIT_TAN => fit,
@@ -250,6 +256,17 @@ impl LightFrustum {
     /// area or sphere light) to `bounds = (min, max)`.
     pub fn for_light(light: &Light, bounds: (Vec3, Vec3), resolution: usize) -> Result<Self> {
         Self::fit(light.center(), bounds.0, bounds.1, resolution)
+    }
+
+    /// [`LightFrustum::for_light`] with the map's axes turned towards a rectangular light's edges
+    /// (`up` along its `v`), so that its footprint in the map is nearly an axis-aligned rectangle:
+    /// for methods that filter over the light's footprint with boxes (`cssm`, `pcss`).
+    pub fn for_light_aligned(light: &Light, bounds: (Vec3, Vec3), resolution: usize) -> Result<Self> {
+        let up = match light.shape {
+            crate::light::lights::Shape::Rect { v, .. } => Some(v),
+            _ => None,
+        };
+        Self::fit_with_up(light.center(), bounds.0, bounds.1, resolution, up)
     }
 
     /// Checks the invariants the rasterizer relies on (finite, orthonormal axes, positive
@@ -354,8 +371,9 @@ fn fit_candidates(eye: Vec3, lo: Vec3, hi: Vec3, corners: &[Vec3; 8]) -> Vec<Vec
     dirs.into_iter().map(|d| d.normalize_or_zero()).filter(|d| *d != Vec3::ZERO).collect()
 }
 
-fn square_fit(eye: Vec3, forward: Vec3, corners: &[Vec3; 8]) -> Option<SquareFit> {
-    let right = forward.cross(default_up(forward)).normalize_or_zero();
+fn square_fit(eye: Vec3, forward: Vec3, up: Option<Vec3>, corners: &[Vec3; 8]) -> Option<SquareFit> {
+    let hint = up.filter(|u| u.normalize_or_zero().cross(forward).length() > 0.1).unwrap_or_else(|| default_up(forward));
+    let right = forward.cross(hint).normalize_or_zero();
     let up = right.cross(forward);
     let (mut tan, mut z_min, mut z_max) = (0.0f32, f32::INFINITY, 0.0f32);
     let scale = corners.iter().map(|c| (*c - eye).length()).fold(0.0f32, f32::max);

@@ -1,5 +1,6 @@
 //! Shadow-map machinery shared by every image-based method.
 pub mod depth;
+pub mod footprint;
 pub mod multiview;
 pub mod pcf;
 pub mod pyramid;
