@@ -1,0 +1,81 @@
+"""Convolution soft shadow maps against PCSS and ray tracing (seed 002), side by side in one run.
+
+On one scene at 512x512 receivers it times ``cssm`` (order 4 and 16, summed-area table and
+mipmap), ``pcss`` (64 + 96 taps) and ``ray_traced`` (64 Poisson samples) and measures each one's
+RMSE against 1024 ray-traced Sobol samples; it prints seconds and RMSE as ratios to
+``cssm`` (order 4, SAT). Then it grows the light 16x in area (side x1, x2, x4) and prints the
+cost of ``cssm`` and its peers relative to the smallest light (the paper's claim: constant).
+
+Usage: ``python bench/cssm.py [--scene columns] [--size 512] [--repeat 3]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+import numpy as np
+
+import softshadows as ss
+from softshadows import metrics, scenes
+
+
+def best_of(repeat, fn):
+    """The fastest of ``repeat`` runs (seconds) and the last result."""
+    times, out = [], None
+    for _ in range(repeat):
+        start = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - start)
+    return min(times), out
+
+
+def methods(setup, light, gb):
+    """Name -> a call computing visibility under ``light``."""
+    return {
+        "cssm M=4 sat": lambda: ss.cssm(setup.scene, light, gb),
+        "cssm M=4 mipmap": lambda: ss.cssm(setup.scene, light, gb, prefilter="mipmap"),
+        "cssm M=16 sat": lambda: ss.cssm(setup.scene, light, gb, order=16),
+        "pcss": lambda: ss.pcss(setup.scene, light, gb, resolution=512),
+        "ray_traced 64": lambda: ss.ray_traced(setup.scene, light, gb, samples=64),
+    }
+
+
+def scaled(light, k: float):
+    return ss.RectLight(light.center, np.asarray(light.u) * k, np.asarray(light.v) * k)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scene", default="columns")
+    parser.add_argument("--size", type=int, default=512)
+    parser.add_argument("--repeat", type=int, default=3)
+    args = parser.parse_args()
+    setup = scenes.get(args.scene, width=args.size, height=args.size)
+    gb = ss.gbuffer(setup.scene, setup.camera)
+    print(f"{os.cpu_count()} CPU threads; {args.scene}, {args.size}^2 receivers; best of {args.repeat}")
+
+    reference = ss.ray_traced(setup.scene, setup.light, gb, samples=1024, pattern="sobol", seed=1)
+    rows = {}
+    for name, run in methods(setup, setup.light, gb).items():
+        seconds, vis = best_of(args.repeat, run)
+        rows[name] = (seconds, metrics.rmse(vis, reference, gb.mask))
+    base_s, base_e = rows["cssm M=4 sat"]
+    print(f"\n{'method':<16} {'seconds':>8} {'x cssm time':>11} {'RMSE':>7} {'x cssm RMSE':>11}")
+    for name, (s, e) in rows.items():
+        print(f"{name:<16} {s:>8.3f} {s / base_s:>11.2f} {e:>7.4f} {e / base_e:>11.2f}")
+
+    print("\nlight side x1, x2, x4 (area x1, x4, x16): seconds relative to the x1 light")
+    sides = (1.0, 2.0, 4.0)
+    costs = {name: [] for name in methods(setup, setup.light, gb)}
+    for k in sides:
+        for name, run in methods(setup, scaled(setup.light, k), gb).items():
+            costs[name].append(best_of(args.repeat, run)[0])
+    print(f"{'method':<16} " + " ".join(f"{f'x{k * k:g} area':>10}" for k in sides))
+    for name, c in costs.items():
+        print(f"{name:<16} " + " ".join(f"{s / c[0]:>10.2f}" for s in c))
+
+
+if __name__ == "__main__":
+    main()
