@@ -11,8 +11,9 @@ Quick start::
 See DESIGN.md for the data model and the definition of visibility.
 """
 
-from . import _core, _validate, io, metrics, plot, reference, scenes, shading
+from . import _core, _validate, envmap, io, metrics, plot, reference, scenes, shading
 from .camera import Camera, GBuffer, Receivers, gbuffer
+from .envmap import environment
 from .lights import DiskLight, PointLight, RectLight, SphereLight
 from .methods import METHODS, cssm, mvr, pcss, ray_traced, shadow_map, vwss
 from .scene import Mesh, Scene
@@ -47,6 +48,8 @@ __all__ = [
     "SphereLight",
     "gbuffer",
     "io",
+    "envmap",
+    "environment",
     "metrics",
     "plot",
     "reference",

@@ -77,7 +77,7 @@ from .camera import Camera, as_receivers
 from .lights import DiskLight, PointLight, RectLight, SphereLight, _tangent_frame
 from .scene import Scene
 
-__all__ = ["variant", "mitsuba_scene", "mitsuba_visibility", "mitsuba_render", "cache_dir", "CACHE_VERSION"]
+__all__ = ["variant", "mitsuba_scene", "mitsuba_visibility", "mitsuba_render", "mitsuba_environment_render", "cache_dir", "CACHE_VERSION"]
 
 #: Bumped whenever a change here changes results, so stale cache entries are never read.
 CACHE_VERSION = 2
@@ -598,6 +598,54 @@ def mitsuba_render(scene: Scene, light, camera: Camera, *, spp: int = 64, integr
     d["integrator"] = {"type": "direct"} if integrator == "direct" else {"type": integrator, "max_depth": 2}
     image = np.asarray(mi.render(mi.load_dict(d), spp=spp, seed=int(seed)), np.float32)[..., :3]
     image = np.ascontiguousarray(image)
+    if key is not None:
+        _cache_write(key, image)
+    return image
+
+
+def mitsuba_environment_render(scene: Scene, env, camera: Camera, *, spp: int = 256, albedo: float = 0.8,
+                               seed: int = 0, cache: bool = True) -> np.ndarray:
+    """Path-traced direct illumination of the scene under an environment map, by Mitsuba 3.
+
+    Parameters
+    ----------
+    scene : Scene
+    env : array_like, shape (H, W, 3)
+        Lat-long radiance in Mitsuba's ``envmap`` convention (the one of
+        :mod:`softshadows.envmap`), used as is (``scale`` 1, no rotation).
+    camera : Camera
+    spp : int
+        Samples per pixel.
+    albedo : float
+        Diffuse reflectance of every surface.
+    seed : int
+    cache : bool
+        Read and write the on-disk cache.
+
+    Returns
+    -------
+    ndarray, shape (H, W, 3), float32
+        Linear RGB, comparable with :func:`softshadows.environment` at the same ``albedo``.
+    """
+    _check_scene(scene)
+    camera = _check_camera(camera)
+    env = v.array("env", env, np.float32, (None, None, 3))
+    if env.min() < 0:
+        raise ValueError("env: radiance must be >= 0")
+    spp, seed, albedo = v.positive_int("spp", spp), v.nonneg_int("seed", seed), _albedo(albedo)
+    integrator = "volpath" if any(m.alpha is not None for m in scene.meshes) else "path"
+    key = None
+    if cache:
+        key = _cache_key("envrender", scene, None, env, _camera_array(camera), spp, integrator, albedo, int(seed))
+        hit = _cache_read(key)
+        if hit is not None:
+            return hit
+    mi = _mitsuba()
+    d = {"type": "scene", **_mesh_shapes(mi, scene, range(len(scene.meshes)), albedo)}
+    d["environment"] = {"type": "envmap", "bitmap": mi.Bitmap(np.ascontiguousarray(env))}
+    d["sensor"] = _sensor_dict(mi, camera, spp)
+    d["integrator"] = {"type": integrator, "max_depth": 2}
+    image = np.ascontiguousarray(np.asarray(mi.render(mi.load_dict(d), spp=spp, seed=int(seed)), np.float32)[..., :3])
     if key is not None:
         _cache_write(key, image)
     return image

@@ -3,10 +3,11 @@
 
 use crate::error::OrRaise;
 use crate::{NativeLight, NativeReceivers, NativeSamples, NativeScene};
-use numpy::{IntoPyArray, PyArray1};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use softshadows_core::methods::cssm::{cssm as cssm_core, CssmOptions, Prefilter};
+use softshadows_core::methods::envmap::{fit_area_lights as fit_core, texel_solid_angle, FitOptions};
 use softshadows_core::methods::mvr::{mvr as mvr_core, MultiViewOptions};
 use softshadows_core::methods::pcss::{pcss as pcss_core, PcssOptions};
 use softshadows_core::methods::ray_traced::{ray_traced as ray_traced_core, RayTracedOptions};
@@ -173,6 +174,32 @@ fn cssm<'py>(
     output(py, out)
 }
 
+/// One fitted environment light: `(face, i0, i1, j0, j1, (r, g, b) energy)`.
+type FittedTuple = (usize, usize, usize, usize, usize, (f64, f64, f64));
+
+/// Greedy area-light fit of a (6, n, n, 3) float32 cube map.
+#[pyfunction]
+fn fit_area_lights(
+    py: Python<'_>,
+    cube: PyReadonlyArrayDyn<'_, f32>,
+    n: usize,
+    threshold: f64,
+    max_lights: usize,
+    square: bool,
+) -> PyResult<Vec<FittedTuple>> {
+    let values = cube.as_slice().map_err(|_| pyo3::exceptions::PyValueError::new_err("env: expected a contiguous array"))?;
+    let opts = FitOptions { threshold, max_lights, square };
+    let lights = py.detach(|| fit_core(values, n, &opts)).or_raise()?;
+    Ok(lights.into_iter().map(|l| (l.face, l.i0, l.i1, l.j0, l.j1, (l.energy[0], l.energy[1], l.energy[2]))).collect())
+}
+
+/// Solid angles (n, n) of the texels of an n x n cube face, steradians.
+#[pyfunction]
+fn cube_solid_angles(py: Python<'_>, n: usize) -> PyResult<Bound<'_, PyArray2<f64>>> {
+    let values: Vec<f64> = (0..n * n).map(|k| texel_solid_angle(n, k / n.max(1), k % n.max(1))).collect();
+    values.into_pyarray(py).reshape([n, n])
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(ray_traced, m)?)?;
     m.add_function(wrap_pyfunction!(shadow_map, m)?)?;
@@ -180,5 +207,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(vwss, m)?)?;
     m.add_function(wrap_pyfunction!(pcss, m)?)?;
     m.add_function(wrap_pyfunction!(cssm, m)?)?;
+    m.add_function(wrap_pyfunction!(fit_area_lights, m)?)?;
+    m.add_function(wrap_pyfunction!(cube_solid_angles, m)?)?;
     Ok(())
 }

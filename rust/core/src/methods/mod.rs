@@ -1,5 +1,6 @@
 //! One module per soft-shadow method, named as in the Python API.
 pub mod cssm;
+pub mod envmap;
 pub mod mvr;
 pub mod pcss;
 pub mod ray_traced;
