@@ -127,9 +127,7 @@ impl Face {
         if !all {
             let (mut sum, mut area) = ([0.0f64; 3], 0.0f64);
             for k in (0..n * n).filter(|&k| !inside(k)) {
-                for c in 0..3 {
-                    sum[c] += self.energy[k][c];
-                }
+                sum.iter_mut().zip(self.energy[k]).for_each(|(s, e)| *s += e);
                 area += self.solid_angle[k];
             }
             if area > 0.0 {
