@@ -277,8 +277,6 @@ def environment(scene, lights, receivers, *, method: str = "cssm", albedo=0.8, d
     -------
     ndarray, float32, the receivers' shape + (3,): linear RGB, 0 where there is no hit.
     """
-    from tqdm.auto import tqdm
-
     from .camera import as_receivers
     from .methods import METHODS
     if method not in METHODS:
@@ -293,7 +291,11 @@ def environment(scene, lights, receivers, *, method: str = "cssm", albedo=0.8, d
     albedo = np.broadcast_to(np.asarray(albedo, np.float64), (3,))
     points, normals, mask, *_ = rx._flat()
     out = np.zeros((len(points), 3))
-    for light in tqdm(lights, desc=f"environment ({method})", disable=not progress):
+    if progress:
+        from tqdm.auto import tqdm
+
+        lights = tqdm(lights, desc=f"environment ({method})")
+    for light in lights:
         irradiance = light.solid_angle * np.maximum(normals.astype(np.float64) @ light.direction, 0.0)
         if not np.any(irradiance[mask] > 0):
             continue
