@@ -15,7 +15,7 @@ from . import _core, _validate, envmap, io, metrics, plot, reference, scenes, sh
 from .camera import Camera, GBuffer, Receivers, gbuffer
 from .envmap import environment
 from .lights import DiskLight, PointLight, RectLight, SphereLight
-from .methods import METHODS, cssm, mvr, pcss, ray_traced, shadow_map, vwss
+from .methods import METHODS, alias_free, cssm, mvr, pcss, ray_traced, shadow_map, vwss
 from .scene import Mesh, Scene
 
 __version__ = "0.1.0"
@@ -36,6 +36,7 @@ def memory_limit() -> int:
 
 
 __all__ = [
+    "alias_free",
     "Camera",
     "DiskLight",
     "GBuffer",

@@ -6,6 +6,7 @@ use crate::{NativeLight, NativeReceivers, NativeSamples, NativeScene};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use softshadows_core::methods::alias_free::{alias_free as alias_free_core, AliasFreeOptions, Casters};
 use softshadows_core::methods::cssm::{cssm as cssm_core, CssmOptions, Prefilter};
 use softshadows_core::methods::envmap::{fit_area_lights as fit_core, texel_solid_angle, FitOptions};
 use softshadows_core::methods::mvr::{mvr as mvr_core, MultiViewOptions};
@@ -200,6 +201,29 @@ fn cube_solid_angles(py: Python<'_>, n: usize) -> PyResult<Bound<'_, PyArray2<f6
     values.into_pyarray(py).reshape([n, n])
 }
 
+/// Sample-based visibility by alias-free shadow maps (hard for point lights, bitmasks otherwise).
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+fn alias_free<'py>(
+    py: Python<'py>,
+    scene: &NativeScene,
+    light: &NativeLight,
+    receivers: &NativeReceivers,
+    samples: &NativeSamples,
+    resolution: usize,
+    casters: &str,
+    bias: f32,
+    lut: Option<usize>,
+    hull_degree: usize,
+) -> PyResult<Output<'py>> {
+    let casters = choice("casters", casters, &[("backfacing", Casters::Backfacing), ("all", Casters::All)]).or_raise()?;
+    let opts = AliasFreeOptions { resolution, casters, bias, lut, hull_degree };
+    let out = py
+        .detach(|| alias_free_core(&scene.scene, &light.light, &receivers.receivers, &samples.samples, &opts))
+        .or_raise()?;
+    output(py, out)
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(ray_traced, m)?)?;
     m.add_function(wrap_pyfunction!(shadow_map, m)?)?;
@@ -207,6 +231,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(vwss, m)?)?;
     m.add_function(wrap_pyfunction!(pcss, m)?)?;
     m.add_function(wrap_pyfunction!(cssm, m)?)?;
+    m.add_function(wrap_pyfunction!(alias_free, m)?)?;
     m.add_function(wrap_pyfunction!(fit_area_lights, m)?)?;
     m.add_function(wrap_pyfunction!(cube_solid_angles, m)?)?;
     Ok(())

@@ -1,4 +1,5 @@
 //! One module per soft-shadow method, named as in the Python API.
+pub mod alias_free;
 pub mod cssm;
 pub mod envmap;
 pub mod mvr;

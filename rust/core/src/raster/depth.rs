@@ -1030,18 +1030,23 @@ pub fn rasterize_depth(scene: &Scene, frustum: &LightFrustum, opts: &RasterOptio
 }
 
 /// Rows per parallel band: a function of the height only, so work splits identically everywhere.
-fn band_rows(height: usize) -> usize {
+pub(crate) fn band_rows(height: usize) -> usize {
     (height / 64).clamp(8, 64)
 }
 
 /// For each band of `band` rows, the indices of the casters whose texel bounds reach it.
-fn bin_rows(raster: &Rasterizer, casters: &[Caster], band: usize, bands: usize) -> Vec<Vec<u32>> {
+pub(crate) fn bin_rows(raster: &Rasterizer, casters: &[Caster], band: usize, bands: usize) -> Vec<Vec<u32>> {
     let rows: Vec<Option<(usize, usize)>> =
         casters.par_iter().map(|(_, t, _)| raster.bounds(t).map(|r| (r.y0, r.y1))).collect();
+    bin_row_ranges(&rows, band, bands)
+}
+
+/// For each band of `band` rows, the indices of the items whose row range `[y0, y1)` (non-empty,
+/// inside the map; `None`: no rows) reaches it.
+pub(crate) fn bin_row_ranges(rows: &[Option<(usize, usize)>], band: usize, bands: usize) -> Vec<Vec<u32>> {
     let mut bins = vec![Vec::new(); bands];
     for (i, r) in rows.iter().enumerate() {
         if let Some((y0, y1)) = *r {
-            // `bounds` returns non-empty rectangles inside the map, so y0 < y1 <= height.
             for bin in &mut bins[y0 / band..=(y1 - 1) / band] {
                 bin.push(i as u32);
             }

@@ -4,3 +4,4 @@ pub mod footprint;
 pub mod multiview;
 pub mod pcf;
 pub mod pyramid;
+pub mod region;

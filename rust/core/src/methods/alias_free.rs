@@ -1,0 +1,577 @@
+//! `alias_free`: sample-based visibility with alias-free shadow maps (Sintorn, Eisemann and
+//! Assarsson 2008, seed 000).
+//!
+//! The receivers (the paper's *view samples*) are stored in the light's shadow map instead of
+//! depths, so every receiver is tested exactly, whatever the map's resolution:
+//!
+//! 1. **View samples** (section 3): valid receivers that see the light (for a point light: facing
+//!    it, `n · (l − p) > 0`; for an area or volume light: facing any part of it). The others get 0.
+//! 2. **Parametrization** (section 4.3): the light frustum, from the light's center, fitted to the
+//!    view samples' projected bounding box and depth range.
+//! 3. **Lists** (section 3.1): each view sample goes to the list of the texel it projects to, by
+//!    count, prefix sum and scatter (a compressed row of offsets and one array of entries).
+//! 4. **Casters**: with `Casters::Backfacing`, closed meshes cast with their light back-facing
+//!    triangles only, which never shadow the front-facing surface they belong to, so no bias is
+//!    needed (section 3.3); open meshes cast with every triangle. With `Casters::All` every triangle
+//!    casts. A caster that can be its own receiver's surface (every triangle of an open mesh, every
+//!    triangle with `All`) tests the receiver moved `bias` along its normal, as the ray tracer does.
+//! 5. **Influence regions** (section 4.1): the union of the triangle's projections from every
+//!    point of the light onto the far plane, bounded by the convex hull of the projections of its
+//!    vertices from the light's bounding points: the corners of a rectangle (exact), a
+//!    circumscribed `hull_degree`-gon of a disk, and for a sphere the circumscribed
+//!    `hull_degree`-gon of its silhouette seen from each vertex (the paper's bounding polygons). A
+//!    point light's region is the triangle's own projection. Regions are rasterized conservatively
+//!    ([`crate::raster::region`]); bands of rows are processed in parallel, each owning the lists of
+//!    its texels.
+//! 6. **Visibility** (sections 3.3 and 4.2): each view sample keeps a bitmask over the `S` light
+//!    samples (1 for a point light). A triangle blocks sample `y` from `p` when `p` and `y` lie
+//!    strictly on opposite sides of its plane and `y` lies strictly inside the three planes through
+//!    `p` and its edges: the masks of those four planes are AND-ed, and the triangles' masks OR-ed.
+//!    With `lut: None` every plane tests every sample exactly; with `lut: Some(k)` a plane's mask
+//!    is read from a table indexed by its normal's two angles and its signed distance from the
+//!    light's center, `k` bins each (the plane-to-bitmask lookup table; Eisemann and Décoret 2007).
+//!    A view sample whose mask is full skips the remaining tests. Samples behind the receiver's
+//!    tangent plane start blocked (DESIGN.md section 3), and a perforated caster's blocked samples
+//!    are kept only where the segment meets an opaque texel.
+//!
+//! The result is the emission-weighted fraction of unblocked samples, as `ray_traced`'s.
+
+use crate::error::{Error, Result};
+use crate::geometry::mesh::Scene;
+use crate::geometry::receivers::Receivers;
+use crate::light::lights::{tangent_frame, Light, Shape};
+use crate::light::sampling::SampleSet;
+use crate::limits;
+use crate::raster::depth::{
+    band_rows, bin_row_ranges, casters, Caster, FaceFilter, LightFrustum, RasterMode, RasterOptions, NEAR_FRACTION,
+};
+use crate::raster::region::{conservative_rows, convex_hull};
+use crate::stats::Stats;
+use glam::{DVec2, DVec3, Vec3};
+use rayon::prelude::*;
+
+/// The most light samples a view sample's bitmask holds.
+pub const MAX_SAMPLES: usize = 1024;
+
+/// Which triangles cast shadows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Casters {
+    /// Closed meshes: light back-facing triangles only (bias-free); open meshes: every triangle.
+    #[default]
+    Backfacing,
+    /// Every triangle, each tested against receivers moved `bias` along their normals.
+    All,
+}
+
+/// Options of [`alias_free`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AliasFreeOptions {
+    /// Side of the light's list map in texels (default 512, the paper's).
+    pub resolution: usize,
+    pub casters: Casters,
+    /// Receiver offset along its normal for casters that may be its own surface (world units).
+    pub bias: f32,
+    /// Bins per parameter of the plane-to-bitmask table, or `None` for exact tests (default 64).
+    pub lut: Option<usize>,
+    /// Sides of the bounding polygons of disk and sphere lights (default 6, hexagons).
+    pub hull_degree: usize,
+}
+
+impl Default for AliasFreeOptions {
+    fn default() -> Self {
+        Self { resolution: 512, casters: Casters::Backfacing, bias: 0.0, lut: Some(64), hull_degree: 6 }
+    }
+}
+
+impl AliasFreeOptions {
+    fn validate(&self) -> Result<()> {
+        if !(1..=crate::raster::depth::MAX_RESOLUTION).contains(&self.resolution) {
+            return Err(Error::invalid("resolution", format!("must be in 1..=65536, got {}", self.resolution)));
+        }
+        if !(self.bias.is_finite() && self.bias >= 0.0) {
+            return Err(Error::invalid("bias", format!("must be finite and >= 0, got {}", self.bias)));
+        }
+        if let Some(k) = self.lut {
+            if !(4..=256).contains(&k) {
+                return Err(Error::invalid("lut", format!("must be in 4..=256 bins (or None for exact tests), got {k}")));
+            }
+        }
+        if !(3..=64).contains(&self.hull_degree) {
+            return Err(Error::invalid("hull_degree", format!("must be in 3..=64, got {}", self.hull_degree)));
+        }
+        Ok(())
+    }
+}
+
+/// One view sample: its receiver, position, position moved along the normal, and normal.
+#[derive(Debug, Clone, Copy)]
+struct ViewSample {
+    receiver: u32,
+    p: DVec3,
+    moved: DVec3,
+    n: DVec3,
+}
+
+/// Per-texel lists of view samples (compressed rows): texel `t` holds
+/// `entries[start[t]..start[t + 1]]`.
+struct Lists {
+    start: Vec<usize>,
+    entries: Vec<u32>,
+}
+
+fn build_lists(frustum: &LightFrustum, samples: &[ViewSample]) -> Lists {
+    let (w, h) = (frustum.width, frustum.height);
+    let texel: Vec<usize> = samples
+        .par_iter()
+        .map(|s| {
+            let p = frustum.project(s.p.as_vec3()).unwrap_or(Vec3::ZERO);
+            let (x, y) = ((p.x.max(0.0) as usize).min(w - 1), (p.y.max(0.0) as usize).min(h - 1));
+            y * w + x
+        })
+        .collect();
+    let mut start = vec![0usize; w * h + 1];
+    for &t in &texel {
+        start[t + 1] += 1;
+    }
+    for t in 0..w * h {
+        start[t + 1] += start[t];
+    }
+    let mut fill = start.clone();
+    let mut entries = vec![0u32; samples.len()];
+    for (i, &t) in texel.iter().enumerate() {
+        entries[fill[t]] = i as u32;
+        fill[t] += 1;
+    }
+    Lists { start, entries }
+}
+
+/// The light samples as f64 points, their weights, and the bitmask word count.
+struct LightSamples {
+    points: Vec<DVec3>,
+    weights: Vec<f64>,
+    words: usize,
+}
+
+impl LightSamples {
+    fn full_mask(&self) -> Vec<u64> {
+        let mut m = vec![!0u64; self.words];
+        let spare = self.words * 64 - self.points.len();
+        if spare > 0 {
+            m[self.words - 1] = !0u64 >> spare;
+        }
+        m
+    }
+
+    /// The samples with `m · y < k`.
+    fn below(&self, m: DVec3, k: f64, out: &mut [u64]) {
+        out.iter_mut().for_each(|w| *w = 0);
+        for (s, y) in self.points.iter().enumerate() {
+            if m.dot(*y) < k {
+                out[s / 64] |= 1 << (s % 64);
+            }
+        }
+    }
+}
+
+/// The plane-to-bitmask lookup table: for a unit normal (two angles) and a signed distance from
+/// the light's center (in units of the light's extent), the samples behind the plane.
+struct Lut {
+    bins: usize,
+    center: DVec3,
+    extent: f64,
+    words: usize,
+    masks: Vec<u64>,
+}
+
+impl Lut {
+    fn new(samples: &LightSamples, center: DVec3, extent: f64, bins: usize) -> Result<Self> {
+        let words = samples.words;
+        limits::check_memory("alias_free lookup table", limits::bytes(&[bins as u64, bins as u64, bins as u64, words as u64, 8]))?;
+        let mut masks = vec![0u64; bins * bins * bins * words];
+        masks.par_chunks_mut(bins * words).enumerate().for_each(|(ij, chunk)| {
+            let (i, j) = (ij / bins, ij % bins);
+            let m = Self::normal(bins, i, j);
+            for (k, out) in chunk.chunks_mut(words).enumerate() {
+                let d = ((k as f64 + 0.5) / bins as f64 * 2.0 - 1.0) * extent;
+                samples.below(m, m.dot(center) + d, out);
+            }
+        });
+        Ok(Self { bins, center, extent, words, masks })
+    }
+
+    fn normal(bins: usize, i: usize, j: usize) -> DVec3 {
+        let theta = (i as f64 + 0.5) / bins as f64 * std::f64::consts::PI;
+        let phi = (j as f64 + 0.5) / bins as f64 * 2.0 * std::f64::consts::PI;
+        DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos())
+    }
+
+    /// The mask of samples with `m · y < k`, or `None` when the plane misses the light (all or
+    /// none of it behind: the caller decides by the center).
+    fn lookup(&self, m: DVec3, k: f64) -> Option<&[u64]> {
+        let len = m.length();
+        let (u, d) = (m / len, (k / len - (m / len).dot(self.center)) / self.extent);
+        if !(-1.0..1.0).contains(&d) {
+            return None;
+        }
+        let b = self.bins as f64;
+        let i = ((u.z.clamp(-1.0, 1.0).acos() / std::f64::consts::PI * b) as usize).min(self.bins - 1);
+        let phi = u.y.atan2(u.x).rem_euclid(2.0 * std::f64::consts::PI);
+        let j = ((phi / (2.0 * std::f64::consts::PI) * b) as usize).min(self.bins - 1);
+        let k = (((d + 1.0) * 0.5 * b) as usize).min(self.bins - 1);
+        let at = ((i * self.bins + j) * self.bins + k) * self.words;
+        Some(&self.masks[at..at + self.words])
+    }
+}
+
+/// Plane masks of the light samples, exactly or through the table.
+struct Planes<'a> {
+    samples: &'a LightSamples,
+    lut: Option<&'a Lut>,
+}
+
+impl Planes<'_> {
+    /// ANDs into `mask` the samples with `m · y < k`.
+    fn and_below(&self, m: DVec3, k: f64, mask: &mut [u64], scratch: &mut [u64]) {
+        match self.lut {
+            Some(lut) => match lut.lookup(m, k) {
+                Some(table) => mask.iter_mut().zip(table).for_each(|(a, b)| *a &= b),
+                None => {
+                    if m.dot(lut.center) >= k {
+                        mask.iter_mut().for_each(|a| *a = 0);
+                    }
+                }
+            },
+            None => {
+                self.samples.below(m, k, scratch);
+                mask.iter_mut().zip(scratch.iter()).for_each(|(a, b)| *a &= b);
+            }
+        }
+    }
+}
+
+/// A caster prepared for the tests: vertices in f64, plane, whether it tests moved receivers.
+struct Prepared {
+    id: u32,
+    v: [DVec3; 3],
+    normal: DVec3,
+    alpha: bool,
+    moved: bool,
+    /// A closed mesh's triangle under `Casters::Backfacing`: it blocks only samples it is back-facing
+    /// to, from receivers in front of it (so never its own surface).
+    front_only: bool,
+}
+
+/// The samples of `samples` that triangle `t` blocks from view point `p`, written into `out`
+/// (false when none), following the module documentation.
+fn blocked_by(t: &Prepared, p: DVec3, planes: &Planes<'_>, full: &[u64], out: &mut [u64], scratch: &mut [u64]) -> bool {
+    let side = t.normal.dot(p - t.v[0]);
+    if side == 0.0 || (t.front_only && side < 0.0) {
+        return false;
+    }
+    out.copy_from_slice(full);
+    // Behind the triangle's plane as seen from p.
+    let sigma = side.signum();
+    planes.and_below(t.normal * sigma, sigma * t.normal.dot(t.v[0]), out, scratch);
+    for k in 0..3 {
+        let (u, v, w) = (t.v[k], t.v[(k + 1) % 3], t.v[(k + 2) % 3]);
+        let e = (u - p).cross(v - p);
+        let s = e.dot(w - p);
+        if s == 0.0 {
+            return false;
+        }
+        // Inside: e · (y − p) has the sign of s, i.e. (−sign(s) e) · y < −sign(s) e · p.
+        let m = -e * s.signum();
+        planes.and_below(m, m.dot(p), out, scratch);
+        if out.iter().all(|w| *w == 0) {
+            return false;
+        }
+    }
+    out.iter().any(|w| *w != 0)
+}
+
+/// For a perforated caster, clears the blocked samples whose segment crosses a transparent texel.
+fn alpha_test(scene: &Scene, t: &Prepared, p: DVec3, samples: &LightSamples, blocked: &mut [u64]) {
+    let (e1, e2) = (t.v[1] - t.v[0], t.v[2] - t.v[0]);
+    let nn = t.normal.length_squared();
+    for s in 0..samples.points.len() {
+        if blocked[s / 64] >> (s % 64) & 1 == 0 {
+            continue;
+        }
+        let y = samples.points[s];
+        let (sp, sy) = (t.normal.dot(p - t.v[0]), t.normal.dot(y - t.v[0]));
+        let x = p + (y - p) * (sp / (sp - sy));
+        let r = x - t.v[0];
+        let b1 = r.cross(e2).dot(t.normal) / nn;
+        let b2 = e1.cross(r).dot(t.normal) / nn;
+        if !scene.is_opaque_at(t.id, b1 as f32, b2 as f32) {
+            blocked[s / 64] &= !(1 << (s % 64));
+        }
+    }
+}
+
+/// The light's bounding points seen from world point `v` (see the module documentation).
+fn light_points(light: &Light, v: DVec3, degree: usize) -> Vec<DVec3> {
+    let polygon = |c: DVec3, n: DVec3, r: f64| -> Vec<DVec3> {
+        let (t, b) = tangent_frame(n.as_vec3());
+        let (t, b) = (t.as_dvec3(), b.as_dvec3());
+        let r = r / (std::f64::consts::PI / degree as f64).cos();
+        (0..degree)
+            .map(|k| {
+                let a = 2.0 * std::f64::consts::PI * k as f64 / degree as f64;
+                c + (t * a.cos() + b * a.sin()) * r
+            })
+            .collect()
+    };
+    match light.shape {
+        Shape::Point { position } => vec![position.as_dvec3()],
+        Shape::Rect { center, u, v: w } => {
+            let (c, u, w) = (center.as_dvec3(), u.as_dvec3(), w.as_dvec3());
+            vec![c + u + w, c + u - w, c - u - w, c - u + w]
+        }
+        Shape::Disk { center, normal, radius } => polygon(center.as_dvec3(), normal.as_dvec3(), f64::from(radius)),
+        Shape::Sphere { center, radius } => {
+            let (c, r) = (center.as_dvec3(), f64::from(radius));
+            let d = v - c;
+            let dist2 = d.length_squared();
+            if dist2 <= r * r {
+                return Vec::new();
+            }
+            // The silhouette circle seen from v: center c + d r²/|d|², radius r sqrt(1 − r²/|d|²).
+            polygon(c + d * (r * r / dist2), d / dist2.sqrt(), r * (1.0 - r * r / dist2).sqrt())
+        }
+    }
+}
+
+/// Whether every point of `light` lies strictly in front of triangle `t`'s plane.
+fn faces_whole_light(light: &Light, t: &[Vec3; 3]) -> bool {
+    let v = t.map(|p| p.as_dvec3());
+    let n = (v[1] - v[0]).cross(v[2] - v[0]);
+    let ahead = |y: DVec3| n.dot(y - v[0]);
+    match light.shape {
+        Shape::Point { position } => ahead(position.as_dvec3()) > 0.0,
+        Shape::Rect { center, u, v: w } => {
+            let (c, u, w) = (center.as_dvec3(), u.as_dvec3(), w.as_dvec3());
+            [c + u + w, c + u - w, c - u - w, c - u + w].into_iter().all(|y| ahead(y) > 0.0)
+        }
+        Shape::Disk { center, normal, radius } => {
+            let (nn, d) = (n.length(), normal.as_dvec3());
+            let spread = f64::from(radius) * nn * (1.0 - (n.dot(d) / nn).powi(2)).max(0.0).sqrt();
+            ahead(center.as_dvec3()) > spread
+        }
+        Shape::Sphere { center, radius } => ahead(center.as_dvec3()) > f64::from(radius) * n.length(),
+    }
+}
+
+/// The influence region's hull in texel coordinates, or `None` for the whole map (a vertex not
+/// strictly beyond some light point along the view direction).
+fn influence_hull(frustum: &LightFrustum, light: &Light, tri: &[Vec3; 3], degree: usize) -> Option<Vec<DVec2>> {
+    let (eye, f) = (frustum.eye.as_dvec3(), frustum.forward.as_dvec3());
+    let far = f64::from(frustum.far);
+    let mut pts = Vec::with_capacity(3 * degree.max(4));
+    for v in tri.iter().map(|v| v.as_dvec3()) {
+        let ys = light_points(light, v, degree);
+        if ys.is_empty() {
+            return None;
+        }
+        for y in ys {
+            let (zy, dz) = ((y - eye).dot(f), (v - y).dot(f));
+            if dz <= 1e-9 * (1.0 + zy.abs()) {
+                return None;
+            }
+            let x = y + (v - y) * ((far - zy) / dz);
+            let s = frustum.project(x.as_vec3())?;
+            pts.push(DVec2::new(f64::from(s.x), f64::from(s.y)));
+        }
+    }
+    Some(convex_hull(&pts))
+}
+
+/// Soft (or, for a point light, hard) visibility of every receiver by alias-free shadow maps.
+///
+/// Returns the visibility (receivers' order) and stats: `list_build_seconds`,
+/// `rasterization_seconds` (influence regions and their binning), `visibility_seconds` (the
+/// per-texel tests), `view_samples`, `casters`, `average_list_length` and `max_list_length` (over
+/// occupied texels), `occupied_texels_percent` (the paper's Figure 9 inlay), `light_samples`.
+///
+/// Errors: invalid options; no samples or more than [`MAX_SAMPLES`]; rotated or interleaved
+/// samples; the light's center inside the view samples' bounds; `TooLarge`.
+pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: &SampleSet, opts: &AliasFreeOptions) -> Result<(Vec<f32>, Stats)> {
+    opts.validate()?;
+    if !samples.is_shared() {
+        return Err(Error::invalid("samples", "alias_free shares one sample pattern (one bitmask layout) across receivers: rotation and interleaving do not apply"));
+    }
+    let ys = samples.pattern_for(0, 0);
+    if ys.is_empty() || ys.len() > MAX_SAMPLES {
+        return Err(Error::invalid("samples", format!("needs 1..={MAX_SAMPLES} light samples, got {}", ys.len())));
+    }
+    let points: Vec<DVec3> = if matches!(light.shape, Shape::Point { .. }) { vec![light.center().as_dvec3()] } else { ys.iter().map(|y| y.as_dvec3()).collect() };
+    let light_samples = LightSamples {
+        weights: points.iter().map(|y| f64::from(light.weight(y.as_vec3()))).collect(),
+        words: points.len().div_ceil(64),
+        points,
+    };
+    let mut stats = Stats::default();
+    for name in ["list_build_seconds", "rasterization_seconds", "visibility_seconds", "view_samples", "casters", "average_list_length", "max_list_length", "occupied_texels_percent"] {
+        stats.set(name, 0.0);
+    }
+    stats.set("light_samples", light_samples.points.len() as f64);
+    let mut vis = vec![0.0f32; receivers.len()];
+    let center = light.center().as_dvec3();
+    let extent = f64::from(light.extent());
+    let view: Vec<ViewSample> = (0..receivers.len())
+        .filter(|&i| receivers.valid[i])
+        .map(|i| {
+            let (p, n) = (receivers.points[i].as_dvec3(), receivers.normals[i].as_dvec3());
+            ViewSample { receiver: i as u32, p, moved: p + n * f64::from(opts.bias), n }
+        })
+        .filter(|s| s.n.dot(center - s.p) > -extent * s.n.length() && (center - s.p).length_squared() > 0.0)
+        .collect();
+    stats.set("view_samples", view.len() as f64);
+    if view.is_empty() {
+        return Ok((vis, stats));
+    }
+    let frustum = stats.time("list_build", || fit_frustum(light, &view, opts.resolution))?;
+    let lists = {
+        let start = std::time::Instant::now();
+        let lists = build_lists(&frustum, &view);
+        stats.add("list_build_seconds", start.elapsed().as_secs_f64());
+        lists
+    };
+    record_list_stats(&lists, &mut stats);
+    let (w, h) = (frustum.width, frustum.height);
+    let point = matches!(light.shape, Shape::Point { .. });
+    let filter = match opts.casters {
+        Casters::Backfacing if point => FaceFilter::BackFacingIfClosed,
+        _ => FaceFilter::All,
+    };
+    let mut raw: Vec<Caster> = casters(scene, &RasterOptions { mode: RasterMode::Conservative, faces: filter, alpha_test: true }, frustum.eye);
+    let front_only = |id: u32| opts.casters == Casters::Backfacing && !point && scene.is_closed_face(id);
+    // A closed triangle facing every point of the light is back-facing to no sample: it casts nothing.
+    raw.retain(|(id, t, _)| !(front_only(*id) && faces_whole_light(light, t)));
+    stats.set("casters", raw.len() as f64);
+    let band = band_rows(h);
+    let (prepared, hulls, bins) = stats.time("rasterization", || {
+        let prepared: Vec<Prepared> = raw
+            .iter()
+            .map(|(id, t, alpha)| {
+                let v = t.map(|p| p.as_dvec3());
+                // Only a point light's back-facing closed casters can skip the offset (section 3.3):
+                // near its own surface, a receiver's per-sample edge planes are degenerate.
+                let moved = opts.casters == Casters::All || !scene.is_closed_face(*id) || !point;
+                let front_only = front_only(*id);
+                Prepared { id: *id, v, normal: (v[1] - v[0]).cross(v[2] - v[0]), alpha: *alpha, moved, front_only }
+            })
+            .collect();
+        let hulls: Vec<Option<Vec<DVec2>>> = raw.par_iter().map(|(_, t, _)| influence_hull(&frustum, light, t, opts.hull_degree)).collect();
+        let rows: Vec<Option<(usize, usize)>> = hulls
+            .iter()
+            .map(|hull| match hull {
+                None => Some((0, h)),
+                Some(hull) => {
+                    let r = conservative_rows(hull, w, h);
+                    r.first().map(|f| (f.0, r.last().map_or(f.0, |l| l.0) + 1))
+                }
+            })
+            .collect();
+        (prepared, hulls, bin_row_ranges(&rows, band, h.div_ceil(band)))
+    });
+    let lut = match opts.lut {
+        Some(bins) if light_samples.points.len() > 1 && extent > 0.0 => Some(Lut::new(&light_samples, center, extent, bins)?),
+        _ => None,
+    };
+    let planes = Planes { samples: &light_samples, lut: lut.as_ref() };
+    let words = light_samples.words;
+    limits::check_memory("alias_free bitmasks", limits::bytes(&[view.len() as u64, words as u64, 8]))?;
+    // Initial masks: samples behind each view sample's tangent plane are blocked.
+    let mut masks = vec![0u64; lists.entries.len() * words];
+    masks.par_chunks_mut(words).zip(&lists.entries).for_each(|(m, &e)| {
+        let s = &view[e as usize];
+        for (k, y) in light_samples.points.iter().enumerate() {
+            if s.n.dot(*y - s.p) <= 0.0 {
+                m[k / 64] |= 1 << (k % 64);
+            }
+        }
+    });
+    let full = light_samples.full_mask();
+    stats.time("visibility", || {
+        let mut rest: &mut [u64] = &mut masks;
+        let mut chunks = Vec::new();
+        for b in 0..h.div_ceil(band) {
+            let (y0, y1) = (b * band, ((b + 1) * band).min(h));
+            let len = (lists.start[y1 * w] - lists.start[y0 * w]) * words;
+            let (head, tail) = rest.split_at_mut(len);
+            chunks.push((b, y0, y1, head));
+            rest = tail;
+        }
+        chunks.into_par_iter().for_each(|(b, y0, y1, band_masks)| {
+            let base = lists.start[y0 * w];
+            let mut blocked = vec![0u64; words];
+            let mut scratch = vec![0u64; words];
+            for &c in &bins[b] {
+                let t = &prepared[c as usize];
+                let rows: Vec<(usize, usize, usize)> = match &hulls[c as usize] {
+                    None => (y0..y1).map(|y| (y, 0, w)).collect(),
+                    Some(hull) => conservative_rows(hull, w, h).into_iter().filter(|r| (y0..y1).contains(&r.0)).collect(),
+                };
+                for (y, x0, x1) in rows {
+                    for e in lists.start[y * w + x0]..lists.start[y * w + x1] {
+                        let m = &mut band_masks[(e - base) * words..(e - base + 1) * words];
+                        if m.iter().zip(&full).all(|(a, f)| a == f) {
+                            continue;
+                        }
+                        let s = &view[lists.entries[e] as usize];
+                        let p = if t.moved { s.moved } else { s.p };
+                        if blocked_by(t, p, &planes, &full, &mut blocked, &mut scratch) {
+                            if t.alpha {
+                                alpha_test(scene, t, p, &light_samples, &mut blocked);
+                            }
+                            m.iter_mut().zip(&blocked).for_each(|(a, b)| *a |= b);
+                        }
+                    }
+                }
+            }
+        });
+    });
+    let total: f64 = light_samples.weights.iter().sum();
+    for (e, &i) in lists.entries.iter().enumerate() {
+        let m = &masks[e * words..(e + 1) * words];
+        let lit = (0..light_samples.points.len())
+            .filter(|&k| m[k / 64] >> (k % 64) & 1 == 0)
+            .fold(0.0f64, |acc, k| acc + light_samples.weights[k]);
+        let r = view[i as usize].receiver as usize;
+        vis[r] = if total > 0.0 { (lit / total).clamp(0.0, 1.0) as f32 } else { 0.0 };
+    }
+    Ok((vis, stats))
+}
+
+/// The frustum from the light's center fitted to the view samples (section 4.3): the square fit
+/// of [`LightFrustum::fit`] for its axes, then the tightest fields of view and depth range.
+fn fit_frustum(light: &Light, view: &[ViewSample], resolution: usize) -> Result<LightFrustum> {
+    let (lo, hi) = view.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), s| (lo.min(s.p.as_vec3()), hi.max(s.p.as_vec3())));
+    let base = LightFrustum::fit(light.center(), lo, hi, resolution)?;
+    let (mut tx, mut ty, mut z0, mut z1) = (0.0f32, 0.0f32, f32::INFINITY, 0.0f32);
+    for s in view {
+        let v = base.to_view(s.p.as_vec3());
+        tx = tx.max(v.x.abs() / v.z);
+        ty = ty.max(v.y.abs() / v.z);
+        z0 = z0.min(v.z);
+        z1 = z1.max(v.z);
+    }
+    let margin = 1.0 + 1e-3;
+    Ok(LightFrustum {
+        tan_half_x: (tx * margin).max(1e-4),
+        tan_half_y: (ty * margin).max(1e-4),
+        near: NEAR_FRACTION * z0,
+        far: (z1 * 1.001).max(NEAR_FRACTION * z0 * 2.0),
+        ..base
+    })
+}
+
+fn record_list_stats(lists: &Lists, stats: &mut Stats) {
+    let lengths = lists.start.windows(2).map(|w| w[1] - w[0]);
+    let (occupied, max) = lengths.fold((0usize, 0usize), |(o, m), l| (o + usize::from(l > 0), m.max(l)));
+    let texels = lists.start.len() - 1;
+    stats.set("average_list_length", if occupied > 0 { lists.entries.len() as f64 / occupied as f64 } else { 0.0 });
+    stats.set("max_list_length", max as f64);
+    stats.set("occupied_texels_percent", 100.0 * occupied as f64 / texels as f64);
+}

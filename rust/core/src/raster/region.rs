@@ -1,0 +1,107 @@
+//! Convex regions in texel space and their conservative coverage: the influence regions of
+//! seed 000's soft alias-free shadow maps (the union of a triangle's projections from every light
+//! point) are convex hulls of projected points, rasterized so that every texel they touch is
+//! visited.
+
+use glam::DVec2;
+
+/// The convex hull of `points` in counter-clockwise order (Andrew's monotone chain; collinear
+/// points dropped). Fewer than three distinct points give them back as they are.
+pub fn convex_hull(points: &[DVec2]) -> Vec<DVec2> {
+    let mut pts: Vec<DVec2> = points.iter().copied().filter(|p| p.is_finite()).collect();
+    pts.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    pts.dedup();
+    if pts.len() < 3 {
+        return pts;
+    }
+    let cross = |o: DVec2, a: DVec2, b: DVec2| (a - o).perp_dot(b - o);
+    let mut hull: Vec<DVec2> = Vec::with_capacity(2 * pts.len());
+    for pass in 0..2 {
+        let start = hull.len();
+        let iter: Box<dyn Iterator<Item = &DVec2>> = if pass == 0 { Box::new(pts.iter()) } else { Box::new(pts.iter().rev()) };
+        for &p in iter {
+            while hull.len() >= start + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0 {
+                hull.pop();
+            }
+            hull.push(p);
+        }
+        hull.pop();
+    }
+    hull
+}
+
+/// For each texel row the convex polygon `hull` (texel coordinates, any orientation) touches,
+/// `(y, x0, x1)`: the half-open texel columns `[x0, x1)` whose squares it touches in that row,
+/// clipped to a `width × height` map. Conservative: every texel square the polygon overlaps is
+/// included (up to `1e-6` texel of slack).
+pub fn conservative_rows(hull: &[DVec2], width: usize, height: usize) -> Vec<(usize, usize, usize)> {
+    const SLACK: f64 = 1e-6;
+    if hull.is_empty() {
+        return Vec::new();
+    }
+    let (lo_y, hi_y) = hull.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.y), b.max(p.y)));
+    let y_first = (lo_y - SLACK).floor().max(0.0) as usize;
+    let y_last = ((hi_y + SLACK).floor().min(height as f64 - 1.0)).max(-1.0);
+    if y_last < 0.0 || y_first >= height {
+        return Vec::new();
+    }
+    let mut rows = Vec::new();
+    for y in y_first..=y_last as usize {
+        let (top, bottom) = (y as f64 - SLACK, y as f64 + 1.0 + SLACK);
+        let (mut x_lo, mut x_hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        let n = hull.len();
+        for i in 0..n {
+            let (a, b) = (hull[i], hull[(i + 1) % n]);
+            if a.y >= top && a.y <= bottom {
+                x_lo = x_lo.min(a.x);
+                x_hi = x_hi.max(a.x);
+            }
+            for edge_y in [top, bottom] {
+                if (a.y - edge_y) * (b.y - edge_y) < 0.0 {
+                    let x = a.x + (b.x - a.x) * (edge_y - a.y) / (b.y - a.y);
+                    x_lo = x_lo.min(x);
+                    x_hi = x_hi.max(x);
+                }
+            }
+        }
+        if x_lo > x_hi {
+            continue;
+        }
+        let x0 = (x_lo - SLACK).floor().max(0.0);
+        let x1 = ((x_hi + SLACK).floor() + 1.0).min(width as f64);
+        if x1 > x0 {
+            rows.push((y, x0 as usize, x1 as usize));
+        }
+    }
+    rows
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hull_of_a_square_with_inner_points() {
+        let pts = [DVec2::new(0.0, 0.0), DVec2::new(2.0, 0.0), DVec2::new(1.0, 1.0), DVec2::new(2.0, 2.0), DVec2::new(0.0, 2.0)];
+        let hull = convex_hull(&pts);
+        assert_eq!(hull.len(), 4);
+        assert!(!hull.contains(&DVec2::new(1.0, 1.0)));
+    }
+
+    #[test]
+    fn coverage_is_conservative() {
+        let hull = convex_hull(&[DVec2::new(1.2, 1.5), DVec2::new(6.7, 2.1), DVec2::new(3.3, 7.9)]);
+        let rows = conservative_rows(&hull, 10, 10);
+        // Brute force: texels whose square overlaps the triangle, by dense point sampling.
+        for y in 0..10 {
+            for x in 0..10 {
+                let touched = (0..=20).flat_map(|i| (0..=20).map(move |j| (i, j))).any(|(i, j)| {
+                    let p = DVec2::new(x as f64 + i as f64 / 20.0, y as f64 + j as f64 / 20.0);
+                    (0..hull.len()).all(|k| (hull[(k + 1) % hull.len()] - hull[k]).perp_dot(p - hull[k]) >= 0.0)
+                });
+                let covered = rows.iter().any(|&(ry, x0, x1)| ry == y && (x0..x1).contains(&x));
+                assert!(!touched || covered, "texel ({x}, {y}) touched but not covered");
+            }
+        }
+    }
+}
