@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import softshadows as ss
 from softshadows import shading
 from softshadows.camera import Camera, GBuffer, Receivers
 from softshadows.lights import DiskLight, PointLight, RectLight, SphereLight
@@ -277,3 +278,25 @@ def test_mitsuba_camera_lines_up_with_the_core_gbuffer(tmp_path, monkeypatch):
     assert np.median(np.abs(img[lit] / ours[lit] - 1)) < 0.03
     mirrored = ours[:, ::-1]
     assert np.median(np.abs(img[lit] / np.maximum(mirrored[lit], 1e-9) - 1)) > 0.2
+
+
+def test_bent_normals_fade_faces_touching_the_terminator_and_keep_flat_ground():
+    setup = ss.scenes.get("ground_sphere", width=96, height=96)
+    gb = ss.gbuffer(setup.scene, setup.camera)
+    vis = ss.ray_traced(setup.scene, setup.light, gb, samples=64)
+    plain = ss.shading.direct(gb, setup.light, vis)
+    bent = ss.shading.direct(gb, setup.light, vis, bent_normals=True, scene=setup.scene)
+    ground = gb.mask & (gb.face_ids < len(setup.ground.faces))
+    sphere = gb.mask & ~ground
+    np.testing.assert_array_equal(bent[ground], plain[ground])
+    assert np.all(bent <= plain + 1e-7)
+    # Lit sphere pixels darkened by more than 10% lie nearer the shadow terminator than the rest.
+    lit = sphere & (plain > 0)
+    faded = lit & (bent < 0.9 * plain)
+    assert 0 < faded.sum() < lit.sum()
+    center = np.asarray(setup.light.center)
+    to_light = center - gb.positions
+    cos = np.einsum("...i,...i->...", gb.normals, to_light) / np.linalg.norm(to_light, axis=-1)
+    assert np.median(cos[faded]) < np.median(cos[lit & ~faded])
+    with pytest.raises(ValueError, match="scene"):
+        ss.shading.direct(gb, setup.light, vis, bent_normals=True)

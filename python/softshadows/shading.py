@@ -53,8 +53,16 @@ DISK_EDGES = 256
 _BATCH = 8192
 
 
-def direct(gbuffer, light, visibility, albedo=0.8, *, intensity: float = 1.0) -> np.ndarray:
+def direct(gbuffer, light, visibility, albedo=0.8, *, intensity: float = 1.0, bent_normals: bool = False,
+           scene=None) -> np.ndarray:
     """Outgoing radiance of Lambertian receivers under ``light``, factored as ``albedo/pi * E * V``.
+
+    With ``bent_normals=True`` the shading follows seed 000's smooth coherent model (section 4.3):
+    each vertex gets the smallest ``max(0, n_f . l)`` over its adjacent faces ``f`` (``l`` from the
+    vertex towards the light's center); each corner of the receiver's face keeps that value over
+    the face's own cosine there, and ``E`` is scaled by the barycentric blend of the three. Light
+    back-facing triangles and the triangles touching them fade to black continuously, so light
+    does not leak past the shadow terminator; a flat mesh (all neighbours coplanar) is unchanged.
 
     Parameters
     ----------
@@ -67,6 +75,10 @@ def direct(gbuffer, light, visibility, albedo=0.8, *, intensity: float = 1.0) ->
         Diffuse reflectance in [0, 1]; an RGB triple gives an RGB result.
     intensity : float
         Area-light radiance (W m^-2 sr^-1) or point-light intensity (W sr^-1).
+    bent_normals : bool
+        Use the smooth coherent shading above; needs a GBuffer (its face ids) and ``scene``.
+    scene : Scene, optional
+        The scene the G-buffer was made from (for ``bent_normals``).
 
     Returns
     -------
@@ -83,8 +95,50 @@ def direct(gbuffer, light, visibility, albedo=0.8, *, intensity: float = 1.0) ->
     points, normals, mask = _flat(rx)
     e = np.zeros(len(points))
     e[mask] = unshadowed_irradiance(points[mask], normals[mask], light, intensity=intensity)
+    if bent_normals:
+        e *= _bent_ratio(gbuffer, scene, light, points, normals, mask)
     radiance = (e.reshape(rx.shape) * vis / np.pi)[..., None] * alb if alb.ndim else e.reshape(rx.shape) * vis * alb / np.pi
     return radiance.astype(np.float32)
+
+
+def _bent_ratio(gbuffer, scene, light, points, normals, mask) -> np.ndarray:
+    """Per receiver, the barycentric blend over its face's corners of the smallest adjacent-face
+    cosine at the corner over the face's own cosine there (seed 000, section 4.3)."""
+    from .camera import GBuffer
+    from .scene import Scene
+
+    if not isinstance(gbuffer, GBuffer):
+        raise ValueError("gbuffer: bent_normals needs a GBuffer (its face ids), not explicit receivers")
+    v.instance("scene", scene, Scene, "the softshadows.Scene the G-buffer was made from")
+    verts = np.concatenate([m.vertices for m in scene.meshes]).astype(np.float64)
+    offsets = np.cumsum([0] + [len(m.vertices) for m in scene.meshes[:-1]])
+    faces = np.concatenate([m.faces.astype(np.int64) + o for m, o in zip(scene.meshes, offsets)])
+    center = np.asarray(light.center if hasattr(light, "center") else light.position, np.float64)
+    tri = verts[faces]
+    face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    face_n /= np.maximum(np.linalg.norm(face_n, axis=1, keepdims=True), 1e-300)
+    to_light = center - verts
+    to_light /= np.maximum(np.linalg.norm(to_light, axis=1, keepdims=True), 1e-300)
+    vertex_min = np.ones(len(verts))
+    for k in range(3):  # every face lowers the value of its three vertices
+        cos = np.maximum(np.einsum("ij,ij->i", face_n, to_light[faces[:, k]]), 0.0)
+        np.minimum.at(vertex_min, faces[:, k], cos)
+    ids = gbuffer.face_ids.reshape(-1)
+    ratio = np.zeros(len(points))
+    hit = mask & (ids >= 0)
+    f = faces[ids[hit]]
+    a, b, c = verts[f[:, 0]], verts[f[:, 1]], verts[f[:, 2]]
+    p = points[hit].astype(np.float64)
+    n2 = np.einsum("ij,ij->i", *(2 * [np.cross(b - a, c - a)]))
+    nrm = np.cross(b - a, c - a)
+    b1 = np.einsum("ij,ij->i", np.cross(p - a, c - a), nrm) / n2
+    b2 = np.einsum("ij,ij->i", np.cross(b - a, p - a), nrm) / n2
+    # Each corner keeps the fraction of its face's own cosine that its darkest neighbour allows.
+    own_n = face_n[ids[hit]]
+    corner = [np.einsum("ij,ij->i", own_n, to_light[f[:, k]]) for k in range(3)]
+    fraction = [np.where(c > 0, np.clip(vertex_min[f[:, k]] / np.maximum(c, 1e-12), 0.0, 1.0), 0.0) for k, c in enumerate(corner)]
+    ratio[hit] = (1 - b1 - b2) * fraction[0] + b1 * fraction[1] + b2 * fraction[2]
+    return ratio
 
 
 def unshadowed_irradiance(points, normals, light, *, intensity: float = 1.0) -> np.ndarray:
