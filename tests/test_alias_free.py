@@ -114,3 +114,21 @@ def test_receivers_without_hits_and_lights_inside_geometry_are_defined():
     ref = ss.ray_traced(setup.scene, inside, gb, samples=samples)
     assert vis.shape == gb.mask.shape and np.all(np.isfinite(vis))
     assert np.mean((vis == ref)[gb.mask]) > 0.99
+
+
+@pytest.mark.parametrize("kind", ["disk", "sphere"])
+def test_rotated_lookups_for_symmetric_lights(kind):
+    setup, gb = case("columns", size=64, light=kind)
+    samples = setup.light.samples(128, pattern="poisson", seed=4)
+    exact = ss.ray_traced(setup.scene, setup.light, gb, samples=samples, rotate="per_receiver", seed=9)
+    soft = ss.alias_free(setup.scene, setup.light, gb, samples=samples, rotate="per_receiver", seed=9, lut=None)
+    assert np.mean((soft == exact)[gb.mask]) >= 0.995
+    assert np.any(exact != ss.ray_traced(setup.scene, setup.light, gb, samples=samples))
+    lut = ss.alias_free(setup.scene, setup.light, gb, samples=samples, rotate="per_receiver", seed=9)
+    assert np.abs(lut - exact)[gb.mask].mean() < 0.01
+
+
+def test_rect_lights_refuse_rotated_lookups():
+    setup, gb = case("columns", size=16)
+    with pytest.raises(ValueError, match="rotate"):
+        ss.alias_free(setup.scene, setup.light, gb, samples=16, rotate="per_receiver")

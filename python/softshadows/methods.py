@@ -516,6 +516,7 @@ def alias_free(
     hull_degree: int = 6,
     pattern: str = "poisson",
     seed: int = 0,
+    rotate: str | None = None,
     frame: int = 0,
     return_stats: bool = False,
 ):
@@ -551,6 +552,10 @@ def alias_free(
         Sides of the bounding polygons of disk and sphere lights (the paper: hexagons).
     pattern, seed, frame
         Choice of ``samples=n`` light samples, as in ``ray_traced``.
+    rotate : {None, "per_receiver"}
+        Decorrelate receivers by a random rotation of the samples about the light's center, as in
+        ``ray_traced``: the lookups rotate the planes instead of the samples (seed 000 section
+        4.2), so only symmetric, untextured lights (disk, sphere) take it.
     return_stats : bool
         Also return ``{"list_build_seconds", "rasterization_seconds", "visibility_seconds",
         "average_list_length", "max_list_length", "occupied_texels_percent", ...}``.
@@ -561,7 +566,7 @@ def alias_free(
     """
     _check(scene, light)
     receivers = as_receivers(receivers)
-    native = _native_samples(light, samples, pattern=pattern, seed=seed, rotate=None, interleaved=1, frame=frame)
+    native = _native_samples(light, samples, pattern=pattern, seed=seed, rotate=rotate, interleaved=1, frame=frame)
     out = _core.alias_free(
         scene.native(),
         light.native(),

@@ -286,6 +286,20 @@ impl Light {
     }
 }
 
+impl Light {
+    /// The decorrelating rotation [`Light::rotate`] applies for `r`, as a rigid rotation about the
+    /// light's center, for the lights it is one of (point, disk, sphere); `None` for a rectangle,
+    /// whose decorrelation is a shift of its parameters.
+    pub fn rigid_rotation(&self, r: RotationSeed) -> Option<Mat3> {
+        match self.shape {
+            Shape::Point { .. } => Some(Mat3::IDENTITY),
+            Shape::Disk { normal, .. } => Some(Mat3::from_quat(glam::Quat::from_axis_angle(normal, 2.0 * PI * r[0]))),
+            Shape::Sphere { .. } => Some(random_rotation(r)),
+            Shape::Rect { .. } => None,
+        }
+    }
+}
+
 /// Arvo's uniformly distributed random rotation from three uniform numbers.
 fn random_rotation(r: RotationSeed) -> Mat3 {
     let theta = 2.0 * PI * r[0];

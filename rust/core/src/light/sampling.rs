@@ -266,6 +266,16 @@ impl SampleSet {
         self.patterns.len() == 1 && self.rotate.is_none()
     }
 
+    /// Whether every receiver uses the same pattern before rotation (no interleaving).
+    pub fn is_single_pattern(&self) -> bool {
+        self.patterns.len() == 1
+    }
+
+    /// The rotation seed of receiver `index`, when samples are rotated per receiver.
+    pub fn rotation_for(&self, index: usize) -> Option<RotationSeed> {
+        self.rotate.map(|seed| rotation_seed(seed, index as u64))
+    }
+
     /// The pattern of receiver pixel `(x, y)` before any per-receiver rotation.
     pub fn pattern_for(&self, x: usize, y: usize) -> &[Vec3] {
         let k = self.interleave;
@@ -276,8 +286,7 @@ impl SampleSet {
     pub fn fill(&self, light: &Light, index: usize, (x, y): (usize, usize), out: &mut Vec<Vec3>, weights: &mut Vec<f32>) {
         out.clear();
         out.extend_from_slice(self.pattern_for(x, y));
-        if let Some(seed) = self.rotate {
-            let r = rotation_seed(seed, index as u64);
+        if let Some(r) = self.rotation_for(index) {
             out.iter_mut().for_each(|y| *y = light.rotate(*y, r));
         }
         weights.clear();

@@ -30,7 +30,9 @@
 //!    With `lut: None` every plane tests every sample exactly; with `lut: Some(k)` a plane's mask
 //!    is read from a table indexed by its normal's two angles and its signed distance from the
 //!    light's center, `k` bins each (the plane-to-bitmask lookup table; Eisemann and Décoret 2007).
-//!    A view sample whose mask is full skips the remaining tests. Samples behind the receiver's
+//!    A view sample whose mask is full skips the remaining tests. With per-receiver rotation of the
+//!    samples (disk and sphere lights) a view sample's planes are rotated the other way instead, so
+//!    the one table serves every rotation (the paper's rotated lookups for symmetric lights). Samples behind the receiver's
 //!    tangent plane start blocked (DESIGN.md section 3), and a perforated caster's blocked samples
 //!    are kept only where the segment meets an opaque texel.
 //!
@@ -47,7 +49,7 @@ use crate::raster::depth::{
 };
 use crate::raster::region::{conservative_rows, convex_hull};
 use crate::stats::Stats;
-use glam::{DVec2, DVec3, Vec3};
+use glam::{DMat3, DVec2, DVec3, Vec3};
 use rayon::prelude::*;
 
 /// The most light samples a view sample's bitmask holds.
@@ -110,6 +112,8 @@ struct ViewSample {
     p: DVec3,
     moved: DVec3,
     n: DVec3,
+    /// The transpose of its samples' rotation about the light's center (`rotate="per_receiver"`).
+    rotation: Option<DMat3>,
 }
 
 /// Per-texel lists of view samples (compressed rows): texel `t` holds
@@ -223,15 +227,27 @@ impl Lut {
     }
 }
 
-/// Plane masks of the light samples, exactly or through the table.
+/// Plane masks of the light samples, exactly or through the table, for one view sample whose
+/// samples may be rotated about the light's center.
 struct Planes<'a> {
     samples: &'a LightSamples,
     lut: Option<&'a Lut>,
+    center: DVec3,
+    /// The transpose of the view sample's rotation: a rotated sample `c + R (y − c)` lies below
+    /// `m · x < k` exactly when `y` lies below `(Rᵀ m) · y < k − m · c + (Rᵀ m) · c`.
+    rotation: Option<DMat3>,
 }
 
 impl Planes<'_> {
-    /// ANDs into `mask` the samples with `m · y < k`.
+    /// ANDs into `mask` the (rotated) samples with `m · y < k`.
     fn and_below(&self, m: DVec3, k: f64, mask: &mut [u64], scratch: &mut [u64]) {
+        let (m, k) = match self.rotation {
+            Some(rt) => {
+                let r = rt * m;
+                (r, k - m.dot(self.center) + r.dot(self.center))
+            }
+            None => (m, k),
+        };
         match self.lut {
             Some(lut) => match lut.lookup(m, k) {
                 Some(table) => mask.iter_mut().zip(table).for_each(|(a, b)| *a &= b),
@@ -290,14 +306,14 @@ fn blocked_by(t: &Prepared, p: DVec3, planes: &Planes<'_>, full: &[u64], out: &m
 }
 
 /// For a perforated caster, clears the blocked samples whose segment crosses a transparent texel.
-fn alpha_test(scene: &Scene, t: &Prepared, p: DVec3, samples: &LightSamples, blocked: &mut [u64]) {
+fn alpha_test(scene: &Scene, t: &Prepared, p: DVec3, samples: &LightSamples, rotated: impl Fn(DVec3) -> DVec3, blocked: &mut [u64]) {
     let (e1, e2) = (t.v[1] - t.v[0], t.v[2] - t.v[0]);
     let nn = t.normal.length_squared();
     for s in 0..samples.points.len() {
         if blocked[s / 64] >> (s % 64) & 1 == 0 {
             continue;
         }
-        let y = samples.points[s];
+        let y = rotated(samples.points[s]);
         let (sp, sy) = (t.normal.dot(p - t.v[0]), t.normal.dot(y - t.v[0]));
         let x = p + (y - p) * (sp / (sp - sy));
         let r = x - t.v[0];
@@ -397,8 +413,15 @@ fn influence_hull(frustum: &LightFrustum, light: &Light, tri: &[Vec3; 3], degree
 /// samples; the light's center inside the view samples' bounds; `TooLarge`.
 pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: &SampleSet, opts: &AliasFreeOptions) -> Result<(Vec<f32>, Stats)> {
     opts.validate()?;
-    if !samples.is_shared() {
-        return Err(Error::invalid("samples", "alias_free shares one sample pattern (one bitmask layout) across receivers: rotation and interleaving do not apply"));
+    if !samples.is_single_pattern() {
+        return Err(Error::invalid("interleaved", "alias_free shares one sample pattern (one bitmask layout) across receivers: interleaving does not apply"));
+    }
+    let rotated = samples.rotation_for(0).is_some();
+    if rotated && (light.rigid_rotation([0.0; 3]).is_none() || light.is_textured()) {
+        return Err(Error::invalid(
+            "rotate",
+            "per-receiver rotation needs a symmetric, untextured light (point, disk, sphere): its lookups rotate the planes, not the samples",
+        ));
     }
     let ys = samples.pattern_for(0, 0);
     if ys.is_empty() || ys.len() > MAX_SAMPLES {
@@ -422,7 +445,8 @@ pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: 
         .filter(|&i| receivers.valid[i])
         .map(|i| {
             let (p, n) = (receivers.points[i].as_dvec3(), receivers.normals[i].as_dvec3());
-            ViewSample { receiver: i as u32, p, moved: p + n * f64::from(opts.bias), n }
+            let rotation = samples.rotation_for(i).and_then(|r| light.rigid_rotation(r)).map(|m| m.as_dmat3().transpose());
+            ViewSample { receiver: i as u32, p, moved: p + n * f64::from(opts.bias), n, rotation }
         })
         .filter(|s| s.n.dot(center - s.p) > -extent * s.n.length() && (center - s.p).length_squared() > 0.0)
         .collect();
@@ -479,7 +503,6 @@ pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: 
         Some(bins) if light_samples.points.len() > 1 && extent > 0.0 => Some(Lut::new(&light_samples, center, extent, bins)?),
         _ => None,
     };
-    let planes = Planes { samples: &light_samples, lut: lut.as_ref() };
     let words = light_samples.words;
     limits::check_memory("alias_free bitmasks", limits::bytes(&[view.len() as u64, words as u64, 8]))?;
     // Initial masks: samples behind each view sample's tangent plane are blocked.
@@ -487,7 +510,7 @@ pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: 
     masks.par_chunks_mut(words).zip(&lists.entries).for_each(|(m, &e)| {
         let s = &view[e as usize];
         for (k, y) in light_samples.points.iter().enumerate() {
-            if s.n.dot(*y - s.p) <= 0.0 {
+            if s.n.dot(rotate_about(center, s.rotation, *y) - s.p) <= 0.0 {
                 m[k / 64] |= 1 << (k % 64);
             }
         }
@@ -521,9 +544,10 @@ pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: 
                         }
                         let s = &view[lists.entries[e] as usize];
                         let p = if t.moved { s.moved } else { s.p };
+                        let planes = Planes { samples: &light_samples, lut: lut.as_ref(), center, rotation: s.rotation };
                         if blocked_by(t, p, &planes, &full, &mut blocked, &mut scratch) {
                             if t.alpha {
-                                alpha_test(scene, t, p, &light_samples, &mut blocked);
+                                alpha_test(scene, t, p, &light_samples, |y| rotate_about(center, s.rotation, y), &mut blocked);
                             }
                             m.iter_mut().zip(&blocked).for_each(|(a, b)| *a |= b);
                         }
@@ -542,6 +566,14 @@ pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: 
         vis[r] = if total > 0.0 { (lit / total).clamp(0.0, 1.0) as f32 } else { 0.0 };
     }
     Ok((vis, stats))
+}
+
+/// Sample `y` rotated about `center` by the rotation whose transpose is `rotation`.
+fn rotate_about(center: DVec3, rotation: Option<DMat3>, y: DVec3) -> DVec3 {
+    match rotation {
+        Some(rt) => center + rt.transpose() * (y - center),
+        None => y,
+    }
 }
 
 /// The frustum from the light's center fitted to the view samples (section 4.3): the square fit
