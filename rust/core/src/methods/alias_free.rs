@@ -233,6 +233,9 @@ struct Planes<'a> {
     samples: &'a LightSamples,
     lut: Option<&'a Lut>,
     center: DVec3,
+    /// The radius of a sphere about `center` holding every sample (a hair more than the light's
+    /// extent, against round-off).
+    radius: f64,
     /// The transpose of the view sample's rotation: a rotated sample `c + R (y − c)` lies below
     /// `m · x < k` exactly when `y` lies below `(Rᵀ m) · y < k − m · c + (Rᵀ m) · c`.
     rotation: Option<DMat3>,
@@ -284,10 +287,10 @@ fn blocked_by(t: &Prepared, p: DVec3, planes: &Planes<'_>, full: &[u64], out: &m
     if side == 0.0 || (t.front_only && side < 0.0) {
         return false;
     }
-    out.copy_from_slice(full);
-    // Behind the triangle's plane as seen from p.
+    // Behind the triangle's plane as seen from p, then inside its three edge planes through p:
+    // e · (y − p) with the sign of e · (w − p), i.e. (−sign e) · y < −sign e · p.
     let sigma = side.signum();
-    planes.and_below(t.normal * sigma, sigma * t.normal.dot(t.v[0]), out, scratch);
+    let mut bounds = [(t.normal * sigma, sigma * t.normal.dot(t.v[0])); 4];
     for k in 0..3 {
         let (u, v, w) = (t.v[k], t.v[(k + 1) % 3], t.v[(k + 2) % 3]);
         let e = (u - p).cross(v - p);
@@ -295,14 +298,29 @@ fn blocked_by(t: &Prepared, p: DVec3, planes: &Planes<'_>, full: &[u64], out: &m
         if s == 0.0 {
             return false;
         }
-        // Inside: e · (y − p) has the sign of s, i.e. (−sign(s) e) · y < −sign(s) e · p.
         let m = -e * s.signum();
-        planes.and_below(m, m.dot(p), out, scratch);
-        if out.iter().all(|w| *w == 0) {
+        bounds[k + 1] = (m, m.dot(p));
+    }
+    // The light's bounding sphere decides most planes without looking at a sample: wholly above a
+    // plane, nothing is blocked; wholly below, the plane removes nothing.
+    let mut straddling = [false; 4];
+    for (k, (m, bound)) in bounds.iter().enumerate() {
+        let distance = (bound - m.dot(planes.center)) / m.length();
+        if distance < -planes.radius {
             return false;
         }
+        straddling[k] = distance <= planes.radius;
     }
-    out.iter().any(|w| *w != 0)
+    out.copy_from_slice(full);
+    for (k, (m, bound)) in bounds.iter().enumerate() {
+        if straddling[k] {
+            planes.and_below(*m, *bound, out, scratch);
+            if out.iter().all(|w| *w == 0) {
+                return false;
+            }
+        }
+    }
+    true
 }
 
 /// For a perforated caster, clears the blocked samples whose segment crosses a transparent texel.
@@ -516,6 +534,7 @@ pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: 
         }
     });
     let full = light_samples.full_mask();
+    let radius = light_samples.points.iter().map(|y| (*y - center).length()).fold(0.0f64, f64::max) * (1.0 + 1e-9) + 1e-12;
     stats.time("visibility", || {
         let mut rest: &mut [u64] = &mut masks;
         let mut chunks = Vec::new();
@@ -544,7 +563,7 @@ pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: 
                         }
                         let s = &view[lists.entries[e] as usize];
                         let p = if t.moved { s.moved } else { s.p };
-                        let planes = Planes { samples: &light_samples, lut: lut.as_ref(), center, rotation: s.rotation };
+                        let planes = Planes { samples: &light_samples, lut: lut.as_ref(), center, radius, rotation: s.rotation };
                         if blocked_by(t, p, &planes, &full, &mut blocked, &mut scratch) {
                             if t.alpha {
                                 alpha_test(scene, t, p, &light_samples, |y| rotate_about(center, s.rotation, y), &mut blocked);
