@@ -22,7 +22,8 @@
 //!    `hull_degree`-gon of its silhouette seen from each vertex (the paper's bounding polygons). A
 //!    point light's region is the triangle's own projection. Regions are rasterized conservatively
 //!    ([`crate::raster::region`]); bands of rows are processed in parallel, each owning the lists of
-//!    its texels.
+//!    its texels and projecting the regions onto the plane of its own farthest view sample (the
+//!    regions nest, shrinking towards the light, so this stays conservative for the band).
 //! 6. **Visibility** (sections 3.3 and 4.2): each view sample keeps a bitmask over the `S` light
 //!    samples (1 for a point light). A triangle blocks sample `y` from `p` when `p` and `y` lie
 //!    strictly on opposite sides of its plane and `y` lies strictly inside the three planes through
@@ -549,9 +550,22 @@ pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: 
             let base = lists.start[y0 * w];
             let mut blocked = vec![0u64; words];
             let mut scratch = vec![0u64; words];
+            // Regions shrink towards the light: project them onto the band's own farthest sample.
+            let band_far = lists.entries[base..lists.start[y1 * w]]
+                .iter()
+                .map(|&e| frustum.to_view(view[e as usize].p.as_vec3()).z)
+                .fold(0.0f32, f32::max);
+            if band_far <= 0.0 {
+                return;
+            }
+            let band_frustum = LightFrustum { far: (band_far * 1.001).max(frustum.near * 2.0), ..frustum };
             for &c in &bins[b] {
                 let t = &prepared[c as usize];
-                let rows: Vec<(usize, usize, usize)> = match &hulls[c as usize] {
+                let region = match &hulls[c as usize] {
+                    Some(_) => influence_hull(&band_frustum, light, &raw[c as usize].1, opts.hull_degree),
+                    None => None,
+                };
+                let rows: Vec<(usize, usize, usize)> = match &region {
                     None => (y0..y1).map(|y| (y, 0, w)).collect(),
                     Some(hull) => conservative_rows(hull, w, h).into_iter().filter(|r| (y0..y1).contains(&r.0)).collect(),
                 };
