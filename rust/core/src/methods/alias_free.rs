@@ -110,6 +110,8 @@ impl AliasFreeOptions {
 #[derive(Debug, Clone, Copy)]
 struct ViewSample {
     receiver: u32,
+    /// Linear depth in the light's frustum (set once the frustum is fitted).
+    depth: f64,
     p: DVec3,
     moved: DVec3,
     n: DVec3,
@@ -279,6 +281,8 @@ struct Prepared {
     /// A closed mesh's triangle under `Casters::Backfacing`: it blocks only samples it is back-facing
     /// to, from receivers in front of it (so never its own surface).
     front_only: bool,
+    /// Its nearest linear depth in the light's frustum.
+    near_depth: f64,
 }
 
 /// The samples of `samples` that triangle `t` blocks from view point `p`, written into `out`
@@ -465,7 +469,7 @@ pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: 
         .map(|i| {
             let (p, n) = (receivers.points[i].as_dvec3(), receivers.normals[i].as_dvec3());
             let rotation = samples.rotation_for(i).and_then(|r| light.rigid_rotation(r)).map(|m| m.as_dmat3().transpose());
-            ViewSample { receiver: i as u32, p, moved: p + n * f64::from(opts.bias), n, rotation }
+            ViewSample { receiver: i as u32, depth: 0.0, p, moved: p + n * f64::from(opts.bias), n, rotation }
         })
         .filter(|s| s.n.dot(center - s.p) > -extent * s.n.length() && (center - s.p).length_squared() > 0.0)
         .collect();
@@ -473,7 +477,9 @@ pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: 
     if view.is_empty() {
         return Ok((vis, stats));
     }
+    let mut view = view;
     let frustum = stats.time("list_build", || fit_frustum(light, &view, opts.resolution))?;
+    view.iter_mut().for_each(|s| s.depth = f64::from(frustum.to_view(s.p.as_vec3()).z));
     let lists = {
         let start = std::time::Instant::now();
         let lists = build_lists(&frustum, &view);
@@ -502,7 +508,8 @@ pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: 
                 // near its own surface, a receiver's per-sample edge planes are degenerate.
                 let moved = opts.casters == Casters::All || !scene.is_closed_face(*id) || !point;
                 let front_only = front_only(*id);
-                Prepared { id: *id, v, normal: (v[1] - v[0]).cross(v[2] - v[0]), alpha: *alpha, moved, front_only }
+                let near_depth = t.iter().map(|p| f64::from(frustum.to_view(*p).z)).fold(f64::INFINITY, f64::min);
+                Prepared { id: *id, v, normal: (v[1] - v[0]).cross(v[2] - v[0]), alpha: *alpha, moved, front_only, near_depth }
             })
             .collect();
         let hulls: Vec<Option<Vec<DVec2>>> = raw.par_iter().map(|(_, t, _)| influence_hull(&frustum, light, t, opts.hull_degree)).collect();
@@ -576,6 +583,10 @@ pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: 
                             continue;
                         }
                         let s = &view[lists.entries[e] as usize];
+                        // Wholly beyond both the receiver and the light: it cannot cut their segment.
+                        if t.near_depth > s.depth.max(radius) + 1e-9 * t.near_depth.abs() {
+                            continue;
+                        }
                         let p = if t.moved { s.moved } else { s.p };
                         let planes = Planes { samples: &light_samples, lut: lut.as_ref(), center, radius, rotation: s.rotation };
                         if blocked_by(t, p, &planes, &full, &mut blocked, &mut scratch) {
