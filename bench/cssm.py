@@ -13,22 +13,16 @@ from __future__ import annotations
 
 import argparse
 import os
-import time
+import sys
+from pathlib import Path
 
 import numpy as np
 
 import softshadows as ss
 from softshadows import metrics, scenes
 
-
-def best_of(repeat, fn):
-    """The fastest of ``repeat`` runs (seconds) and the last result."""
-    times, out = [], None
-    for _ in range(repeat):
-        start = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - start)
-    return min(times), out
+sys.path.insert(0, str(Path(__file__).parent))
+from shadow_rays import best_of  # noqa: E402  (the benches' shared timer)
 
 
 def methods(setup, light, gb):
