@@ -77,6 +77,13 @@ _CASTERS_PARAMETER = """casters : sequence of int or str, optional
         occluders within the light's influence (section 3.1)."""
 
 
+def _inputs(scene, light, receivers, casters=None):
+    """Checks the common arguments; returns the receivers and the core's (scene, light, receivers)."""
+    _check(scene, light)
+    receivers = as_receivers(receivers)
+    return receivers, (_casting(scene, casters).native(), light.native(), _native_receivers(receivers))
+
+
 def _finish(receivers, out, return_stats):
     vis, stats = out
     vis = vis.reshape(receivers.shape)
@@ -128,13 +135,12 @@ def ray_traced(
     -------
     ndarray, float32, the receivers' shape; with ``return_stats`` a ``(visibility, stats)`` tuple.
     """
-    _check(scene, light)
-    receivers = as_receivers(receivers)
+    receivers, inputs = _inputs(scene, light, receivers)
     native_samples = _native_samples(
         light, samples, pattern=pattern, seed=seed, rotate=rotate, interleaved=interleaved, frame=frame
     )
     eps = scene.epsilon if epsilon is None else v.positive("epsilon", epsilon, allow_zero=True)
-    out = _core.ray_traced(scene.native(), light.native(), _native_receivers(receivers), native_samples, eps)
+    out = _core.ray_traced(*inputs, native_samples, eps)
     return _finish(receivers, out, return_stats)
 
 
@@ -174,12 +180,11 @@ def shadow_map(
     -------
     ndarray, float32, the receivers' shape; with ``return_stats`` a ``(visibility, stats)`` tuple.
     """
-    _check(scene, light)
-    receivers = as_receivers(receivers)
+    receivers, inputs = _inputs(scene, light, receivers, casters)
     resolution = v.positive_int("resolution", resolution)
     pcf = v.positive_int("pcf", pcf)
     bias = None if bias is None else v.positive("bias", bias, allow_zero=True)
-    out = _core.shadow_map(_casting(scene, casters).native(), light.native(), _native_receivers(receivers), resolution, bias, pcf)
+    out = _core.shadow_map(*inputs, resolution, bias, pcf)
     return _finish(receivers, out, return_stats)
 
 
@@ -257,11 +262,10 @@ def mvr(
     -------
     ndarray, float32, the receivers' shape; with ``return_stats`` a ``(visibility, stats)`` tuple.
     """
-    _check(scene, light)
-    receivers = as_receivers(receivers)
+    receivers, inputs = _inputs(scene, light, receivers, casters)
     samples = _view_samples(light, views, pattern=pattern, seed=seed, frame=frame)
     out = _core.mvr(
-        _casting(scene, casters).native(), light.native(), _native_receivers(receivers), samples, *_multiview_options(resolution, pcf, bias)
+        *inputs, samples, *_multiview_options(resolution, pcf, bias)
     )
     return _finish(receivers, out, return_stats)
 
@@ -337,14 +341,11 @@ def vwss(
     -------
     ndarray, float32, the receivers' shape; with ``return_stats`` a ``(visibility, stats)`` tuple.
     """
-    _check(scene, light)
-    receivers = as_receivers(receivers)
+    receivers, inputs = _inputs(scene, light, receivers, casters)
     samples = _view_samples(light, views, pattern=pattern, seed=seed, frame=frame)
     source = None if source_resolution is None else v.positive_int("source_resolution", source_resolution)
     out = _core.vwss(
-        _casting(scene, casters).native(),
-        light.native(),
-        _native_receivers(receivers),
+        *inputs,
         samples,
         *_multiview_options(resolution, pcf, bias),
         str(mode),
@@ -405,12 +406,9 @@ def pcss(
     -------
     ndarray, float32, the receivers' shape; with ``return_stats`` a ``(visibility, stats)`` tuple.
     """
-    _check(scene, light)
-    receivers = as_receivers(receivers)
+    receivers, inputs = _inputs(scene, light, receivers, casters)
     out = _core.pcss(
-        _casting(scene, casters).native(),
-        light.native(),
-        _native_receivers(receivers),
+        *inputs,
         v.positive_int("resolution", resolution),
         v.positive_int("blocker_samples", blocker_samples),
         v.positive_int("filter_samples", filter_samples),
@@ -485,12 +483,9 @@ def cssm(
     -------
     ndarray, float32, the receivers' shape; with ``return_stats`` a ``(visibility, stats)`` tuple.
     """
-    _check(scene, light)
-    receivers = as_receivers(receivers)
+    receivers, inputs = _inputs(scene, light, receivers, casters)
     out = _core.cssm(
-        _casting(scene, casters).native(),
-        light.native(),
-        _native_receivers(receivers),
+        *inputs,
         v.positive_int("resolution", resolution),
         v.positive_int("order", order),
         str(prefilter),
@@ -564,13 +559,10 @@ def alias_free(
     -------
     ndarray, float32, the receivers' shape; with ``return_stats`` a ``(visibility, stats)`` tuple.
     """
-    _check(scene, light)
-    receivers = as_receivers(receivers)
+    receivers, inputs = _inputs(scene, light, receivers)
     native = _native_samples(light, samples, pattern=pattern, seed=seed, rotate=rotate, interleaved=1, frame=frame)
     out = _core.alias_free(
-        scene.native(),
-        light.native(),
-        _native_receivers(receivers),
+        *inputs,
         native,
         v.positive_int("resolution", resolution),
         str(casters),
