@@ -76,6 +76,7 @@ class Scene:
             raise ValueError("meshes: the scene has no triangles")
         self.meshes = meshes
         self._native = None
+        self._bounds = None
 
     @classmethod
     def from_trimesh(cls, mesh, *, alpha=None, closed: bool | None = None) -> "Scene":
@@ -138,9 +139,14 @@ class Scene:
 
     @property
     def bounds(self) -> np.ndarray:
-        """Axis-aligned bounds of the referenced vertices, shape (2, 3): min and max."""
-        pts = np.concatenate([m.vertices[m.faces.reshape(-1)] for m in self.meshes if len(m.faces)])
-        return np.stack([pts.min(axis=0), pts.max(axis=0)])
+        """Axis-aligned bounds of the referenced vertices, shape (2, 3): min and max.
+
+        Computed once (the scene is treated as immutable, see :meth:`native`); a copy is returned.
+        """
+        if self._bounds is None:
+            pts = np.concatenate([m.vertices[m.faces.reshape(-1)] for m in self.meshes if len(m.faces)])
+            self._bounds = np.stack([pts.min(axis=0), pts.max(axis=0)])
+        return self._bounds.copy()
 
     @property
     def epsilon(self) -> float:
