@@ -18,12 +18,15 @@ def case(name, size=96, **options):
     return setup, ss.gbuffer(setup.scene, setup.camera)
 
 
-@pytest.mark.parametrize("name", ["columns", "torus_knot"])
+@pytest.mark.parametrize("name", ["columns", "torus_knot", pytest.param("bunny", marks=needs_pymeshlab)])
 def test_hard_shadows_equal_ray_tracing_without_a_bias_in_closed_mode(name):
-    setup, gb = case(name, size=128)
+    setup, gb = case(name, size=256 if name == "bunny" else 128)
     light = ss.PointLight(setup.light.center)
-    exact = ss.ray_traced(setup.scene, light, gb, samples=1)
-    # Closed casters: back faces only, no offset at all; the ground (open) uses scene.epsilon.
+    # Closed casters: back faces only, tested from the receiver itself; the ground (open) uses
+    # scene.epsilon. The oracle is taken in the same limit: its shadow rays start 1/100 of the
+    # default offset off the surface (the default offset alone moves 0.14% of the bunny's
+    # shadow-boundary pixels at 256x256).
+    exact = ss.ray_traced(setup.scene, light, gb, samples=1, epsilon=setup.scene.epsilon / 100)
     hard = ss.alias_free(setup.scene, light, gb, casters="backfacing")
     assert set(np.unique(hard[gb.mask])) <= {0.0, 1.0}
     assert exact[gb.mask].min() == 0 and exact[gb.mask].max() == 1
