@@ -66,6 +66,23 @@ def test_exact_soft_shadows_on_a_closed_scan():
     assert np.mean((soft == exact)[gb.mask]) >= 0.995
 
 
+@pytest.mark.parametrize(
+    "name, options",
+    [("columns", {"light": "rect"}), ("columns", {"light": "sphere"}), ("fence", {}), pytest.param("bunny", {}, marks=needs_pymeshlab)],
+)
+def test_restricting_to_the_penumbra_changes_nothing(name, options):
+    setup, gb = case(name, **options)
+    samples = setup.light.samples(128, pattern="poisson", seed=6)
+    exact = ss.ray_traced(setup.scene, setup.light, gb, samples=samples)
+    assert exact[gb.mask].min() == 0 and exact[gb.mask].max() == 1, "needs umbra and lit receivers"
+    for lut in (None, 64):
+        whole = ss.alias_free(setup.scene, setup.light, gb, samples=samples, lut=lut, restrict_to_penumbra=False)
+        restricted, stats = ss.alias_free(setup.scene, setup.light, gb, samples=samples, lut=lut, return_stats=True)
+        np.testing.assert_array_equal(restricted, whole)
+    # Most of the map is left to the one test against the light's center.
+    assert stats["silhouette_edges"] > 0 and 0 < stats["penumbra_texels_percent"] < 50
+
+
 def test_textured_lights_weight_their_samples():
     setup, gb = case("columns", size=64)
     c, u, v = setup.light.center, setup.light.u, setup.light.v

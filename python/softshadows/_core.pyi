@@ -113,4 +113,5 @@ def alias_free(
     bias: float,
     lut: int | None,
     hull_degree: int,
+    restrict_to_penumbra: bool,
 ) -> tuple[F32, dict[str, float]]: ...

@@ -509,6 +509,7 @@ def alias_free(
     bias: float | None = None,
     lut: int | None = 64,
     hull_degree: int = 6,
+    restrict_to_penumbra: bool = True,
     pattern: str = "poisson",
     seed: int = 0,
     rotate: str | None = None,
@@ -545,6 +546,12 @@ def alias_free(
         tests every light sample against every plane exactly.
     hull_degree : int
         Sides of the bounding polygons of disk and sphere lights (the paper: hexagons).
+    restrict_to_penumbra : bool
+        Section 4.3's restriction: only receivers inside the influence region of an edge that is
+        a silhouette from some point of the light (or of a perforated caster) test every light
+        sample; every other receiver sees all of the light or none of it, and one test against
+        the light's center decides. The result is the same; the cost is lower when penumbrae
+        cover a small part of the map.
     pattern, seed, frame
         Choice of ``samples=n`` light samples, as in ``ray_traced``.
     rotate : {None, "per_receiver"}
@@ -553,7 +560,8 @@ def alias_free(
         4.2), so only symmetric, untextured lights (disk, sphere) take it.
     return_stats : bool
         Also return ``{"list_build_seconds", "rasterization_seconds", "visibility_seconds",
-        "average_list_length", "max_list_length", "occupied_texels_percent", ...}``.
+        "average_list_length", "max_list_length", "occupied_texels_percent",
+        "silhouette_edges", "penumbra_texels_percent", ...}``.
 
     Returns
     -------
@@ -569,6 +577,7 @@ def alias_free(
         scene.epsilon if bias is None else v.positive("bias", bias, allow_zero=True),
         None if lut is None else v.positive_int("lut", lut),
         v.positive_int("hull_degree", hull_degree),
+        bool(restrict_to_penumbra),
     )
     return _finish(receivers, out, return_stats)
 

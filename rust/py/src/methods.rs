@@ -215,9 +215,10 @@ fn alias_free<'py>(
     bias: f32,
     lut: Option<usize>,
     hull_degree: usize,
+    restrict_to_penumbra: bool,
 ) -> PyResult<Output<'py>> {
     let casters = choice("casters", casters, &[("backfacing", Casters::Backfacing), ("all", Casters::All)]).or_raise()?;
-    let opts = AliasFreeOptions { resolution, casters, bias, lut, hull_degree };
+    let opts = AliasFreeOptions { resolution, casters, bias, lut, hull_degree, restrict_to_penumbra };
     let out = py
         .detach(|| alias_free_core(&scene.scene, &light.light, &receivers.receivers, &samples.samples, &opts))
         .or_raise()?;

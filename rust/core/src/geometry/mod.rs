@@ -1,6 +1,7 @@
-//! Scene geometry: meshes, the BVH, cameras and G-buffers.
+//! Scene geometry: meshes, edge adjacency, the BVH, cameras and G-buffers.
 pub mod bvh;
 pub mod camera;
+pub mod edges;
 pub mod gbuffer;
 pub mod mesh;
 pub mod receivers;

@@ -37,9 +37,17 @@
 //!    tangent plane start blocked (DESIGN.md section 3), and a perforated caster's blocked samples
 //!    are kept only where the segment meets an opaque texel.
 //!
+//! 7. **Penumbra restriction** (section 4.3, `restrict_to_penumbra`): occlusion seen from a
+//!    view sample can only change across the light where its segments to the light cross an
+//!    edge that is a silhouette from some light point ([`crate::geometry::edges`]). Texels outside
+//!    the influence regions of those edges (and of perforated casters, whose texture cuts
+//!    anywhere) hold view samples that see all of the light blocked or none of it: there one test
+//!    of the segment to the light's center decides the whole bitmask. The result is the same.
+//!
 //! The result is the emission-weighted fraction of unblocked samples, as `ray_traced`'s.
 
 use crate::error::{Error, Result};
+use crate::geometry::edges::{edges, Edge};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::{tangent_frame, Light, Shape};
@@ -78,11 +86,16 @@ pub struct AliasFreeOptions {
     pub lut: Option<usize>,
     /// Sides of the bounding polygons of disk and sphere lights (default 6, hexagons).
     pub hull_degree: usize,
+    /// Restrict the per-sample tests to the penumbra (section 4.3, default true): view samples
+    /// outside the influence regions of the light's potential silhouette edges (and of perforated
+    /// casters) see all of the light or none of it, so one test against the light's center
+    /// decides their whole bitmask. Same result, less work.
+    pub restrict_to_penumbra: bool,
 }
 
 impl Default for AliasFreeOptions {
     fn default() -> Self {
-        Self { resolution: 512, casters: Casters::Backfacing, bias: 0.0, lut: Some(64), hull_degree: 6 }
+        Self { resolution: 512, casters: Casters::Backfacing, bias: 0.0, lut: Some(64), hull_degree: 6, restrict_to_penumbra: true }
     }
 }
 
@@ -285,12 +298,15 @@ struct Prepared {
     near_depth: f64,
 }
 
-/// The samples of `samples` that triangle `t` blocks from view point `p`, written into `out`
-/// (false when none), following the module documentation.
-fn blocked_by(t: &Prepared, p: DVec3, planes: &Planes<'_>, full: &[u64], out: &mut [u64], scratch: &mut [u64]) -> bool {
+/// The four planes `(m, k)` of the test of triangle `t` from view point `p` (section 3.3): a light
+/// point `y` is blocked exactly when `m · y < k` for all four, i.e. when it lies strictly behind
+/// the triangle's plane as seen from `p` and strictly inside the three planes through `p` and the
+/// triangle's edges. `None` when no point can be blocked (`p` on the triangle's plane or one of
+/// its edge planes, or behind a front-only caster).
+fn bounding_planes(t: &Prepared, p: DVec3) -> Option<[(DVec3, f64); 4]> {
     let side = t.normal.dot(p - t.v[0]);
     if side == 0.0 || (t.front_only && side < 0.0) {
-        return false;
+        return None;
     }
     // Behind the triangle's plane as seen from p, then inside its three edge planes through p:
     // e · (y − p) with the sign of e · (w − p), i.e. (−sign e) · y < −sign e · p.
@@ -301,11 +317,23 @@ fn blocked_by(t: &Prepared, p: DVec3, planes: &Planes<'_>, full: &[u64], out: &m
         let e = (u - p).cross(v - p);
         let s = e.dot(w - p);
         if s == 0.0 {
-            return false;
+            return None;
         }
         let m = -e * s.signum();
         bounds[k + 1] = (m, m.dot(p));
     }
+    Some(bounds)
+}
+
+/// Whether triangle `t` blocks the single light point `y` from view point `p`.
+fn blocks_point(t: &Prepared, p: DVec3, y: DVec3) -> bool {
+    bounding_planes(t, p).is_some_and(|planes| planes.iter().all(|(m, k)| m.dot(y) < *k))
+}
+
+/// The samples of `samples` that triangle `t` blocks from view point `p`, written into `out`
+/// (false when none), following the module documentation.
+fn blocked_by(t: &Prepared, p: DVec3, planes: &Planes<'_>, full: &[u64], out: &mut [u64], scratch: &mut [u64]) -> bool {
+    let Some(bounds) = bounding_planes(t, p) else { return false };
     // The light's bounding sphere decides most planes without looking at a sample: wholly above a
     // plane, nothing is blocked; wholly below, the plane removes nothing.
     let mut straddling = [false; 4];
@@ -436,6 +464,76 @@ fn influence_hull(frustum: &LightFrustum, light: &Light, tri: &[Vec3; 3], degree
 /// samples; the light's center inside the view samples' bounds; `TooLarge`.
 pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: &SampleSet, opts: &AliasFreeOptions) -> Result<(Vec<f32>, Stats)> {
     opts.validate()?;
+    let light_samples = light_samples(light, samples)?;
+    let mut stats = Stats::default();
+    for name in ["list_build_seconds", "rasterization_seconds", "visibility_seconds", "view_samples", "casters", "average_list_length", "max_list_length", "occupied_texels_percent", "silhouette_edges", "penumbra_texels_percent"] {
+        stats.set(name, 0.0);
+    }
+    stats.set("light_samples", light_samples.points.len() as f64);
+    let mut vis = vec![0.0f32; receivers.len()];
+    let mut view = view_samples(light, receivers, samples, opts.bias);
+    stats.set("view_samples", view.len() as f64);
+    if view.is_empty() {
+        return Ok((vis, stats));
+    }
+    let frustum = stats.time("list_build", || fit_frustum(light, &view, opts.resolution))?;
+    view.iter_mut().for_each(|s| s.depth = f64::from(frustum.to_view(s.p.as_vec3()).z));
+    let lists = {
+        let start = std::time::Instant::now();
+        let lists = build_lists(&frustum, &view);
+        stats.add("list_build_seconds", start.elapsed().as_secs_f64());
+        lists
+    };
+    record_list_stats(&lists, &mut stats);
+    let center = light.center().as_dvec3();
+    let radius = light_samples.points.iter().map(|y| (*y - center).length()).fold(0.0f64, f64::max) * (1.0 + 1e-9) + 1e-12;
+    let casters = stats.time("rasterization", || CasterSet::prepare(scene, light, &frustum, opts));
+    stats.set("casters", casters.prepared.len() as f64);
+    let penumbra = if opts.restrict_to_penumbra && light_samples.points.len() > 1 {
+        let (flags, silhouettes) = stats.time("rasterization", || penumbra_texels(scene, light, &frustum, &casters, opts.hull_degree, (center, radius)));
+        stats.set("silhouette_edges", silhouettes as f64);
+        stats.set("penumbra_texels_percent", 100.0 * flags.iter().filter(|&&f| f).count() as f64 / flags.len() as f64);
+        Some(flags)
+    } else {
+        stats.set("penumbra_texels_percent", 100.0);
+        None
+    };
+    let extent = f64::from(light.extent());
+    let lut = match opts.lut {
+        Some(bins) if light_samples.points.len() > 1 && extent > 0.0 => Some(Lut::new(&light_samples, center, extent, bins)?),
+        _ => None,
+    };
+    limits::check_memory("alias_free bitmasks", limits::bytes(&[view.len() as u64, light_samples.words as u64, 8]))?;
+    let mut masks = initial_masks(&lists, &view, &light_samples, center);
+    let tester = Tester {
+        scene,
+        light,
+        opts,
+        frustum: &frustum,
+        lists: &lists,
+        view: &view,
+        casters: &casters,
+        penumbra: penumbra.as_deref(),
+        planes: Planes { samples: &light_samples, lut: lut.as_ref(), center, radius, rotation: None },
+        full: light_samples.full_mask(),
+    };
+    stats.time("visibility", || tester.run(&mut masks));
+    let total: f64 = light_samples.weights.iter().sum();
+    let words = light_samples.words;
+    for (e, &i) in lists.entries.iter().enumerate() {
+        let m = &masks[e * words..(e + 1) * words];
+        let lit = (0..light_samples.points.len())
+            .filter(|&k| m[k / 64] >> (k % 64) & 1 == 0)
+            .fold(0.0f64, |acc, k| acc + light_samples.weights[k]);
+        let r = view[i as usize].receiver as usize;
+        vis[r] = if total > 0.0 { (lit / total).clamp(0.0, 1.0) as f32 } else { 0.0 };
+    }
+    Ok((vis, stats))
+}
+
+/// The light samples of `samples` (one bit each; the light's center for a point light), after
+/// checking that one shared pattern of 1 to [`MAX_SAMPLES`] samples is asked for.
+fn light_samples(light: &Light, samples: &SampleSet) -> Result<LightSamples> {
     if !samples.is_single_pattern() {
         return Err(Error::invalid("interleaved", "alias_free shares one sample pattern (one bitmask layout) across receivers: interleaving does not apply"));
     }
@@ -451,68 +549,74 @@ pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: 
         return Err(Error::invalid("samples", format!("needs 1..={MAX_SAMPLES} light samples, got {}", ys.len())));
     }
     let points: Vec<DVec3> = if matches!(light.shape, Shape::Point { .. }) { vec![light.center().as_dvec3()] } else { ys.iter().map(|y| y.as_dvec3()).collect() };
-    let light_samples = LightSamples {
-        weights: points.iter().map(|y| f64::from(light.weight(y.as_vec3()))).collect(),
-        words: points.len().div_ceil(64),
-        points,
-    };
-    let mut stats = Stats::default();
-    for name in ["list_build_seconds", "rasterization_seconds", "visibility_seconds", "view_samples", "casters", "average_list_length", "max_list_length", "occupied_texels_percent"] {
-        stats.set(name, 0.0);
-    }
-    stats.set("light_samples", light_samples.points.len() as f64);
-    let mut vis = vec![0.0f32; receivers.len()];
+    Ok(LightSamples { weights: points.iter().map(|y| f64::from(light.weight(y.as_vec3()))).collect(), words: points.len().div_ceil(64), points })
+}
+
+/// The view samples: valid receivers that face some part of the light (depths set later).
+fn view_samples(light: &Light, receivers: &Receivers, samples: &SampleSet, bias: f32) -> Vec<ViewSample> {
     let center = light.center().as_dvec3();
     let extent = f64::from(light.extent());
-    let view: Vec<ViewSample> = (0..receivers.len())
+    (0..receivers.len())
         .filter(|&i| receivers.valid[i])
         .map(|i| {
             let (p, n) = (receivers.points[i].as_dvec3(), receivers.normals[i].as_dvec3());
             let rotation = samples.rotation_for(i).and_then(|r| light.rigid_rotation(r)).map(|m| m.as_dmat3().transpose());
-            ViewSample { receiver: i as u32, depth: 0.0, p, moved: p + n * f64::from(opts.bias), n, rotation }
+            ViewSample { receiver: i as u32, depth: 0.0, p, moved: p + n * f64::from(bias), n, rotation }
         })
         .filter(|s| s.n.dot(center - s.p) > -extent * s.n.length() && (center - s.p).length_squared() > 0.0)
-        .collect();
-    stats.set("view_samples", view.len() as f64);
-    if view.is_empty() {
-        return Ok((vis, stats));
-    }
-    let mut view = view;
-    let frustum = stats.time("list_build", || fit_frustum(light, &view, opts.resolution))?;
-    view.iter_mut().for_each(|s| s.depth = f64::from(frustum.to_view(s.p.as_vec3()).z));
-    let lists = {
-        let start = std::time::Instant::now();
-        let lists = build_lists(&frustum, &view);
-        stats.add("list_build_seconds", start.elapsed().as_secs_f64());
-        lists
-    };
-    record_list_stats(&lists, &mut stats);
-    let (w, h) = (frustum.width, frustum.height);
-    let point = matches!(light.shape, Shape::Point { .. });
-    let filter = match opts.casters {
-        Casters::Backfacing if point => FaceFilter::BackFacingIfClosed,
-        _ => FaceFilter::All,
-    };
-    let mut raw: Vec<Caster> = casters(scene, &RasterOptions { mode: RasterMode::Conservative, faces: filter, alpha_test: true }, frustum.eye);
-    let front_only = |id: u32| opts.casters == Casters::Backfacing && !point && scene.is_closed_face(id);
-    // A closed triangle facing every point of the light is back-facing to no sample: it casts nothing.
-    raw.retain(|(id, t, _)| !(front_only(*id) && faces_whole_light(light, t)));
-    stats.set("casters", raw.len() as f64);
-    let band = band_rows(h);
-    let (prepared, hulls, bins) = stats.time("rasterization", || {
-        let prepared: Vec<Prepared> = raw
+        .collect()
+}
+
+/// The initial bitmask of every list entry: the samples behind its view sample's tangent plane
+/// are blocked (DESIGN.md section 3).
+fn initial_masks(lists: &Lists, view: &[ViewSample], samples: &LightSamples, center: DVec3) -> Vec<u64> {
+    let words = samples.words;
+    let mut masks = vec![0u64; lists.entries.len() * words];
+    masks.par_chunks_mut(words).zip(&lists.entries).for_each(|(m, &e)| {
+        let s = &view[e as usize];
+        for (k, y) in samples.points.iter().enumerate() {
+            if s.n.dot(rotate_about(center, s.rotation, *y) - s.p) <= 0.0 {
+                m[k / 64] |= 1 << (k % 64);
+            }
+        }
+    });
+    masks
+}
+
+/// The casting triangles, prepared, with their influence regions on the far plane and, per band
+/// of rows, the casters whose regions reach it.
+struct CasterSet {
+    raw: Vec<Caster>,
+    prepared: Vec<Prepared>,
+    hulls: Vec<Option<Vec<DVec2>>>,
+    bins: Vec<Vec<u32>>,
+}
+impl CasterSet {
+    /// The casters of `scene` for `light` (see the module documentation, step 4) and their
+    /// influence regions in `frustum`, binned by bands of rows.
+    fn prepare(scene: &Scene, light: &Light, frustum: &LightFrustum, opts: &AliasFreeOptions) -> CasterSet {
+        let point = matches!(light.shape, Shape::Point { .. });
+        let filter = match opts.casters {
+            Casters::Backfacing if point => FaceFilter::BackFacingIfClosed,
+            _ => FaceFilter::All,
+        };
+        let mut raw = casters(scene, &RasterOptions { mode: RasterMode::Conservative, faces: filter, alpha_test: true }, frustum.eye);
+        let front_only = |id: u32| opts.casters == Casters::Backfacing && !point && scene.is_closed_face(id);
+        // A closed triangle facing every point of the light is back-facing to no sample: it casts nothing.
+        raw.retain(|(id, t, _)| !(front_only(*id) && faces_whole_light(light, t)));
+        let prepared = raw
             .iter()
             .map(|(id, t, alpha)| {
                 let v = t.map(|p| p.as_dvec3());
                 // Only a point light's back-facing closed casters can skip the offset (section 3.3):
                 // near its own surface, a receiver's per-sample edge planes are degenerate.
                 let moved = opts.casters == Casters::All || !scene.is_closed_face(*id) || !point;
-                let front_only = front_only(*id);
                 let near_depth = t.iter().map(|p| f64::from(frustum.to_view(*p).z)).fold(f64::INFINITY, f64::min);
-                Prepared { id: *id, v, normal: (v[1] - v[0]).cross(v[2] - v[0]), alpha: *alpha, moved, front_only, near_depth }
+                Prepared { id: *id, v, normal: (v[1] - v[0]).cross(v[2] - v[0]), alpha: *alpha, moved, front_only: front_only(*id), near_depth }
             })
             .collect();
-        let hulls: Vec<Option<Vec<DVec2>>> = raw.par_iter().map(|(_, t, _)| influence_hull(&frustum, light, t, opts.hull_degree)).collect();
+        let hulls: Vec<Option<Vec<DVec2>>> = raw.par_iter().map(|(_, t, _)| influence_hull(frustum, light, t, opts.hull_degree)).collect();
+        let (w, h) = (frustum.width, frustum.height);
         let rows: Vec<Option<(usize, usize)>> = hulls
             .iter()
             .map(|hull| match hull {
@@ -523,63 +627,98 @@ pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: 
                 }
             })
             .collect();
-        (prepared, hulls, bin_row_ranges(&rows, band, h.div_ceil(band)))
-    });
-    let lut = match opts.lut {
-        Some(bins) if light_samples.points.len() > 1 && extent > 0.0 => Some(Lut::new(&light_samples, center, extent, bins)?),
-        _ => None,
-    };
-    let words = light_samples.words;
-    limits::check_memory("alias_free bitmasks", limits::bytes(&[view.len() as u64, words as u64, 8]))?;
-    // Initial masks: samples behind each view sample's tangent plane are blocked.
-    let mut masks = vec![0u64; lists.entries.len() * words];
-    masks.par_chunks_mut(words).zip(&lists.entries).for_each(|(m, &e)| {
-        let s = &view[e as usize];
-        for (k, y) in light_samples.points.iter().enumerate() {
-            if s.n.dot(rotate_about(center, s.rotation, *y) - s.p) <= 0.0 {
-                m[k / 64] |= 1 << (k % 64);
-            }
-        }
-    });
-    let full = light_samples.full_mask();
-    let radius = light_samples.points.iter().map(|y| (*y - center).length()).fold(0.0f64, f64::max) * (1.0 + 1e-9) + 1e-12;
-    stats.time("visibility", || {
-        let mut rest: &mut [u64] = &mut masks;
+        let band = band_rows(h);
+        let bins = bin_row_ranges(&rows, band, h.div_ceil(band));
+        CasterSet { raw, prepared, hulls, bins }
+    }
+}
+
+/// The penumbra restriction of section 4.3: flags the texels that the influence region of a
+/// potential silhouette edge of the ball `(center, radius)` around the light (see
+/// [`crate::geometry::edges`]) or of a perforated caster reaches, on the far plane (which holds
+/// the regions at every nearer depth). A view sample in any other texel sees every point of the
+/// light blocked or none. Returns the flags and the number of silhouette edges.
+fn penumbra_texels(scene: &Scene, light: &Light, frustum: &LightFrustum, casters: &CasterSet, degree: usize, (center, radius): (DVec3, f64)) -> (Vec<bool>, usize) {
+    let (w, h) = (frustum.width, frustum.height);
+    let silhouettes: Vec<Edge> = edges(scene).into_iter().filter(|e| e.is_potential_silhouette(center, radius)).collect();
+    let edge_hulls = silhouettes.par_iter().map(|e| influence_hull(frustum, light, &[e.ends[0], e.ends[1], e.ends[1]], degree));
+    let perforated = casters.raw.iter().zip(&casters.hulls).filter(|((_, _, alpha), _)| *alpha).map(|(_, hull)| hull.clone());
+    let hulls: Vec<Option<Vec<DVec2>>> = edge_hulls.collect::<Vec<_>>().into_iter().chain(perforated).collect();
+    if hulls.iter().any(Option::is_none) {
+        return (vec![true; w * h], silhouettes.len());
+    }
+    let spans: Vec<Vec<(usize, usize, usize)>> = hulls.par_iter().flatten().map(|hull| conservative_rows(hull, w, h)).collect();
+    let mut flags = vec![false; w * h];
+    for (y, x0, x1) in spans.into_iter().flatten() {
+        flags[y * w + x0..y * w + x1].iter_mut().for_each(|f| *f = true);
+    }
+    (flags, silhouettes.len())
+}
+
+/// Everything the per-texel tests read (section 3.3 and 4.2).
+struct Tester<'a> {
+    scene: &'a Scene,
+    light: &'a Light,
+    opts: &'a AliasFreeOptions,
+    frustum: &'a LightFrustum,
+    lists: &'a Lists,
+    view: &'a [ViewSample],
+    casters: &'a CasterSet,
+    /// Per texel, whether it may hold penumbra (`None`: every texel may).
+    penumbra: Option<&'a [bool]>,
+    /// The planes' sample masks, without a rotation (set per view sample).
+    planes: Planes<'a>,
+    full: Vec<u64>,
+}
+
+impl Tester<'_> {
+    /// Tests every band of rows in parallel, each over its own part of `masks` (the bitmasks of
+    /// the list entries, in list order).
+    fn run(&self, masks: &mut [u64]) {
+        let (w, h) = (self.frustum.width, self.frustum.height);
+        let (band, words) = (band_rows(h), self.full.len());
+        let mut rest = masks;
         let mut chunks = Vec::new();
         for b in 0..h.div_ceil(band) {
             let (y0, y1) = (b * band, ((b + 1) * band).min(h));
-            let len = (lists.start[y1 * w] - lists.start[y0 * w]) * words;
+            let len = (self.lists.start[y1 * w] - self.lists.start[y0 * w]) * words;
             let (head, tail) = rest.split_at_mut(len);
             chunks.push((b, y0, y1, head));
             rest = tail;
         }
-        chunks.into_par_iter().for_each(|(b, y0, y1, band_masks)| {
-            let base = lists.start[y0 * w];
-            let mut blocked = vec![0u64; words];
-            let mut scratch = vec![0u64; words];
-            // Regions shrink towards the light: project them onto the band's own farthest sample.
-            let band_far = lists.entries[base..lists.start[y1 * w]]
-                .iter()
-                .map(|&e| frustum.to_view(view[e as usize].p.as_vec3()).z)
-                .fold(0.0f32, f32::max);
-            if band_far <= 0.0 {
-                return;
-            }
-            let band_frustum = LightFrustum { far: (band_far * 1.001).max(frustum.near * 2.0), ..frustum };
-            for &c in &bins[b] {
-                let t = &prepared[c as usize];
-                let region = match &hulls[c as usize] {
-                    Some(_) => influence_hull(&band_frustum, light, &raw[c as usize].1, opts.hull_degree),
-                    None => None,
-                };
-                let rows: Vec<(usize, usize, usize)> = match &region {
-                    None => (y0..y1).map(|y| (y, 0, w)).collect(),
-                    Some(hull) => conservative_rows(hull, w, h).into_iter().filter(|r| (y0..y1).contains(&r.0)).collect(),
-                };
-                for (y, x0, x1) in rows {
-                    for e in lists.start[y * w + x0]..lists.start[y * w + x1] {
+        chunks.into_par_iter().for_each(|(b, y0, y1, band_masks)| self.band(b, y0..y1, band_masks));
+    }
+
+    /// Tests the casters binned to band `b` (rows `rows`) against the view samples of its lists.
+    fn band(&self, b: usize, rows: std::ops::Range<usize>, band_masks: &mut [u64]) {
+        let (w, h, words) = (self.frustum.width, self.frustum.height, self.full.len());
+        let (lists, view) = (self.lists, self.view);
+        let base = lists.start[rows.start * w];
+        let mut blocked = vec![0u64; words];
+        let mut scratch = vec![0u64; words];
+        // Regions shrink towards the light: project them onto the band's own farthest sample.
+        let band_far = lists.entries[base..lists.start[rows.end * w]].iter().map(|&e| view[e as usize].depth as f32).fold(0.0f32, f32::max);
+        if band_far <= 0.0 {
+            return;
+        }
+        let band_frustum = LightFrustum { far: (band_far * 1.001).max(self.frustum.near * 2.0), ..*self.frustum };
+        let (center, radius) = (self.planes.center, self.planes.radius);
+        for &c in &self.casters.bins[b] {
+            let t = &self.casters.prepared[c as usize];
+            let region = match &self.casters.hulls[c as usize] {
+                Some(_) => influence_hull(&band_frustum, self.light, &self.casters.raw[c as usize].1, self.opts.hull_degree),
+                None => None,
+            };
+            let spans: Vec<(usize, usize, usize)> = match &region {
+                None => rows.clone().map(|y| (y, 0, w)).collect(),
+                Some(hull) => conservative_rows(hull, w, h).into_iter().filter(|r| rows.contains(&r.0)).collect(),
+            };
+            for (y, x0, x1) in spans {
+                for x in x0..x1 {
+                    let umbra_or_lit = !t.alpha && self.penumbra.is_some_and(|f| !f[y * w + x]);
+                    for e in lists.start[y * w + x]..lists.start[y * w + x + 1] {
                         let m = &mut band_masks[(e - base) * words..(e - base + 1) * words];
-                        if m.iter().zip(&full).all(|(a, f)| a == f) {
+                        if m.iter().zip(&self.full).all(|(a, f)| a == f) {
                             continue;
                         }
                         let s = &view[lists.entries[e] as usize];
@@ -588,28 +727,25 @@ pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: 
                             continue;
                         }
                         let p = if t.moved { s.moved } else { s.p };
-                        let planes = Planes { samples: &light_samples, lut: lut.as_ref(), center, radius, rotation: s.rotation };
-                        if blocked_by(t, p, &planes, &full, &mut blocked, &mut scratch) {
+                        if umbra_or_lit {
+                            // All of the light is blocked or none: the center decides.
+                            if blocks_point(t, p, center) {
+                                m.copy_from_slice(&self.full);
+                            }
+                            continue;
+                        }
+                        let planes = Planes { rotation: s.rotation, ..self.planes };
+                        if blocked_by(t, p, &planes, &self.full, &mut blocked, &mut scratch) {
                             if t.alpha {
-                                alpha_test(scene, t, p, &light_samples, |y| rotate_about(center, s.rotation, y), &mut blocked);
+                                alpha_test(self.scene, t, p, self.planes.samples, |y| rotate_about(center, s.rotation, y), &mut blocked);
                             }
                             m.iter_mut().zip(&blocked).for_each(|(a, b)| *a |= b);
                         }
                     }
                 }
             }
-        });
-    });
-    let total: f64 = light_samples.weights.iter().sum();
-    for (e, &i) in lists.entries.iter().enumerate() {
-        let m = &masks[e * words..(e + 1) * words];
-        let lit = (0..light_samples.points.len())
-            .filter(|&k| m[k / 64] >> (k % 64) & 1 == 0)
-            .fold(0.0f64, |acc, k| acc + light_samples.weights[k]);
-        let r = view[i as usize].receiver as usize;
-        vis[r] = if total > 0.0 { (lit / total).clamp(0.0, 1.0) as f32 } else { 0.0 };
+        }
     }
-    Ok((vis, stats))
 }
 
 /// Sample `y` rotated about `center` by the rotation whose transpose is `rotation`.
