@@ -41,7 +41,7 @@ def test_hard_shadows_with_every_caster_equal_ray_tracing(name):
     assert np.mean((ss.alias_free(setup.scene, light, gb, casters="all") == exact)[gb.mask]) >= 0.999
 
 
-@pytest.mark.parametrize("kind", ["rect", "disk", "sphere"])
+@pytest.mark.parametrize("kind", ["rect", "disk", "sphere", "ellipsoid"])
 def test_exact_soft_shadows_give_the_oracles_bits(kind):
     setup, gb = case("columns", light=kind)
     samples = setup.light.samples(256, pattern="poisson", seed=3)

@@ -9,6 +9,7 @@ LIGHTS = {
     "rect": ss.RectLight((0, 5, 0), (0.5, 0, 0), (0, 0, 0.5)),
     "disk": ss.DiskLight((1, 4, 2), (0, -1, 0), 0.75),
     "sphere": ss.SphereLight((0, 3, 0), 0.4),
+    "ellipsoid": ss.EllipsoidLight((0, 3, 1), [[0.6, 0.6, 0], [-0.2, 0.2, 0], [0, 0, 0.3]]),
 }
 
 
@@ -21,6 +22,9 @@ def on_light(name, pts):
         return np.all(np.abs(d[:, 1]) < tol) and np.all(np.abs(d[:, [0, 2]]) <= 0.5 + tol)
     if name == "disk":
         return np.all(np.abs(d @ light.normal) < tol) and np.all(np.linalg.norm(d, axis=1) <= 0.75 + tol)
+    if name == "ellipsoid":
+        x = d @ np.linalg.inv(light.axes.astype(np.float64))
+        return np.all(np.linalg.norm(x, axis=1) <= 1 + tol)
     return np.all(np.linalg.norm(d, axis=1) <= 0.4 + tol)
 
 
@@ -55,6 +59,15 @@ def test_uniform_samples_cover_the_light_evenly():
     r = np.linalg.norm(pts - LIGHTS["disk"].center, axis=1) / 0.75
     # Area-uniform on a disk: P(r < 1/sqrt2) = 1/2.
     assert abs(np.mean(r < np.sqrt(0.5)) - 0.5) < 0.015
+
+
+def test_ellipsoid_samples_fill_its_volume_evenly():
+    light = LIGHTS["ellipsoid"]
+    pts = light.samples(20000, pattern="uniform", seed=1).astype(np.float64)
+    x = (pts - light.center) @ np.linalg.inv(light.axes.astype(np.float64))
+    # Volume-uniform: P(|x| < 1/2) = 1/8 in the unit ball, and the ball's octants are even.
+    assert abs(np.mean(np.linalg.norm(x, axis=1) < 0.5) - 0.125) < 0.01
+    assert np.all(np.abs(np.mean(x > 0, axis=0) - 0.5) < 0.015)
 
 
 def test_frame_jitter_moves_the_pattern_but_keeps_it_on_the_light():

@@ -410,7 +410,8 @@ def test_default_light_is_a_rect_light_facing_the_occluders(name):
 
 @pytest.mark.parametrize(
     "kind, cls",
-    [("rect", ss.RectLight), ("disk", ss.DiskLight), ("sphere", ss.SphereLight), ("point", ss.PointLight)],
+    [("rect", ss.RectLight), ("disk", ss.DiskLight), ("sphere", ss.SphereLight), ("ellipsoid", ss.EllipsoidLight),
+     ("point", ss.PointLight)],
 )
 def test_light_kinds_and_sizes(kind, cls):
     setup = scenes.torus_knot(light=kind, light_size=0.8, width=32, height=32)
@@ -419,6 +420,8 @@ def test_light_kinds_and_sizes(kind, cls):
         assert setup.light.area == pytest.approx(0.64, rel=1e-5)
     elif kind in ("disk", "sphere"):
         assert setup.light.radius == pytest.approx(0.4)
+    elif kind == "ellipsoid":
+        assert np.linalg.norm(setup.light.axes, axis=1) == pytest.approx([0.4, 0.14, 0.14], rel=1e-5)
 
 
 def test_explicit_light_position_and_with_helpers():

@@ -14,7 +14,7 @@ See DESIGN.md for the data model and the definition of visibility.
 from . import _core, _validate, envmap, io, metrics, plot, reference, scenes, shading
 from .camera import Camera, GBuffer, Receivers, gbuffer
 from .envmap import environment
-from .lights import DiskLight, PointLight, RectLight, SphereLight
+from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight
 from .methods import METHODS, alias_free, cssm, mvr, pcss, ray_traced, shadow_map, vwss
 from .scene import Mesh, Scene
 
@@ -47,6 +47,7 @@ __all__ = [
     "RectLight",
     "Scene",
     "SphereLight",
+    "EllipsoidLight",
     "gbuffer",
     "io",
     "envmap",

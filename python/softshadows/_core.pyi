@@ -18,7 +18,14 @@ class NativeScene:
 
 class NativeLight:
     def __init__(
-        self, kind: str, center: F32, a: F32 | None, b: F32 | None, radius: float, emission: F32 | None
+        self,
+        kind: str,
+        center: F32,
+        a: F32 | None,
+        b: F32 | None,
+        radius: float,
+        emission: F32 | None,
+        c: F32 | None = None,
     ) -> None: ...
     @property
     def extent(self) -> float: ...

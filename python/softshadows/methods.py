@@ -58,7 +58,7 @@ def _native_samples(light, samples, *, pattern, seed, rotate, interleaved, frame
 
 def _check(scene, light) -> None:
     v.instance("scene", scene, Scene, "a softshadows.Scene")
-    v.instance("light", light, _Light, "a PointLight, RectLight, DiskLight or SphereLight")
+    v.instance("light", light, _Light, "a PointLight, RectLight, DiskLight, SphereLight or EllipsoidLight")
 
 
 def _casting(scene, casters):
@@ -113,7 +113,7 @@ def ray_traced(
     Parameters
     ----------
     scene : Scene
-    light : PointLight, RectLight, DiskLight or SphereLight
+    light : PointLight, RectLight, DiskLight, SphereLight or EllipsoidLight
     receivers : GBuffer or Receivers
     samples : int or array_like, shape (S, 3)
         Light samples per receiver, or explicit world-space samples shared by all receivers.
@@ -251,7 +251,7 @@ def mvr(
     Parameters
     ----------
     scene : Scene
-    light : RectLight, DiskLight, SphereLight or PointLight
+    light : RectLight, DiskLight, SphereLight, EllipsoidLight or PointLight
     receivers : GBuffer or Receivers
     {params}
     {casters}
@@ -305,7 +305,7 @@ def vwss(
     Parameters
     ----------
     scene : Scene
-    light : RectLight, DiskLight, SphereLight or PointLight
+    light : RectLight, DiskLight, SphereLight, EllipsoidLight or PointLight
     receivers : GBuffer or Receivers
     {params}
     mode : {"buffered", "unbuffered"}
@@ -383,7 +383,7 @@ def pcss(
     Parameters
     ----------
     scene : Scene
-    light : RectLight, DiskLight, SphereLight or PointLight
+    light : RectLight, DiskLight, SphereLight, EllipsoidLight or PointLight
         Its center casts; its half extents along the map's axes set the search and filter sizes.
     receivers : GBuffer or Receivers
     blocker_samples, filter_samples : int
@@ -450,7 +450,7 @@ def cssm(
     Parameters
     ----------
     scene : Scene
-    light : RectLight, DiskLight, SphereLight or PointLight
+    light : RectLight, DiskLight, SphereLight, EllipsoidLight or PointLight
         Its center casts; its half extents along the map's axes size the filters (rectangular
         lights get rectangular filters).
     receivers : GBuffer or Receivers
@@ -529,7 +529,7 @@ def alias_free(
     Parameters
     ----------
     scene : Scene
-    light : PointLight, RectLight, DiskLight or SphereLight
+    light : PointLight, RectLight, DiskLight, SphereLight or EllipsoidLight
     receivers : GBuffer or Receivers
     samples : int or array_like, shape (S, 3)
         1 to 1024 light samples shared by every receiver (ignored for a point light).
@@ -545,7 +545,8 @@ def alias_free(
         Bins per parameter (two angles and a distance) of the plane-to-bitmask table; ``None``
         tests every light sample against every plane exactly.
     hull_degree : int
-        Sides of the bounding polygons of disk and sphere lights (the paper: hexagons).
+        Sides of the bounding polygons of disk, sphere and ellipsoid lights (the paper: hexagons;
+        ellipsoids by its virtual scaling to a sphere).
     restrict_to_penumbra : bool
         Section 4.3's restriction: only receivers inside the influence region of an edge that is
         a silhouette from some point of the light (or of a perforated caster) test every light

@@ -24,7 +24,8 @@ Choices made here (where the design is silent)
   ``normalize(u x v)``. ``DiskLight`` is a ``disk`` (one-sided, facing ``normal``). ``SphereLight``
   is a ``sphere`` *surface* of uniform radiance: our sphere light emits from its volume, which
   matters for where visibility samples lie but not for shading, where a uniformly emitting sphere
-  and a sphere surface of the same radiance give the same irradiance. ``PointLight`` is a
+  and a sphere surface of the same radiance give the same irradiance. ``EllipsoidLight`` is,
+  likewise, its surface: a mesh (Mitsuba's ``sphere`` takes no non-uniform scale). ``PointLight`` is a
   ``point`` emitter of intensity ``intensity`` (W/sr). Area lights have radiance ``intensity``,
   times the emission texture of a textured ``RectLight`` (mapped through the rectangle's uv,
   which equals our (s, t) parameters; textured disks are refused: Mitsuba's disk uv is polar and
@@ -74,7 +75,7 @@ import numpy as np
 
 from . import _validate as v
 from .camera import Camera, as_receivers
-from .lights import DiskLight, PointLight, RectLight, SphereLight, _tangent_frame
+from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight, _tangent_frame
 from .scene import Scene
 
 __all__ = ["variant", "mitsuba_scene", "mitsuba_visibility", "mitsuba_render", "mitsuba_environment_render", "cache_dir", "CACHE_VERSION"]
@@ -162,7 +163,7 @@ def mitsuba_scene(scene: Scene, light, camera: Camera | None = None, *, albedo: 
         mesh has uvs) with a two-sided diffuse BSDF; perforated meshes wrap it in a ``mask`` BSDF
         whose opacity is the alpha texture binarized at 0.5 (nearest, repeat; see the module
         notes on the uv convention).
-    light : PointLight, RectLight, DiskLight or SphereLight
+    light : PointLight, RectLight, DiskLight, SphereLight or EllipsoidLight
         Becomes a ``point`` emitter or an emitting ``rectangle``/``disk``/``sphere`` shape.
     camera : Camera, optional
         Adds a ``perspective`` sensor (vertical fov, box filter, RGB ``hdrfilm``) with an
@@ -244,7 +245,29 @@ def _light_dict(mi, light, intensity: float) -> dict:
     if isinstance(light, SphereLight):
         return {"type": "sphere", "center": light.center.tolist(), "radius": float(light.radius),
                 "emitter": {"type": "area", "radiance": radiance}}
-    raise ValueError(f"light: expected a PointLight, RectLight, DiskLight or SphereLight, got {type(light).__name__}")
+    if isinstance(light, EllipsoidLight):
+        return _ellipsoid_mesh(mi, light, radiance)
+    raise ValueError(f"light: expected a PointLight, RectLight, DiskLight, SphereLight or EllipsoidLight, got {type(light).__name__}")
+
+
+def _ellipsoid_mesh(mi, light, radiance: dict):
+    """An emitting ``mi.Mesh``: a level-5 icosphere (20480 faces, within 3e-4 of the unit
+    sphere) mapped by the axes. Mitsuba's ``sphere`` refuses non-uniform scales."""
+    from .scenes import _icosphere
+
+    vertices, faces = _icosphere(5)
+    axes = np.asarray(light.axes, np.float64)
+    vertices = light.center + vertices @ axes
+    if np.linalg.det(axes) < 0:  # a reflection turns the faces inwards: emit outwards again
+        faces = faces[:, ::-1]
+    props = mi.Properties()
+    props["emitter"] = mi.load_dict({"type": "area", "radiance": radiance})
+    mesh = mi.Mesh("light", len(vertices), len(faces), props=props)
+    params = mi.traverse(mesh)
+    params["vertex_positions"] = type(params["vertex_positions"])(vertices.astype(np.float32).reshape(-1))
+    params["faces"] = type(params["faces"])(np.ascontiguousarray(faces, dtype=np.uint32).reshape(-1))
+    params.update()
+    return mesh
 
 
 def _scaled_texture(emission: np.ndarray, intensity: float) -> dict:
@@ -297,7 +320,7 @@ def mitsuba_visibility(scene: Scene, light, receivers, samples, *, epsilon: floa
     ----------
     scene : Scene
         Occluders; the light's own geometry is never added.
-    light : PointLight, RectLight, DiskLight or SphereLight
+    light : PointLight, RectLight, DiskLight, SphereLight or EllipsoidLight
         Used for ``light.samples(n)`` when ``samples`` is an int, and for the weights of a
         textured light.
     receivers : GBuffer or Receivers or (points, normals)
@@ -552,7 +575,7 @@ def mitsuba_render(scene: Scene, light, camera: Camera, *, spp: int = 64, integr
     Parameters
     ----------
     scene : Scene
-    light : PointLight, RectLight, DiskLight or SphereLight
+    light : PointLight, RectLight, DiskLight, SphereLight or EllipsoidLight
         See :func:`mitsuba_scene` for how each becomes a Mitsuba emitter.
     camera : Camera
         Row 0 of the result is the top of the image, as in the G-buffer.

@@ -14,11 +14,12 @@ Conventions chosen here (DESIGN.md is silent on them):
 * Closed occluders (``closed=True``) are two-manifold with consistently outward-facing triangles.
 * Every factory takes the same keyword-only light and camera options:
 
-  ``light`` : {"rect", "disk", "sphere", "point"}
-      The light's kind. Rect and disk lights face the occluders' centre.
+  ``light`` : {"rect", "disk", "sphere", "ellipsoid", "point"}
+      The light's kind. Rect and disk lights face the occluders' centre; the ellipsoid is a
+      tube-like prolate one, its long axis across the direction to the occluders.
   ``light_size`` : float
-      Edge length of the square rect light, diameter of a disk or sphere light (ignored for a
-      point light), in world units.
+      Edge length of the square rect light, diameter of a disk or sphere light, long diameter of
+      the ellipsoid (its other two are 0.35 of it), ignored for a point light; in world units.
   ``light_position`` : array_like (3,), optional
       The light's centre; by default it is placed at ``light_distance`` from the occluders'
       centre, above and to one side (each factory documents where).
@@ -57,7 +58,7 @@ import numpy as np
 
 from . import _validate as _v
 from .camera import Camera
-from .lights import DiskLight, PointLight, RectLight, SphereLight
+from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight
 from .scene import Mesh, Scene
 
 __all__ = [
@@ -78,7 +79,7 @@ __all__ = [
     "leaf_texture",
 ]
 
-LIGHT_KINDS = ("rect", "disk", "sphere", "point")
+LIGHT_KINDS = ("rect", "disk", "sphere", "ellipsoid", "point")
 
 #: Model name -> file name in pymeshlab's ``tests/sample_meshes`` folder.
 MODELS = {"bunny": "bunny.obj", "bone": "bone.ply", "cow": "cow.obj"}
@@ -98,7 +99,7 @@ class Setup:
         The scene's name (a key of ``SCENES``).
     scene : Scene
         ``scene.meshes[0]`` is the ground; the other meshes are the occluders.
-    light : PointLight, RectLight, DiskLight or SphereLight
+    light : PointLight, RectLight, DiskLight, SphereLight or EllipsoidLight
         The default light.
     camera : Camera
         A view of the occluders and their shadow on the ground.
@@ -1000,6 +1001,8 @@ def _make_light(kind, center, target, size):
         lamp = RectLight(center, h * e1, h * e2)
     elif kind == "disk":
         lamp = DiskLight(center, d, h)
+    elif kind == "ellipsoid":
+        lamp = EllipsoidLight(center, [h * e1, 0.35 * h * e2, 0.35 * h * d])
     else:
         lamp = SphereLight(center, h)
     extremes = [center + h * s1 * e1 + h * s2 * e2 for s1 in (-1, 1) for s2 in (-1, 1)]

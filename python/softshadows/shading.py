@@ -34,6 +34,10 @@ Irradiance formulas
   volume; shading treats it as a sphere of uniform radiance (what a uniformly emitting,
   optically thick ball looks like, and what Mitsuba's emitting ``sphere`` renders). A receiver
   inside the sphere gets ``pi L``.
+* **Ellipsoid**: seen from outside, an ellipsoid's silhouette is a planar ellipse (the image of
+  the unit sphere's silhouette circle under the axes, the virtual scaling of seed 000): the rect
+  formula on an area-matched :data:`DISK_EDGES`-gon of that ellipse, as for a disk. ``pi L``
+  inside.
 * **Point**: ``I max(0, cos theta) / r^2``.
 """
 
@@ -43,7 +47,7 @@ import numpy as np
 
 from . import _validate as v
 from .camera import as_receivers
-from .lights import DiskLight, PointLight, RectLight, SphereLight, _tangent_frame
+from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight, _tangent_frame
 
 __all__ = ["direct", "unshadowed_irradiance", "DISK_EDGES"]
 
@@ -68,7 +72,7 @@ def direct(gbuffer, light, visibility, albedo=0.8, *, intensity: float = 1.0, be
     ----------
     gbuffer : GBuffer or Receivers or (points, normals)
         Receivers: positions (H, W, 3) or (K, 3) with normals; G-buffer normals face the camera.
-    light : PointLight, RectLight, DiskLight or SphereLight
+    light : PointLight, RectLight, DiskLight, SphereLight or EllipsoidLight
     visibility : array_like, shape (H, W) or (K,)
         Visibility in [0, 1] from any method, in the receivers' shape.
     albedo : float or array_like of shape (3,)
@@ -150,7 +154,7 @@ def unshadowed_irradiance(points, normals, light, *, intensity: float = 1.0) -> 
         Receiver positions, world units.
     normals : array_like, shape (..., 3)
         Receiver normals (normalized here; must be non-zero).
-    light : PointLight, RectLight, DiskLight or SphereLight
+    light : PointLight, RectLight, DiskLight, SphereLight or EllipsoidLight
     intensity : float
         Area-light radiance (W m^-2 sr^-1) or point-light intensity (W sr^-1).
 
@@ -197,7 +201,11 @@ def _irradiance(p, n, light) -> np.ndarray:
         return _one_sided(p, light.center, light.normal, _polygon_irradiance(p, n, _disk_polygon(light)[None]))
     if isinstance(light, SphereLight):
         return _sphere_irradiance(p, n, np.asarray(light.center, np.float64), float(light.radius))
-    raise ValueError(f"light: expected a PointLight, RectLight, DiskLight or SphereLight, got {type(light).__name__}")
+    if isinstance(light, EllipsoidLight):
+        return _ellipsoid_irradiance(p, n, np.asarray(light.center, np.float64), np.asarray(light.axes, np.float64))
+    raise ValueError(
+        f"light: expected a PointLight, RectLight, DiskLight, SphereLight or EllipsoidLight, got {type(light).__name__}"
+    )
 
 
 def _one_sided(p, center, normal, e):
@@ -293,6 +301,36 @@ def _sphere_irradiance(p, n, center, radius):
     partial = (cos_t * np.arccos(y) - x * s) * sin2_s + np.arctan2(s, x)
     e = np.where(cos_t**2 > sin2_s, full, partial)
     return np.where(inside, np.pi, np.maximum(e, 0.0))
+
+
+def _ellipsoid_irradiance(p, n, center, axes, chunk: int = 2048):
+    """Irradiance from a unit-radiance ellipsoid (semi-axes as rows of ``axes``) through the
+    polygon of its silhouette ellipse, ``chunk`` receivers at a time (K x DISK_EDGES vertices)."""
+    a = axes.T                                                 # columns: the semi-axes
+    q = (p - center) @ np.linalg.inv(a).T                      # receivers where the light is the unit ball
+    d2 = np.einsum("ki,ki->k", q, q)
+    inside = d2 <= 1
+    d = np.sqrt(np.where(inside, 2.0, d2))
+    u = q / d[:, None]
+    # The unit sphere's silhouette from q: a circle about u / |q| of radius sqrt(1 - 1/|q|^2),
+    # counter-clockwise about u (the side facing the receiver); area-matched as the disk's.
+    helper = np.where(np.abs(u[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
+    t = np.cross(u, helper)
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    b = np.cross(u, t)
+    k = DISK_EDGES
+    radius = np.sqrt(1 - 1 / d**2) * np.sqrt(2 * np.pi / (k * np.sin(2 * np.pi / k)))
+    phi = 2 * np.pi * np.arange(k) / k
+    out = np.full(len(p), np.pi)
+    for s in range(0, len(p), chunk):
+        r = slice(s, s + chunk)
+        ring = np.cos(phi)[None, :, None] * t[r, None] + np.sin(phi)[None, :, None] * b[r, None]
+        circle = (u[r] / d[r, None])[:, None] + radius[r, None, None] * ring
+        polygon = center + circle @ a.T
+        if np.linalg.det(a) < 0:                               # a reflection reverses the winding
+            polygon = polygon[:, ::-1]
+        out[r] = np.where(inside[r], np.pi, _polygon_irradiance(p[r], n[r], polygon))
+    return out
 
 
 def _flat(rx):

@@ -111,9 +111,11 @@ pub struct NativeLight {
 
 #[pymethods]
 impl NativeLight {
-    /// `kind`: "point" (center = position), "rect" (a = u, b = v), "disk" (a = normal), "sphere".
+    /// `kind`: "point" (center = position), "rect" (a = u, b = v), "disk" (a = normal), "sphere",
+    /// "ellipsoid" (a, b, c = the semi-axes).
     #[new]
-    #[pyo3(signature = (kind, center, a, b, radius, emission))]
+    #[pyo3(signature = (kind, center, a, b, radius, emission, c=None))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         kind: &str,
         center: PyReadonlyArray1<'_, f32>,
@@ -121,17 +123,19 @@ impl NativeLight {
         b: Option<PyReadonlyArray1<'_, f32>>,
         radius: f32,
         emission: Option<PyReadonlyArray2<'_, f32>>,
+        c: Option<PyReadonlyArray1<'_, f32>>,
     ) -> PyResult<Self> {
-        let c = vec3("center", &center)?;
+        let center = vec3("center", &center)?;
         let arg = |name: &str, v: &Option<PyReadonlyArray1<'_, f32>>| match v {
             Some(v) => vec3(name, v),
             None => Err(pyo3::exceptions::PyValueError::new_err(format!("{name}: missing"))),
         };
         let light = match kind {
-            "point" => Light::point(c),
-            "rect" => Light::rect(c, arg("u", &a)?, arg("v", &b)?),
-            "disk" => Light::disk(c, arg("normal", &a)?, radius),
-            "sphere" => Light::sphere(c, radius),
+            "point" => Light::point(center),
+            "rect" => Light::rect(center, arg("u", &a)?, arg("v", &b)?),
+            "disk" => Light::disk(center, arg("normal", &a)?, radius),
+            "sphere" => Light::sphere(center, radius),
+            "ellipsoid" => Light::ellipsoid(center, [arg("axes", &a)?, arg("axes", &b)?, arg("axes", &c)?]),
             other => {
                 return Err(pyo3::exceptions::PyValueError::new_err(format!("light: unknown kind {other:?}")))
             }

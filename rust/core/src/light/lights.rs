@@ -1,12 +1,16 @@
-//! Light shapes (DESIGN.md section 2): point, rectangle, disk and volumetric sphere, with an
-//! optional emission texture on rectangles and disks (textured lights weight their samples).
+//! Light shapes (DESIGN.md section 2): point, rectangle, disk, volumetric sphere and volumetric
+//! ellipsoid, with an optional emission texture on rectangles and disks (textured lights weight
+//! their samples).
 //!
 //! Every light maps a point of the unit cube (its *parameter domain*, `dim()` coordinates used)
 //! onto itself: rectangles by `center + (2s-1) u + (2t-1) v`, disks by Shirley's concentric map,
-//! spheres by radius `R a^(1/3)` and a uniform direction, so uniform unit points give uniform
-//! light points. Per-receiver decorrelation ([`Light::rotate`]) is a random rotation about the
-//! symmetry axis for disks, a random 3D rotation for spheres, and a toroidal (Cranley-Patterson)
-//! shift of the parameters for rectangles, where a geometric rotation would leave the light.
+//! spheres by radius `R a^(1/3)` and a uniform direction, ellipsoids by their axes applied to the
+//! unit ball's point (a linear map keeps volume-uniform points uniform), so uniform unit points
+//! give uniform light points. Per-receiver decorrelation ([`Light::rotate`]) is a random rotation
+//! about the symmetry axis for disks, a random 3D rotation for spheres (for ellipsoids, conjugated
+//! by the axes: `A R A⁻¹` maps the ellipsoid onto itself and keeps volume), and a toroidal
+//! (Cranley-Patterson) shift of the parameters for rectangles, where a geometric rotation would
+//! leave the light.
 
 use crate::error::{Error, Result};
 use glam::{Mat3, Vec2, Vec3};
@@ -52,6 +56,9 @@ pub enum Shape {
     Disk { center: Vec3, normal: Vec3, radius: f32 },
     /// Emits from its whole volume (seed 000).
     Sphere { center: Vec3, radius: f32 },
+    /// Emits from its whole volume: the points `center + axes x` with `|x| <= 1`; the columns
+    /// of `axes` are the three mutually orthogonal semi-axes (seed 000 section 4.1).
+    Ellipsoid { center: Vec3, axes: Mat3 },
 }
 
 /// A light: a shape and an optional emission texture.
@@ -158,6 +165,25 @@ impl Light {
         Ok(Self { shape: Shape::Sphere { center, radius }, emission: None })
     }
 
+    /// A volumetric ellipsoid with the three semi-axis vectors `axes` (columns); refuses
+    /// non-finite, zero or non-orthogonal axes (relative tolerance 1e-4).
+    pub fn ellipsoid(center: Vec3, axes: [Vec3; 3]) -> Result<Self> {
+        finite_vec("center", center)?;
+        for (k, a) in axes.iter().enumerate() {
+            finite_vec("axes", *a)?;
+            if a.length_squared() == 0.0 || !a.length_squared().is_finite() {
+                return Err(Error::invalid("axes", format!("semi-axis {k} = {a} has no usable length")));
+            }
+        }
+        for (i, j) in [(0, 1), (0, 2), (1, 2)] {
+            let (a, b) = (axes[i], axes[j]);
+            if a.dot(b).abs() > 1e-4 * a.length() * b.length() {
+                return Err(Error::invalid("axes", format!("semi-axes {i} = {a} and {j} = {b} are not orthogonal")));
+            }
+        }
+        Ok(Self { shape: Shape::Ellipsoid { center, axes: Mat3::from_cols(axes[0], axes[1], axes[2]) }, emission: None })
+    }
+
     /// Adds an emission texture (rectangles and disks only).
     pub fn with_emission(mut self, texture: EmissionTexture) -> Result<Self> {
         match self.shape {
@@ -177,7 +203,10 @@ impl Light {
     pub fn center(&self) -> Vec3 {
         match self.shape {
             Shape::Point { position } => position,
-            Shape::Rect { center, .. } | Shape::Disk { center, .. } | Shape::Sphere { center, .. } => center,
+            Shape::Rect { center, .. }
+            | Shape::Disk { center, .. }
+            | Shape::Sphere { center, .. }
+            | Shape::Ellipsoid { center, .. } => center,
         }
     }
 
@@ -199,6 +228,8 @@ impl Light {
             Shape::Point { .. } => 0.0,
             Shape::Rect { u, v, .. } => (u + v).length().max((u - v).length()),
             Shape::Disk { radius, .. } | Shape::Sphere { radius, .. } => radius,
+            // Orthogonal semi-axes: the longest is the farthest point.
+            Shape::Ellipsoid { axes, .. } => axes.x_axis.length().max(axes.y_axis.length()).max(axes.z_axis.length()),
         }
     }
 
@@ -210,15 +241,17 @@ impl Light {
             Shape::Rect { u, v, .. } => u.dot(axis).abs() + v.dot(axis).abs(),
             Shape::Disk { normal, radius, .. } => radius * (1.0 - normal.dot(axis).powi(2)).max(0.0).sqrt(),
             Shape::Sphere { radius, .. } => radius,
+            // The support function of the ellipsoid: |Aᵀ axis|.
+            Shape::Ellipsoid { axes, .. } => axes.transpose().mul_vec3(axis).length(),
         }
     }
 
-    /// How many unit-cube coordinates [`Light::map`] uses: 0, 2 (rect, disk) or 3 (sphere).
+    /// How many unit-cube coordinates [`Light::map`] uses: 0, 2 (rect, disk) or 3 (sphere, ellipsoid).
     pub fn dim(&self) -> usize {
         match self.shape {
             Shape::Point { .. } => 0,
             Shape::Rect { .. } | Shape::Disk { .. } => 2,
-            Shape::Sphere { .. } => 3,
+            Shape::Sphere { .. } | Shape::Ellipsoid { .. } => 3,
         }
     }
 
@@ -232,13 +265,8 @@ impl Light {
                 let d = concentric_disk(p[0], p[1]) * radius;
                 center + t * d.x + b * d.y
             }
-            Shape::Sphere { center, radius } => {
-                let r = radius * p[0].cbrt();
-                let z = 1.0 - 2.0 * p[1];
-                let s = (1.0 - z * z).max(0.0).sqrt();
-                let phi = 2.0 * PI * p[2];
-                center + Vec3::new(s * phi.cos(), s * phi.sin(), z) * r
-            }
+            Shape::Sphere { center, radius } => center + ball(p, radius),
+            Shape::Ellipsoid { center, axes } => center + axes * ball(p, 1.0),
         }
     }
 
@@ -282,6 +310,7 @@ impl Light {
             }
             Shape::Disk { center, normal, .. } => center + glam::Quat::from_axis_angle(normal, 2.0 * PI * r[0]) * (y - center),
             Shape::Sphere { center, .. } => center + random_rotation(r) * (y - center),
+            Shape::Ellipsoid { center, axes } => center + axes * (random_rotation(r) * (axes.inverse() * (y - center))),
         }
     }
 }
@@ -289,15 +318,25 @@ impl Light {
 impl Light {
     /// The decorrelating rotation [`Light::rotate`] applies for `r`, as a rigid rotation about the
     /// light's center, for the lights it is one of (point, disk, sphere); `None` for a rectangle,
-    /// whose decorrelation is a shift of its parameters.
+    /// whose decorrelation is a shift of its parameters, and for an ellipsoid, whose is not rigid.
     pub fn rigid_rotation(&self, r: RotationSeed) -> Option<Mat3> {
         match self.shape {
             Shape::Point { .. } => Some(Mat3::IDENTITY),
             Shape::Disk { normal, .. } => Some(Mat3::from_quat(glam::Quat::from_axis_angle(normal, 2.0 * PI * r[0]))),
             Shape::Sphere { .. } => Some(random_rotation(r)),
-            Shape::Rect { .. } => None,
+            Shape::Rect { .. } | Shape::Ellipsoid { .. } => None,
         }
     }
+}
+
+/// The volume-uniform map of the unit cube onto the ball of `radius` about the origin: radius
+/// `radius a^(1/3)`, uniform direction.
+fn ball(p: [f32; 3], radius: f32) -> Vec3 {
+    let r = radius * p[0].cbrt();
+    let z = 1.0 - 2.0 * p[1];
+    let s = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * p[2];
+    Vec3::new(s * phi.cos(), s * phi.sin(), z) * r
 }
 
 /// Arvo's uniformly distributed random rotation from three uniform numbers.
@@ -363,5 +402,51 @@ mod tests {
         assert!(matches!(Light::rect(Vec3::ZERO, Vec3::X, Vec3::X * 2.0), Err(Error::InvalidInput { .. })));
         assert!(matches!(Light::disk(Vec3::ZERO, Vec3::Y, -1.0), Err(Error::InvalidInput { .. })));
         assert!(matches!(Light::sphere(Vec3::ZERO, 0.0), Err(Error::InvalidInput { .. })));
+    }
+
+    /// A tilted prolate ellipsoid: semi-axes 0.9, 0.3 and 0.2 along a rotated frame.
+    fn ellipsoid() -> Light {
+        let r = Mat3::from_rotation_y(0.7) * Mat3::from_rotation_x(-0.4);
+        Light::ellipsoid(Vec3::new(1.0, 3.0, -2.0), [r.x_axis * 0.9, r.y_axis * 0.3, r.z_axis * 0.2]).unwrap()
+    }
+
+    /// `|A⁻¹ (y − c)|`: at most 1 inside the ellipsoid.
+    fn ellipsoid_radius(light: &Light, y: Vec3) -> f32 {
+        match light.shape {
+            Shape::Ellipsoid { center, axes } => (axes.inverse() * (y - center)).length(),
+            _ => unreachable!(),
+        }
+    }
+
+    #[test]
+    fn ellipsoid_points_and_rotations_stay_inside_and_bounds_hold() {
+        let light = ellipsoid();
+        assert!((light.extent() - 0.9).abs() < 1e-6);
+        let mut rng = crate::light::sampling::Rng::new(3);
+        let mut along = [0f32; 3];
+        for _ in 0..2000 {
+            let y = light.map([rng.next_f32(), rng.next_f32(), rng.next_f32()]);
+            assert!(ellipsoid_radius(&light, y) <= 1.0 + 1e-5);
+            let moved = light.rotate(y, [rng.next_f32(), rng.next_f32(), rng.next_f32()]);
+            assert!((ellipsoid_radius(&light, moved) - ellipsoid_radius(&light, y)).abs() < 1e-4);
+            for (k, axis) in [Vec3::X, Vec3::Y, Vec3::Z].into_iter().enumerate() {
+                let d = (y - light.center()).dot(axis).abs();
+                assert!(d <= light.half_extent_along(axis) + 1e-5);
+                along[k] = along[k].max(d);
+            }
+        }
+        // The support bound is tight: samples come close to it on every axis.
+        for (k, axis) in [Vec3::X, Vec3::Y, Vec3::Z].into_iter().enumerate() {
+            assert!(along[k] > 0.85 * light.half_extent_along(axis), "axis {k}");
+        }
+        assert!(light.rigid_rotation([0.1, 0.2, 0.3]).is_none());
+    }
+
+    #[test]
+    fn degenerate_or_skewed_ellipsoids_are_refused() {
+        let bad = [[Vec3::X, Vec3::Y, Vec3::ZERO], [Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Z], [Vec3::X, Vec3::Y, Vec3::splat(f32::NAN)]];
+        for axes in bad {
+            assert!(matches!(Light::ellipsoid(Vec3::ZERO, axes), Err(Error::InvalidInput { .. })), "{axes:?}");
+        }
     }
 }

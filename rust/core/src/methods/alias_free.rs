@@ -19,7 +19,8 @@
 //!    point of the light onto the far plane, bounded by the convex hull of the projections of its
 //!    vertices from the light's bounding points: the corners of a rectangle (exact), a
 //!    circumscribed `hull_degree`-gon of a disk, and for a sphere the circumscribed
-//!    `hull_degree`-gon of its silhouette seen from each vertex (the paper's bounding polygons). A
+//!    `hull_degree`-gon of its silhouette seen from each vertex (the paper's bounding polygons);
+//!    an ellipsoid gets the sphere's polygons by virtual scaling (section 4.1). A
 //!    point light's region is the triangle's own projection. Regions are rasterized conservatively
 //!    ([`crate::raster::region`]); bands of rows are processed in parallel, each owning the lists of
 //!    its texels and projecting the regions onto the plane of its own farthest view sample (the
@@ -378,35 +379,48 @@ fn alpha_test(scene: &Scene, t: &Prepared, p: DVec3, samples: &LightSamples, rot
 
 /// The light's bounding points seen from world point `v` (see the module documentation).
 fn light_points(light: &Light, v: DVec3, degree: usize) -> Vec<DVec3> {
-    let polygon = |c: DVec3, n: DVec3, r: f64| -> Vec<DVec3> {
-        let (t, b) = tangent_frame(n.as_vec3());
-        let (t, b) = (t.as_dvec3(), b.as_dvec3());
-        let r = r / (std::f64::consts::PI / degree as f64).cos();
-        (0..degree)
-            .map(|k| {
-                let a = 2.0 * std::f64::consts::PI * k as f64 / degree as f64;
-                c + (t * a.cos() + b * a.sin()) * r
-            })
-            .collect()
-    };
     match light.shape {
         Shape::Point { position } => vec![position.as_dvec3()],
         Shape::Rect { center, u, v: w } => {
             let (c, u, w) = (center.as_dvec3(), u.as_dvec3(), w.as_dvec3());
             vec![c + u + w, c + u - w, c - u - w, c - u + w]
         }
-        Shape::Disk { center, normal, radius } => polygon(center.as_dvec3(), normal.as_dvec3(), f64::from(radius)),
-        Shape::Sphere { center, radius } => {
-            let (c, r) = (center.as_dvec3(), f64::from(radius));
-            let d = v - c;
-            let dist2 = d.length_squared();
-            if dist2 <= r * r {
-                return Vec::new();
-            }
-            // The silhouette circle seen from v: center c + d r²/|d|², radius r sqrt(1 − r²/|d|²).
-            polygon(c + d * (r * r / dist2), d / dist2.sqrt(), r * (1.0 - r * r / dist2).sqrt())
+        Shape::Disk { center, normal, radius } => polygon(center.as_dvec3(), normal.as_dvec3(), f64::from(radius), degree),
+        Shape::Sphere { center, radius } => sphere_silhouette(center.as_dvec3(), f64::from(radius), v, degree),
+        Shape::Ellipsoid { center, axes } => {
+            // Virtual scaling (section 4.1): in the frame where the ellipsoid is the unit ball, its
+            // silhouette from v is a circle; the axes map the circle's bounding polygon back onto
+            // one around the ellipsoid's silhouette, since linear maps keep tangency and convexity.
+            let (c, a) = (center.as_dvec3(), axes.as_dmat3());
+            let unit = sphere_silhouette(DVec3::ZERO, 1.0, a.inverse() * (v - c), degree);
+            unit.into_iter().map(|q| c + a * q).collect()
         }
     }
+}
+
+/// The `degree`-gon circumscribing the circle of radius `r` about `c` in the plane normal to `n`.
+fn polygon(c: DVec3, n: DVec3, r: f64, degree: usize) -> Vec<DVec3> {
+    let (t, b) = tangent_frame(n.as_vec3());
+    let (t, b) = (t.as_dvec3(), b.as_dvec3());
+    let r = r / (std::f64::consts::PI / degree as f64).cos();
+    (0..degree)
+        .map(|k| {
+            let a = 2.0 * std::f64::consts::PI * k as f64 / degree as f64;
+            c + (t * a.cos() + b * a.sin()) * r
+        })
+        .collect()
+}
+
+/// The bounding `degree`-gon of the silhouette circle of the sphere `(c, r)` seen from `v`
+/// (empty when `v` is inside the sphere).
+fn sphere_silhouette(c: DVec3, r: f64, v: DVec3, degree: usize) -> Vec<DVec3> {
+    let d = v - c;
+    let dist2 = d.length_squared();
+    if dist2 <= r * r {
+        return Vec::new();
+    }
+    // The silhouette circle seen from v: center c + d r²/|d|², radius r sqrt(1 − r²/|d|²).
+    polygon(c + d * (r * r / dist2), d / dist2.sqrt(), r * (1.0 - r * r / dist2).sqrt(), degree)
 }
 
 /// Whether every point of `light` lies strictly in front of triangle `t`'s plane.
@@ -426,6 +440,8 @@ fn faces_whole_light(light: &Light, t: &[Vec3; 3]) -> bool {
             ahead(center.as_dvec3()) > spread
         }
         Shape::Sphere { center, radius } => ahead(center.as_dvec3()) > f64::from(radius) * n.length(),
+        // The ellipsoid's support function along n: |Aᵀ n|.
+        Shape::Ellipsoid { center, axes } => ahead(center.as_dvec3()) > (axes.as_dmat3().transpose() * n).length(),
     }
 }
 
@@ -786,4 +802,42 @@ fn record_list_stats(lists: &Lists, stats: &mut Stats) {
     stats.set("average_list_length", if occupied > 0 { lists.entries.len() as f64 / occupied as f64 } else { 0.0 });
     stats.set("max_list_length", max as f64);
     stats.set("occupied_texels_percent", 100.0 * occupied as f64 / texels as f64);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::light::sampling::Rng;
+
+    /// Whether the line from `v` through `y` meets the plane of the convex polygon `poly` inside it.
+    fn through_polygon(v: DVec3, y: DVec3, poly: &[DVec3]) -> bool {
+        let n = (poly[1] - poly[0]).cross(poly[2] - poly[0]);
+        let x = v + (y - v) * (n.dot(poly[0] - v) / n.dot(y - v));
+        let sides: Vec<f64> = (0..poly.len()).map(|k| (poly[(k + 1) % poly.len()] - poly[k]).cross(x - poly[k]).dot(n)).collect();
+        let tol = 1e-9 * n.length() * (x - poly[0]).length().max(1.0);
+        sides.iter().all(|&s| s >= -tol) || sides.iter().all(|&s| s <= tol)
+    }
+
+    #[test]
+    fn virtually_scaled_polygons_bound_the_ellipsoid_seen_from_any_vertex() {
+        // Section 4.1: the cone from a vertex over the bounding polygon holds the whole light.
+        let r = glam::Mat3::from_rotation_z(0.5) * glam::Mat3::from_rotation_x(0.9);
+        let center = Vec3::new(0.0, 4.0, 0.0);
+        let light = Light::ellipsoid(center, [r.x_axis * 1.2, r.y_axis * 0.25, r.z_axis * 0.5]).unwrap();
+        let mut rng = Rng::new(8);
+        for degree in [3, 6, 16] {
+            for _ in 0..50 {
+                let offset = Vec3::new(rng.next_f32() - 0.5, -rng.next_f32(), rng.next_f32() - 0.5) * 6.0;
+                let v = (center + offset + Vec3::new(0.0, -1.3, 0.0)).as_dvec3();
+                let poly = light_points(&light, v, degree);
+                assert_eq!(poly.len(), degree);
+                for _ in 0..200 {
+                    let y = light.map([rng.next_f32(), rng.next_f32(), rng.next_f32()]).as_dvec3();
+                    assert!(through_polygon(v, y, &poly), "degree {degree}, vertex {v}, light point {y}");
+                }
+            }
+        }
+        // A vertex inside the ellipsoid has no bounding polygon: the whole map.
+        assert!(light_points(&light, center.as_dvec3(), 6).is_empty());
+    }
 }
