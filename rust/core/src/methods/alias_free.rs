@@ -9,22 +9,18 @@
 //! 2. **Parametrization** (section 4.3): the light frustum, from the light's center, fitted to the
 //!    view samples' projected bounding box and depth range.
 //! 3. **Lists** (section 3.1): each view sample goes to the list of the texel it projects to, by
-//!    count, prefix sum and scatter (a compressed row of offsets and one array of entries).
+//!    count, prefix sum and scatter ([`crate::raster::influence::ReceiverLists`]).
 //! 4. **Casters**: with `Casters::Backfacing`, closed meshes cast with their light back-facing
 //!    triangles only, which never shadow the front-facing surface they belong to, so no bias is
 //!    needed (section 3.3); open meshes cast with every triangle. With `Casters::All` every triangle
 //!    casts. A caster that can be its own receiver's surface (every triangle of an open mesh, every
 //!    triangle with `All`) tests the receiver moved `bias` along its normal, as the ray tracer does.
-//! 5. **Influence regions** (section 4.1): the union of the triangle's projections from every
-//!    point of the light onto the far plane, bounded by the convex hull of the projections of its
-//!    vertices from the light's bounding points: the corners of a rectangle (exact), a
-//!    circumscribed `hull_degree`-gon of a disk, and for a sphere the circumscribed
-//!    `hull_degree`-gon of its silhouette seen from each vertex (the paper's bounding polygons);
-//!    an ellipsoid gets the sphere's polygons by virtual scaling (section 4.1). A
-//!    point light's region is the triangle's own projection. Regions are rasterized conservatively
-//!    ([`crate::raster::region`]); bands of rows are processed in parallel, each owning the lists of
-//!    its texels and projecting the regions onto the plane of its own farthest view sample (the
-//!    regions nest, shrinking towards the light, so this stays conservative for the band).
+//! 5. **Influence regions** (section 4.1, [`crate::raster::influence`]): the union of the
+//!    triangle's projections from every point of the light, bounded by the convex hull of the
+//!    projections of its vertices from the light's bounding points (`hull_degree`-gons for disks,
+//!    spheres and, by virtual scaling, ellipsoids), rasterized conservatively. Bands of rows are
+//!    processed in parallel, each owning the lists of its texels and projecting the regions onto
+//!    the plane of its own farthest view sample (the regions nest, shrinking towards the light).
 //! 6. **Visibility** (sections 3.3 and 4.2): each view sample keeps a bitmask over the `S` light
 //!    samples (1 for a point light). A triangle blocks sample `y` from `p` when `p` and `y` lie
 //!    strictly on opposite sides of its plane and `y` lies strictly inside the three planes through
@@ -51,13 +47,12 @@ use crate::error::{Error, Result};
 use crate::geometry::edges::{edges, Edge};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
-use crate::light::lights::{tangent_frame, Light, Shape};
+use crate::light::lights::{Light, Shape};
 use crate::light::sampling::SampleSet;
 use crate::limits;
-use crate::raster::depth::{
-    band_rows, bin_row_ranges, casters, Caster, FaceFilter, LightFrustum, RasterMode, RasterOptions, NEAR_FRACTION,
-};
-use crate::raster::region::{conservative_rows, convex_hull};
+use crate::raster::depth::{casters, Caster, FaceFilter, LightFrustum, RasterMode, RasterOptions};
+use crate::raster::influence::{influence_hull, ReceiverLists};
+use crate::raster::region::conservative_rows;
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
 use rayon::prelude::*;
@@ -124,46 +119,11 @@ impl AliasFreeOptions {
 #[derive(Debug, Clone, Copy)]
 struct ViewSample {
     receiver: u32,
-    /// Linear depth in the light's frustum (set once the frustum is fitted).
-    depth: f64,
     p: DVec3,
     moved: DVec3,
     n: DVec3,
     /// The transpose of its samples' rotation about the light's center (`rotate="per_receiver"`).
     rotation: Option<DMat3>,
-}
-
-/// Per-texel lists of view samples (compressed rows): texel `t` holds
-/// `entries[start[t]..start[t + 1]]`.
-struct Lists {
-    start: Vec<usize>,
-    entries: Vec<u32>,
-}
-
-fn build_lists(frustum: &LightFrustum, samples: &[ViewSample]) -> Lists {
-    let (w, h) = (frustum.width, frustum.height);
-    let texel: Vec<usize> = samples
-        .par_iter()
-        .map(|s| {
-            let p = frustum.project(s.p.as_vec3()).unwrap_or(Vec3::ZERO);
-            let (x, y) = ((p.x.max(0.0) as usize).min(w - 1), (p.y.max(0.0) as usize).min(h - 1));
-            y * w + x
-        })
-        .collect();
-    let mut start = vec![0usize; w * h + 1];
-    for &t in &texel {
-        start[t + 1] += 1;
-    }
-    for t in 0..w * h {
-        start[t + 1] += start[t];
-    }
-    let mut fill = start.clone();
-    let mut entries = vec![0u32; samples.len()];
-    for (i, &t) in texel.iter().enumerate() {
-        entries[fill[t]] = i as u32;
-        fill[t] += 1;
-    }
-    Lists { start, entries }
 }
 
 /// The light samples as f64 points, their weights, and the bitmask word count.
@@ -377,52 +337,6 @@ fn alpha_test(scene: &Scene, t: &Prepared, p: DVec3, samples: &LightSamples, rot
     }
 }
 
-/// The light's bounding points seen from world point `v` (see the module documentation).
-fn light_points(light: &Light, v: DVec3, degree: usize) -> Vec<DVec3> {
-    match light.shape {
-        Shape::Point { position } => vec![position.as_dvec3()],
-        Shape::Rect { center, u, v: w } => {
-            let (c, u, w) = (center.as_dvec3(), u.as_dvec3(), w.as_dvec3());
-            vec![c + u + w, c + u - w, c - u - w, c - u + w]
-        }
-        Shape::Disk { center, normal, radius } => polygon(center.as_dvec3(), normal.as_dvec3(), f64::from(radius), degree),
-        Shape::Sphere { center, radius } => sphere_silhouette(center.as_dvec3(), f64::from(radius), v, degree),
-        Shape::Ellipsoid { center, axes } => {
-            // Virtual scaling (section 4.1): in the frame where the ellipsoid is the unit ball, its
-            // silhouette from v is a circle; the axes map the circle's bounding polygon back onto
-            // one around the ellipsoid's silhouette, since linear maps keep tangency and convexity.
-            let (c, a) = (center.as_dvec3(), axes.as_dmat3());
-            let unit = sphere_silhouette(DVec3::ZERO, 1.0, a.inverse() * (v - c), degree);
-            unit.into_iter().map(|q| c + a * q).collect()
-        }
-    }
-}
-
-/// The `degree`-gon circumscribing the circle of radius `r` about `c` in the plane normal to `n`.
-fn polygon(c: DVec3, n: DVec3, r: f64, degree: usize) -> Vec<DVec3> {
-    let (t, b) = tangent_frame(n.as_vec3());
-    let (t, b) = (t.as_dvec3(), b.as_dvec3());
-    let r = r / (std::f64::consts::PI / degree as f64).cos();
-    (0..degree)
-        .map(|k| {
-            let a = 2.0 * std::f64::consts::PI * k as f64 / degree as f64;
-            c + (t * a.cos() + b * a.sin()) * r
-        })
-        .collect()
-}
-
-/// The bounding `degree`-gon of the silhouette circle of the sphere `(c, r)` seen from `v`
-/// (empty when `v` is inside the sphere).
-fn sphere_silhouette(c: DVec3, r: f64, v: DVec3, degree: usize) -> Vec<DVec3> {
-    let d = v - c;
-    let dist2 = d.length_squared();
-    if dist2 <= r * r {
-        return Vec::new();
-    }
-    // The silhouette circle seen from v: center c + d r²/|d|², radius r sqrt(1 − r²/|d|²).
-    polygon(c + d * (r * r / dist2), d / dist2.sqrt(), r * (1.0 - r * r / dist2).sqrt(), degree)
-}
-
 /// Whether every point of `light` lies strictly in front of triangle `t`'s plane.
 fn faces_whole_light(light: &Light, t: &[Vec3; 3]) -> bool {
     let v = t.map(|p| p.as_dvec3());
@@ -445,30 +359,6 @@ fn faces_whole_light(light: &Light, t: &[Vec3; 3]) -> bool {
     }
 }
 
-/// The influence region's hull in texel coordinates, or `None` for the whole map (a vertex not
-/// strictly beyond some light point along the view direction).
-fn influence_hull(frustum: &LightFrustum, light: &Light, tri: &[Vec3; 3], degree: usize) -> Option<Vec<DVec2>> {
-    let (eye, f) = (frustum.eye.as_dvec3(), frustum.forward.as_dvec3());
-    let far = f64::from(frustum.far);
-    let mut pts = Vec::with_capacity(3 * degree.max(4));
-    for v in tri.iter().map(|v| v.as_dvec3()) {
-        let ys = light_points(light, v, degree);
-        if ys.is_empty() {
-            return None;
-        }
-        for y in ys {
-            let (zy, dz) = ((y - eye).dot(f), (v - y).dot(f));
-            if dz <= 1e-9 * (1.0 + zy.abs()) {
-                return None;
-            }
-            let x = y + (v - y) * ((far - zy) / dz);
-            let s = frustum.project(x.as_vec3())?;
-            pts.push(DVec2::new(f64::from(s.x), f64::from(s.y)));
-        }
-    }
-    Some(convex_hull(&pts))
-}
-
 /// Soft (or, for a point light, hard) visibility of every receiver by alias-free shadow maps.
 ///
 /// Returns the visibility (receivers' order) and stats: `list_build_seconds`,
@@ -487,23 +377,18 @@ pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: 
     }
     stats.set("light_samples", light_samples.points.len() as f64);
     let mut vis = vec![0.0f32; receivers.len()];
-    let mut view = view_samples(light, receivers, samples, opts.bias);
+    let view = view_samples(light, receivers, samples, opts.bias);
     stats.set("view_samples", view.len() as f64);
     if view.is_empty() {
         return Ok((vis, stats));
     }
-    let frustum = stats.time("list_build", || fit_frustum(light, &view, opts.resolution))?;
-    view.iter_mut().for_each(|s| s.depth = f64::from(frustum.to_view(s.p.as_vec3()).z));
-    let lists = {
-        let start = std::time::Instant::now();
-        let lists = build_lists(&frustum, &view);
-        stats.add("list_build_seconds", start.elapsed().as_secs_f64());
-        lists
-    };
-    record_list_stats(&lists, &mut stats);
+    let points: Vec<Vec3> = view.iter().map(|s| s.p.as_vec3()).collect();
+    let lists = stats.time("list_build", || ReceiverLists::build(light, &points, opts.resolution))?;
+    lists.record_stats(&mut stats);
+    let frustum = lists.frustum;
     let center = light.center().as_dvec3();
     let radius = light_samples.points.iter().map(|y| (*y - center).length()).fold(0.0f64, f64::max) * (1.0 + 1e-9) + 1e-12;
-    let casters = stats.time("rasterization", || CasterSet::prepare(scene, light, &frustum, opts));
+    let casters = stats.time("rasterization", || CasterSet::prepare(scene, light, &lists, opts));
     stats.set("casters", casters.prepared.len() as f64);
     let penumbra = if opts.restrict_to_penumbra && light_samples.points.len() > 1 {
         let (flags, silhouettes) = stats.time("rasterization", || penumbra_texels(scene, light, &frustum, &casters, opts.hull_degree, (center, radius)));
@@ -577,7 +462,7 @@ fn view_samples(light: &Light, receivers: &Receivers, samples: &SampleSet, bias:
         .map(|i| {
             let (p, n) = (receivers.points[i].as_dvec3(), receivers.normals[i].as_dvec3());
             let rotation = samples.rotation_for(i).and_then(|r| light.rigid_rotation(r)).map(|m| m.as_dmat3().transpose());
-            ViewSample { receiver: i as u32, depth: 0.0, p, moved: p + n * f64::from(bias), n, rotation }
+            ViewSample { receiver: i as u32, p, moved: p + n * f64::from(bias), n, rotation }
         })
         .filter(|s| s.n.dot(center - s.p) > -extent * s.n.length() && (center - s.p).length_squared() > 0.0)
         .collect()
@@ -585,7 +470,7 @@ fn view_samples(light: &Light, receivers: &Receivers, samples: &SampleSet, bias:
 
 /// The initial bitmask of every list entry: the samples behind its view sample's tangent plane
 /// are blocked (DESIGN.md section 3).
-fn initial_masks(lists: &Lists, view: &[ViewSample], samples: &LightSamples, center: DVec3) -> Vec<u64> {
+fn initial_masks(lists: &ReceiverLists, view: &[ViewSample], samples: &LightSamples, center: DVec3) -> Vec<u64> {
     let words = samples.words;
     let mut masks = vec![0u64; lists.entries.len() * words];
     masks.par_chunks_mut(words).zip(&lists.entries).for_each(|(m, &e)| {
@@ -609,8 +494,9 @@ struct CasterSet {
 }
 impl CasterSet {
     /// The casters of `scene` for `light` (see the module documentation, step 4) and their
-    /// influence regions in `frustum`, binned by bands of rows.
-    fn prepare(scene: &Scene, light: &Light, frustum: &LightFrustum, opts: &AliasFreeOptions) -> CasterSet {
+    /// influence regions in the lists' frustum, binned by bands of rows.
+    fn prepare(scene: &Scene, light: &Light, lists: &ReceiverLists, opts: &AliasFreeOptions) -> CasterSet {
+        let frustum = &lists.frustum;
         let point = matches!(light.shape, Shape::Point { .. });
         let filter = match opts.casters {
             Casters::Backfacing if point => FaceFilter::BackFacingIfClosed,
@@ -631,20 +517,8 @@ impl CasterSet {
                 Prepared { id: *id, v, normal: (v[1] - v[0]).cross(v[2] - v[0]), alpha: *alpha, moved, front_only: front_only(*id), near_depth }
             })
             .collect();
-        let hulls: Vec<Option<Vec<DVec2>>> = raw.par_iter().map(|(_, t, _)| influence_hull(frustum, light, t, opts.hull_degree)).collect();
-        let (w, h) = (frustum.width, frustum.height);
-        let rows: Vec<Option<(usize, usize)>> = hulls
-            .iter()
-            .map(|hull| match hull {
-                None => Some((0, h)),
-                Some(hull) => {
-                    let r = conservative_rows(hull, w, h);
-                    r.first().map(|f| (f.0, r.last().map_or(f.0, |l| l.0) + 1))
-                }
-            })
-            .collect();
-        let band = band_rows(h);
-        let bins = bin_row_ranges(&rows, band, h.div_ceil(band));
+        let hulls: Vec<Option<Vec<DVec2>>> = raw.par_iter().map(|(_, t, _)| influence_hull(&lists.frustum, light, t, opts.hull_degree)).collect();
+        let bins = lists.bin(&hulls);
         CasterSet { raw, prepared, hulls, bins }
     }
 }
@@ -657,7 +531,7 @@ impl CasterSet {
 fn penumbra_texels(scene: &Scene, light: &Light, frustum: &LightFrustum, casters: &CasterSet, degree: usize, (center, radius): (DVec3, f64)) -> (Vec<bool>, usize) {
     let (w, h) = (frustum.width, frustum.height);
     let silhouettes: Vec<Edge> = edges(scene).into_iter().filter(|e| e.is_potential_silhouette(center, radius)).collect();
-    let edge_hulls = silhouettes.par_iter().map(|e| influence_hull(frustum, light, &[e.ends[0], e.ends[1], e.ends[1]], degree));
+    let edge_hulls = silhouettes.par_iter().map(|e| influence_hull(frustum, light, &e.ends, degree));
     let perforated = casters.raw.iter().zip(&casters.hulls).filter(|((_, _, alpha), _)| *alpha).map(|(_, hull)| hull.clone());
     let hulls: Vec<Option<Vec<DVec2>>> = edge_hulls.collect::<Vec<_>>().into_iter().chain(perforated).collect();
     if hulls.iter().any(Option::is_none) {
@@ -677,7 +551,7 @@ struct Tester<'a> {
     light: &'a Light,
     opts: &'a AliasFreeOptions,
     frustum: &'a LightFrustum,
-    lists: &'a Lists,
+    lists: &'a ReceiverLists,
     view: &'a [ViewSample],
     casters: &'a CasterSet,
     /// Per texel, whether it may hold penumbra (`None`: every texel may).
@@ -691,33 +565,18 @@ impl Tester<'_> {
     /// Tests every band of rows in parallel, each over its own part of `masks` (the bitmasks of
     /// the list entries, in list order).
     fn run(&self, masks: &mut [u64]) {
-        let (w, h) = (self.frustum.width, self.frustum.height);
-        let (band, words) = (band_rows(h), self.full.len());
-        let mut rest = masks;
-        let mut chunks = Vec::new();
-        for b in 0..h.div_ceil(band) {
-            let (y0, y1) = (b * band, ((b + 1) * band).min(h));
-            let len = (self.lists.start[y1 * w] - self.lists.start[y0 * w]) * words;
-            let (head, tail) = rest.split_at_mut(len);
-            chunks.push((b, y0, y1, head));
-            rest = tail;
-        }
-        chunks.into_par_iter().for_each(|(b, y0, y1, band_masks)| self.band(b, y0..y1, band_masks));
+        let parts = self.lists.split_by_band(masks, self.full.len());
+        parts.into_par_iter().for_each(|(b, rows, base, band_masks)| self.band(b, rows, base, band_masks));
     }
 
-    /// Tests the casters binned to band `b` (rows `rows`) against the view samples of its lists.
-    fn band(&self, b: usize, rows: std::ops::Range<usize>, band_masks: &mut [u64]) {
-        let (w, h, words) = (self.frustum.width, self.frustum.height, self.full.len());
+    /// Tests the casters binned to band `b` (rows `rows`, list entries from `base` on) against
+    /// the view samples of its lists.
+    fn band(&self, b: usize, rows: std::ops::Range<usize>, base: usize, band_masks: &mut [u64]) {
+        let (w, words) = (self.frustum.width, self.full.len());
         let (lists, view) = (self.lists, self.view);
-        let base = lists.start[rows.start * w];
         let mut blocked = vec![0u64; words];
         let mut scratch = vec![0u64; words];
-        // Regions shrink towards the light: project them onto the band's own farthest sample.
-        let band_far = lists.entries[base..lists.start[rows.end * w]].iter().map(|&e| view[e as usize].depth as f32).fold(0.0f32, f32::max);
-        if band_far <= 0.0 {
-            return;
-        }
-        let band_frustum = LightFrustum { far: (band_far * 1.001).max(self.frustum.near * 2.0), ..*self.frustum };
+        let Some(band_frustum) = lists.band_frustum(&rows) else { return };
         let (center, radius) = (self.planes.center, self.planes.radius);
         for &c in &self.casters.bins[b] {
             let t = &self.casters.prepared[c as usize];
@@ -725,21 +584,17 @@ impl Tester<'_> {
                 Some(_) => influence_hull(&band_frustum, self.light, &self.casters.raw[c as usize].1, self.opts.hull_degree),
                 None => None,
             };
-            let spans: Vec<(usize, usize, usize)> = match &region {
-                None => rows.clone().map(|y| (y, 0, w)).collect(),
-                Some(hull) => conservative_rows(hull, w, h).into_iter().filter(|r| rows.contains(&r.0)).collect(),
-            };
-            for (y, x0, x1) in spans {
+            for (y, x0, x1) in lists.spans(region.as_deref(), &rows) {
                 for x in x0..x1 {
                     let umbra_or_lit = !t.alpha && self.penumbra.is_some_and(|f| !f[y * w + x]);
-                    for e in lists.start[y * w + x]..lists.start[y * w + x + 1] {
+                    for e in lists.span_entries((y, x, x + 1)) {
                         let m = &mut band_masks[(e - base) * words..(e - base + 1) * words];
                         if m.iter().zip(&self.full).all(|(a, f)| a == f) {
                             continue;
                         }
-                        let s = &view[lists.entries[e] as usize];
+                        let (i, s) = (lists.entries[e] as usize, &view[lists.entries[e] as usize]);
                         // Wholly beyond both the receiver and the light: it cannot cut their segment.
-                        if t.near_depth > s.depth.max(radius) + 1e-9 * t.near_depth.abs() {
+                        if t.near_depth > lists.depths[i].max(radius) + 1e-9 * t.near_depth.abs() {
                             continue;
                         }
                         let p = if t.moved { s.moved } else { s.p };
@@ -772,42 +627,12 @@ fn rotate_about(center: DVec3, rotation: Option<DMat3>, y: DVec3) -> DVec3 {
     }
 }
 
-/// The frustum from the light's center fitted to the view samples (section 4.3): the square fit
-/// of [`LightFrustum::fit`] for its axes, then the tightest fields of view and depth range.
-fn fit_frustum(light: &Light, view: &[ViewSample], resolution: usize) -> Result<LightFrustum> {
-    let (lo, hi) = view.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), s| (lo.min(s.p.as_vec3()), hi.max(s.p.as_vec3())));
-    let base = LightFrustum::fit(light.center(), lo, hi, resolution)?;
-    let (mut tx, mut ty, mut z0, mut z1) = (0.0f32, 0.0f32, f32::INFINITY, 0.0f32);
-    for s in view {
-        let v = base.to_view(s.p.as_vec3());
-        tx = tx.max(v.x.abs() / v.z);
-        ty = ty.max(v.y.abs() / v.z);
-        z0 = z0.min(v.z);
-        z1 = z1.max(v.z);
-    }
-    let margin = 1.0 + 1e-3;
-    Ok(LightFrustum {
-        tan_half_x: (tx * margin).max(1e-4),
-        tan_half_y: (ty * margin).max(1e-4),
-        near: NEAR_FRACTION * z0,
-        far: (z1 * 1.001).max(NEAR_FRACTION * z0 * 2.0),
-        ..base
-    })
-}
-
-fn record_list_stats(lists: &Lists, stats: &mut Stats) {
-    let lengths = lists.start.windows(2).map(|w| w[1] - w[0]);
-    let (occupied, max) = lengths.fold((0usize, 0usize), |(o, m), l| (o + usize::from(l > 0), m.max(l)));
-    let texels = lists.start.len() - 1;
-    stats.set("average_list_length", if occupied > 0 { lists.entries.len() as f64 / occupied as f64 } else { 0.0 });
-    stats.set("max_list_length", max as f64);
-    stats.set("occupied_texels_percent", 100.0 * occupied as f64 / texels as f64);
-}
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::light::sampling::Rng;
+    use crate::raster::influence::light_points;
 
     /// Whether the line from `v` through `y` meets the plane of the convex polygon `poly` inside it.
     fn through_polygon(v: DVec3, y: DVec3, poly: &[DVec3]) -> bool {

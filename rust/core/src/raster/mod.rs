@@ -1,6 +1,7 @@
 //! Shadow-map machinery shared by every image-based method.
 pub mod depth;
 pub mod footprint;
+pub mod influence;
 pub mod multiview;
 pub mod pcf;
 pub mod pyramid;
