@@ -110,6 +110,24 @@ def fit_area_lights(
     cube: F32, n: int, threshold: float, max_lights: int, square: bool
 ) -> list[tuple[int, int, int, int, int, tuple[float, float, float]]]: ...
 def cube_solid_angles(n: int) -> npt.NDArray[np.float64]: ...
+def dcs(
+    scene: NativeScene,
+    light: NativeLight,
+    receivers: NativeReceivers,
+    samples: NativeSamples,
+    epsilon: float,
+    resolution: int,
+    hull_degree: int,
+) -> tuple[F32, dict[str, float]]: ...
+def penumbra_wedge(
+    scene: NativeScene,
+    light: NativeLight,
+    receivers: NativeReceivers,
+    samples: NativeSamples,
+    epsilon: float,
+    resolution: int,
+    hull_degree: int,
+) -> tuple[F32, dict[str, float]]: ...
 def alias_free(
     scene: NativeScene,
     light: NativeLight,

@@ -21,7 +21,7 @@ from .camera import as_receivers
 from .lights import _Light, _pattern
 from .scene import Scene
 
-__all__ = ["ray_traced", "shadow_map", "mvr", "vwss", "pcss", "cssm", "alias_free", "METHODS"]
+__all__ = ["ray_traced", "shadow_map", "mvr", "vwss", "pcss", "cssm", "alias_free", "dcs", "penumbra_wedge", "METHODS"]
 
 ROTATIONS = (None, "per_receiver")
 
@@ -583,8 +583,144 @@ def alias_free(
     return _finish(receivers, out, return_stats)
 
 
+_OBJECT_PARAMETERS = """samples : int or array_like, shape (S, 3)
+        Light samples per receiver, or explicit world-space samples shared by all receivers
+        (seed 001 uses 16 or 64).
+    pattern : {"poisson", "uniform", "stratified", "sobol", "halton"}
+        Seed 001 section 4.1: uniform, stratified, Poisson disk (minimum distances 0.2456139 for
+        16 and 0.1076681 for 64 samples), the (0, 2)-sequence (``"sobol"``).
+    seed : int
+    rotate : {None, "per_receiver"}
+        Per-pixel random rotation of the samples (seed 001 section 4.1).
+    interleaved : int
+        ``k x k`` interleaved patterns (seed 001 Figure 5f).
+    frame : int
+        Temporal jitter, as in ``ray_traced``.
+    epsilon : float, optional
+        Offset of the receiver along its normal, as ``ray_traced``'s shadow rays; default
+        ``scene.epsilon``.
+    resolution : int
+        Side of the light-space map that bins the receivers for the wedge passes.
+    hull_degree : int
+        Sides of the polygons bounding disk, sphere and ellipsoid lights in the wedge regions."""
+
+
+def _object_inputs(scene, light, receivers, *, samples, pattern, seed, rotate, interleaved, frame, epsilon, resolution,
+                   hull_degree):
+    """The common arguments of the object-based methods, as the core takes them."""
+    receivers, inputs = _inputs(scene, light, receivers)
+    native_samples = _native_samples(
+        light, samples, pattern=pattern, seed=seed, rotate=rotate, interleaved=interleaved, frame=frame
+    )
+    eps = scene.epsilon if epsilon is None else v.positive("epsilon", epsilon, allow_zero=True)
+    options = (eps, v.positive_int("resolution", resolution), v.positive_int("hull_degree", hull_degree))
+    return receivers, (*inputs, native_samples, *options)
+
+
+def dcs(
+    scene,
+    light,
+    receivers,
+    *,
+    samples=64,
+    pattern: str = "poisson",
+    seed: int = 0,
+    rotate: str | None = None,
+    interleaved: int = 1,
+    frame: int = 0,
+    epsilon: float | None = None,
+    resolution: int = 512,
+    hull_degree: int = 6,
+    return_stats: bool = False,
+):
+    """Depth complexity sampling (Forest, Barthe and Paulin 2008; seed 001 section 3.2).
+
+    For every receiver and light sample, DCS counts the occluding faces between them: the count
+    to the light's center (a hard shadow volume; here through the BVH), then, for every edge that
+    is a silhouette from some point of the light and whose penumbra wedge holds the receiver, +1 or
+    -1 per face for each sample the edge separates from the center. A sample with count 0 is
+    visible. The counts are exact, so the result is ``ray_traced``'s on the same samples; only
+    opaque meshes cast (perforated ones go through ``stsv(opaque="dcs")``).
+
+    Parameters
+    ----------
+    scene : Scene
+        Opaque meshes only.
+    light : PointLight, RectLight, DiskLight, SphereLight or EllipsoidLight
+    receivers : GBuffer or Receivers
+    {object_params}
+    return_stats : bool
+        Also return ``{"reference_seconds", "silhouettes_seconds", "wedges_seconds",
+        "silhouette_edges", "wedge_tests", "receivers", "light_samples"}``.
+
+    Returns
+    -------
+    ndarray, float32, the receivers' shape; with ``return_stats`` a ``(visibility, stats)`` tuple.
+    """
+    if any(m.perforated for m in scene.meshes):
+        raise ValueError('scene: dcs casts from opaque meshes only; use stsv(..., opaque="dcs") for perforated ones')
+    receivers, args = _object_inputs(scene, light, receivers, samples=samples, pattern=pattern, seed=seed, rotate=rotate,
+                                     interleaved=interleaved, frame=frame, epsilon=epsilon, resolution=resolution,
+                                     hull_degree=hull_degree)
+    return _finish(receivers, _core.dcs(*args), return_stats)
+
+
+def penumbra_wedge(
+    scene,
+    light,
+    receivers,
+    *,
+    samples=64,
+    pattern: str = "poisson",
+    seed: int = 0,
+    rotate: str | None = None,
+    interleaved: int = 1,
+    frame: int = 0,
+    epsilon: float | None = None,
+    resolution: int = 512,
+    hull_degree: int = 6,
+    return_stats: bool = False,
+):
+    """Soft shadow volumes with penumbra wedges (Assarsson and Akenine-Möller 2003; seed 001 section 3.1).
+
+    A visibility coefficient: the hard shadow of the light's center, plus, for each edge that is a
+    silhouette from the center and whose penumbra wedge holds the receiver, the part of the light
+    it hides or uncovers as seen from the receiver (measured on the light samples in front of the
+    receiver's tangent plane). Approximate by design: silhouettes come from the center only, and
+    the coverages of different edges add up, so overlapping occluders darken their common
+    penumbra twice (seed 001 Figure 4a). Opaque meshes only.
+
+    Parameters
+    ----------
+    scene : Scene
+        Opaque meshes only.
+    light : PointLight, RectLight, DiskLight, SphereLight or EllipsoidLight
+    receivers : GBuffer or Receivers
+    {object_params}
+    return_stats : bool
+        Also return ``{"hard_seconds", "silhouettes_seconds", "wedges_seconds",
+        "silhouette_edges", "wedge_tests", "receivers", "light_samples"}``.
+
+    Returns
+    -------
+    ndarray, float32, the receivers' shape; with ``return_stats`` a ``(visibility, stats)`` tuple.
+    """
+    if any(m.perforated for m in scene.meshes):
+        raise ValueError(
+            'scene: penumbra_wedge casts from opaque meshes only; use stsv(..., opaque="penumbra_wedge") for perforated ones'
+        )
+    receivers, args = _object_inputs(scene, light, receivers, samples=samples, pattern=pattern, seed=seed, rotate=rotate,
+                                     interleaved=interleaved, frame=frame, epsilon=epsilon, resolution=resolution,
+                                     hull_degree=hull_degree)
+    return _finish(receivers, _core.penumbra_wedge(*args), return_stats)
+
+
+for _method in (dcs, penumbra_wedge):
+    _method.__doc__ = _method.__doc__.replace("{object_params}", _OBJECT_PARAMETERS)
+
 for _method in (shadow_map, pcss, mvr, vwss, cssm):
     _method.__doc__ = _method.__doc__.replace("{params}", _MULTIVIEW_PARAMETERS).replace("{casters}", _CASTERS_PARAMETER)
 
 #: Every method by name, for the CLI and the evaluation suite.
-METHODS = {"ray_traced": ray_traced, "alias_free": alias_free, "shadow_map": shadow_map, "pcss": pcss, "cssm": cssm, "mvr": mvr, "vwss": vwss}
+METHODS = {"ray_traced": ray_traced, "alias_free": alias_free, "dcs": dcs, "penumbra_wedge": penumbra_wedge,
+           "shadow_map": shadow_map, "pcss": pcss, "cssm": cssm, "mvr": mvr, "vwss": vwss}

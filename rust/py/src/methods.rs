@@ -8,13 +8,21 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use softshadows_core::methods::alias_free::{alias_free as alias_free_core, AliasFreeOptions, Casters};
 use softshadows_core::methods::cssm::{cssm as cssm_core, CssmOptions, Prefilter};
+use softshadows_core::methods::dcs::{dcs as dcs_core, ObjectOptions};
 use softshadows_core::methods::envmap::{fit_area_lights as fit_core, texel_solid_angle, FitOptions};
 use softshadows_core::methods::mvr::{mvr as mvr_core, MultiViewOptions};
 use softshadows_core::methods::pcss::{pcss as pcss_core, PcssOptions};
+use softshadows_core::methods::penumbra_wedge::penumbra_wedge as penumbra_wedge_core;
 use softshadows_core::methods::ray_traced::{ray_traced as ray_traced_core, RayTracedOptions};
 use softshadows_core::methods::shadow_map::{shadow_map as shadow_map_core, ShadowMapOptions};
 use softshadows_core::methods::vwss::{vwss as vwss_core, Mode, Parallel, Precision, VwssOptions};
+use softshadows_core::geometry::bvh::Bvh;
+use softshadows_core::geometry::mesh::Scene;
+use softshadows_core::geometry::receivers::Receivers;
+use softshadows_core::light::lights::Light;
+use softshadows_core::light::sampling::SampleSet;
 use softshadows_core::Error;
+use softshadows_core::Result as CoreResult;
 use softshadows_core::Stats;
 
 type Output<'py> = (Bound<'py, PyArray1<f32>>, Bound<'py, PyDict>);
@@ -225,7 +233,61 @@ fn alias_free<'py>(
     output(py, out)
 }
 
+/// The signature of the object-based methods of the core.
+type ObjectMethod = fn(&Scene, &Bvh, &Light, &Receivers, &SampleSet, &ObjectOptions) -> CoreResult<(Vec<f32>, Stats)>;
+
+/// Runs an object-based method with the GIL released.
+#[allow(clippy::too_many_arguments)]
+fn object_method<'py>(
+    py: Python<'py>,
+    method: ObjectMethod,
+    scene: &NativeScene,
+    light: &NativeLight,
+    receivers: &NativeReceivers,
+    samples: &NativeSamples,
+    (epsilon, resolution, hull_degree): (f32, usize, usize),
+) -> PyResult<Output<'py>> {
+    let opts = ObjectOptions { epsilon, resolution, hull_degree };
+    let bvh = scene.bvh(py)?;
+    let out = py.detach(|| method(&scene.scene, bvh, &light.light, &receivers.receivers, &samples.samples, &opts)).or_raise()?;
+    output(py, out)
+}
+
+/// Depth complexity sampling on the opaque meshes (exact counts per light sample).
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+fn dcs<'py>(
+    py: Python<'py>,
+    scene: &NativeScene,
+    light: &NativeLight,
+    receivers: &NativeReceivers,
+    samples: &NativeSamples,
+    epsilon: f32,
+    resolution: usize,
+    hull_degree: usize,
+) -> PyResult<Output<'py>> {
+    object_method(py, dcs_core, scene, light, receivers, samples, (epsilon, resolution, hull_degree))
+}
+
+/// Soft shadow volumes with penumbra wedges on the opaque meshes (approximate).
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+fn penumbra_wedge<'py>(
+    py: Python<'py>,
+    scene: &NativeScene,
+    light: &NativeLight,
+    receivers: &NativeReceivers,
+    samples: &NativeSamples,
+    epsilon: f32,
+    resolution: usize,
+    hull_degree: usize,
+) -> PyResult<Output<'py>> {
+    object_method(py, penumbra_wedge_core, scene, light, receivers, samples, (epsilon, resolution, hull_degree))
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(dcs, m)?)?;
+    m.add_function(wrap_pyfunction!(penumbra_wedge, m)?)?;
     m.add_function(wrap_pyfunction!(ray_traced, m)?)?;
     m.add_function(wrap_pyfunction!(shadow_map, m)?)?;
     m.add_function(wrap_pyfunction!(mvr, m)?)?;

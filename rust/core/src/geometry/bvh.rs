@@ -317,6 +317,42 @@ impl Bvh {
         }));
     }
 
+    /// How many faces the open segment t in (0, `t_max`) of `origin + t dir` meets, among those
+    /// for which `counts(face id)` holds (its depth complexity; no alpha test). A zero `dir` or
+    /// `t_max <= 0` meets none.
+    pub fn count_hits(&self, origin: Vec3, dir: Vec3, t_max: f32, counts: impl Fn(u32) -> bool) -> u32 {
+        if t_max.is_nan() || t_max <= 0.0 {
+            return 0;
+        }
+        let Some(r) = RayData::new(origin, dir) else { return 0 };
+        let mut stack = [0u32; STACK];
+        let (mut sp, mut cur, mut total) = (0usize, self.root, 0u32);
+        loop {
+            if cur & LEAF == 0 {
+                let node = &self.nodes[cur as usize];
+                let (mut mask, _) = node.hit(&r, t_max);
+                while mask != 0 {
+                    // At most 4 pushes per level and 3 * depth + 1 <= STACK (see `build`).
+                    stack[sp] = node.child[mask.trailing_zeros() as usize];
+                    sp += 1;
+                    mask &= mask - 1;
+                }
+            } else {
+                let b = &self.blocks[(cur & !LEAF) as usize];
+                let hits = hit4(b, &r, t_max).mask;
+                // Short leaves repeat their last face: count each face once.
+                total += (0..4)
+                    .filter(|&i| hits >> i & 1 != 0 && (i == 0 || b.ids[i] != b.ids[i - 1]) && counts(b.ids[i]))
+                    .count() as u32;
+            }
+            if sp == 0 {
+                return total;
+            }
+            sp -= 1;
+            cur = stack[sp];
+        }
+    }
+
     /// The closest opaque hit in the open interval (0, `t_max`), alpha-testing perforated faces.
     pub fn intersect(&self, scene: &Scene, origin: Vec3, dir: Vec3, t_max: f32) -> Option<Hit> {
         if t_max.is_nan() || t_max <= 0.0 {

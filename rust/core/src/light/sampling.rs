@@ -256,6 +256,12 @@ impl SampleSet {
         Ok(Self { patterns: vec![samples], interleave: 1, rotate })
     }
 
+    /// The largest distance from `center` to a sample of any pattern, before rotation (rigid
+    /// rotations about the center keep it; the others keep samples on the light).
+    pub fn radius_about(&self, center: Vec3) -> f32 {
+        self.patterns.iter().flatten().map(|y| (*y - center).length()).fold(0.0, f32::max)
+    }
+
     /// Samples per receiver.
     pub fn count(&self) -> usize {
         self.patterns[0].len()

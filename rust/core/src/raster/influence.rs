@@ -153,6 +153,43 @@ impl ReceiverLists {
     }
 }
 
+impl ReceiverLists {
+    /// Calls `visit(item, point, values)` for every item and every listed point inside the
+    /// item's influence region (the region of the world points `vertices(item)`), with the
+    /// point's `per_entry` values of `data` (one run of values per list entry, in list order).
+    /// Bands of rows run in parallel, each projecting the regions onto its own farthest point;
+    /// within a band, items go in order, so the result does not depend on the thread count.
+    #[allow(clippy::too_many_arguments)]
+    pub fn visit_regions<I: Sync, T: Send>(
+        &self,
+        light: &Light,
+        degree: usize,
+        items: &[I],
+        vertices: impl Fn(&I) -> &[Vec3] + Sync,
+        data: &mut [T],
+        per_entry: usize,
+        visit: impl Fn(&I, usize, &mut [T]) + Sync,
+    ) {
+        let hulls: Vec<Option<Vec<DVec2>>> = items.par_iter().map(|it| influence_hull(&self.frustum, light, vertices(it), degree)).collect();
+        let bins = self.bin(&hulls);
+        self.split_by_band(data, per_entry).into_par_iter().for_each(|(b, rows, base, part)| {
+            let Some(band_frustum) = self.band_frustum(&rows) else { return };
+            for &k in &bins[b] {
+                let item = &items[k as usize];
+                let region = match &hulls[k as usize] {
+                    Some(_) => influence_hull(&band_frustum, light, vertices(item), degree),
+                    None => None,
+                };
+                for span in self.spans(region.as_deref(), &rows) {
+                    for e in self.span_entries(span) {
+                        visit(item, self.entries[e] as usize, &mut part[(e - base) * per_entry..(e - base + 1) * per_entry]);
+                    }
+                }
+            }
+        });
+    }
+}
+
 /// The frustum of [`ReceiverLists::build`].
 fn fit_frustum(light: &Light, points: &[Vec3], resolution: usize) -> Result<LightFrustum> {
     let (lo, hi) = points.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
