@@ -128,6 +128,20 @@ def penumbra_wedge(
     resolution: int,
     hull_degree: int,
 ) -> tuple[F32, dict[str, float]]: ...
+def stsv(
+    scene: NativeScene,
+    light: NativeLight,
+    receivers: NativeReceivers,
+    samples: NativeSamples,
+    epsilon: float,
+    resolution: int,
+    hull_degree: int,
+    opaque: str,
+    two_sided: bool,
+) -> tuple[F32, dict[str, float]]: ...
+def stsv_volumes(
+    scene: NativeScene, light: NativeLight, receivers: NativeReceivers, hull_degree: int, two_sided: bool
+) -> tuple[npt.NDArray[np.uint32], F32]: ...
 def alias_free(
     scene: NativeScene,
     light: NativeLight,

@@ -15,7 +15,7 @@ from pathlib import Path
 
 #: The keyword through which each sample-based method takes the shared light samples; the other
 #: methods do not sample the light.
-SAMPLE_KEYWORDS = {"ray_traced": "samples", "alias_free": "samples", "dcs": "samples", "penumbra_wedge": "samples", "mvr": "views", "vwss": "views"}
+SAMPLE_KEYWORDS = {"ray_traced": "samples", "alias_free": "samples", "dcs": "samples", "penumbra_wedge": "samples", "stsv": "samples", "mvr": "views", "vwss": "views"}
 
 
 def _run_methods(setup, gb, samples, progress):

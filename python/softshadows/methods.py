@@ -21,7 +21,7 @@ from .camera import as_receivers
 from .lights import _Light, _pattern
 from .scene import Scene
 
-__all__ = ["ray_traced", "shadow_map", "mvr", "vwss", "pcss", "cssm", "alias_free", "dcs", "penumbra_wedge", "METHODS"]
+__all__ = ["ray_traced", "shadow_map", "mvr", "vwss", "pcss", "cssm", "alias_free", "dcs", "penumbra_wedge", "stsv", "stsv_volumes", "METHODS"]
 
 ROTATIONS = (None, "per_receiver")
 
@@ -715,6 +715,101 @@ def penumbra_wedge(
     return _finish(receivers, _core.penumbra_wedge(*args), return_stats)
 
 
+def stsv(
+    scene,
+    light,
+    receivers,
+    *,
+    samples=64,
+    opaque: str = "bitmask",
+    two_sided: bool = False,
+    pattern: str = "poisson",
+    seed: int = 0,
+    rotate: str | None = None,
+    interleaved: int = 1,
+    frame: int = 0,
+    epsilon: float | None = None,
+    resolution: int = 512,
+    hull_degree: int = 6,
+    return_stats: bool = False,
+):
+    """Soft textured shadow volumes (Forest, Barthe, Guennebaud and Paulin 2009; seed 001).
+
+    Every triangle of a perforated mesh extrudes a volume that bounds its umbra and penumbra (its
+    front cap moved towards the light, the outer quads of its edges' penumbra wedges, closed at the
+    scene's bounds); for each receiver inside, each light sample is projected through the
+    receiver onto the triangle (homogeneous barycentric and texture coordinates, equations 1-5)
+    and blocked where the alpha texture is opaque. The opaque meshes cast through ``opaque``.
+
+    Parameters
+    ----------
+    scene : Scene
+        Perforated meshes (uvs and an alpha texture; uvs wrap) and opaque ones. A degenerate
+        perforated triangle casts nothing; an all-transparent texture casts nothing and an
+        all-opaque one casts as an opaque triangle.
+    light : PointLight, RectLight, DiskLight, SphereLight or EllipsoidLight
+    receivers : GBuffer or Receivers
+    samples : int or array_like, shape (S, 3)
+        1 to 1024 light samples per receiver (one bit each), or explicit world-space samples
+        (seed 001 uses 16 or 64).
+    opaque : {"bitmask", "dcs", "penumbra_wedge"}
+        Seed 001 section 3 and Algorithm 2: ``"bitmask"`` ORs the STSV bitmasks with
+        ``alias_free``'s (exact; one shared pattern, no interleaving); ``"dcs"`` adds the blocked
+        perforated samples to the depth complexities of ``dcs`` (exact); ``"penumbra_wedge"``
+        adds the STSV's occluded fraction to the wedges' visibility coefficient (approximate:
+        where opaque and perforated occluders overlap, the shadow is counted twice).
+    two_sided : bool
+        Extrude a second volume on the far side of each perforated triangle, for the part of the
+        light behind its plane (section 6); otherwise that part is never blocked by it.
+    pattern, seed, rotate, interleaved, frame, epsilon, resolution, hull_degree
+        As in ``dcs``.
+    return_stats : bool
+        Also return ``{"opaque_seconds", "perforated_seconds", "volumes", "receivers_tested",
+        "receivers_inside", "light_samples", ...}`` (the paper's Figure 9), plus the opaque
+        method's own.
+
+    Returns
+    -------
+    ndarray, float32, the receivers' shape; with ``return_stats`` a ``(visibility, stats)`` tuple.
+    """
+    if opaque not in ("bitmask", "dcs", "penumbra_wedge"):
+        raise ValueError(f"opaque: expected 'bitmask', 'dcs' or 'penumbra_wedge', got {opaque!r}")
+    receivers, args = _object_inputs(scene, light, receivers, samples=samples, pattern=pattern, seed=seed, rotate=rotate,
+                                     interleaved=interleaved, frame=frame, epsilon=epsilon, resolution=resolution,
+                                     hull_degree=hull_degree)
+    return _finish(receivers, _core.stsv(*args, opaque, bool(two_sided)), return_stats)
+
+
+def stsv_volumes(scene, light, receivers, *, two_sided: bool = False, hull_degree: int = 6):
+    """The closed soft textured shadow volumes of the perforated triangles (seed 001 Figure 3).
+
+    Parameters
+    ----------
+    scene : Scene
+    light : PointLight, RectLight, DiskLight, SphereLight or EllipsoidLight
+    receivers : GBuffer or Receivers
+        The back caps are clamped to the bounds of the scene and of these receivers.
+    two_sided, hull_degree
+        As in ``stsv``.
+
+    Returns
+    -------
+    faces : ndarray, shape (V,), uint32
+        The perforated triangle (global face id) of each volume.
+    corners : ndarray, shape (V, 6, 3), float32
+        The front cap t' (the triangle moved towards the light), then the back cap. Faces of a
+        volume: ``[0, 1, 2]``, ``[3, 4, 5]`` and the quads ``[k, k + 1, k + 4, k + 3]`` (mod 3
+        within each cap), as :data:`STSV_FACES` lists them.
+    """
+    receivers, inputs = _inputs(scene, light, receivers)
+    faces, corners = _core.stsv_volumes(*inputs, v.positive_int("hull_degree", hull_degree), bool(two_sided))
+    return faces, corners.reshape(-1, 6, 3)
+
+
+#: The triangles of a closed volume of :func:`stsv_volumes` over its six corners.
+STSV_FACES = np.array([[0, 2, 1], [3, 4, 5], [0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4], [2, 0, 3], [2, 3, 5]], dtype=np.uint32)
+
+
 for _method in (dcs, penumbra_wedge):
     _method.__doc__ = _method.__doc__.replace("{object_params}", _OBJECT_PARAMETERS)
 
@@ -722,5 +817,5 @@ for _method in (shadow_map, pcss, mvr, vwss, cssm):
     _method.__doc__ = _method.__doc__.replace("{params}", _MULTIVIEW_PARAMETERS).replace("{casters}", _CASTERS_PARAMETER)
 
 #: Every method by name, for the CLI and the evaluation suite.
-METHODS = {"ray_traced": ray_traced, "alias_free": alias_free, "dcs": dcs, "penumbra_wedge": penumbra_wedge,
+METHODS = {"ray_traced": ray_traced, "alias_free": alias_free, "stsv": stsv, "dcs": dcs, "penumbra_wedge": penumbra_wedge,
            "shadow_map": shadow_map, "pcss": pcss, "cssm": cssm, "mvr": mvr, "vwss": vwss}

@@ -15,6 +15,7 @@ use softshadows_core::methods::pcss::{pcss as pcss_core, PcssOptions};
 use softshadows_core::methods::penumbra_wedge::penumbra_wedge as penumbra_wedge_core;
 use softshadows_core::methods::ray_traced::{ray_traced as ray_traced_core, RayTracedOptions};
 use softshadows_core::methods::shadow_map::{shadow_map as shadow_map_core, ShadowMapOptions};
+use softshadows_core::methods::stsv::{stsv as stsv_core, stsv_volumes as stsv_volumes_core, Opaque, StsvOptions};
 use softshadows_core::methods::vwss::{vwss as vwss_core, Mode, Parallel, Precision, VwssOptions};
 use softshadows_core::geometry::bvh::Bvh;
 use softshadows_core::geometry::mesh::Scene;
@@ -285,7 +286,52 @@ fn penumbra_wedge<'py>(
     object_method(py, penumbra_wedge_core, scene, light, receivers, samples, (epsilon, resolution, hull_degree))
 }
 
+/// Soft textured shadow volumes for the perforated meshes, with `opaque` for the others.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+fn stsv<'py>(
+    py: Python<'py>,
+    scene: &NativeScene,
+    light: &NativeLight,
+    receivers: &NativeReceivers,
+    samples: &NativeSamples,
+    epsilon: f32,
+    resolution: usize,
+    hull_degree: usize,
+    opaque: &str,
+    two_sided: bool,
+) -> PyResult<Output<'py>> {
+    let opaque = choice("opaque", opaque, &[("bitmask", Opaque::Bitmask), ("dcs", Opaque::Dcs), ("penumbra_wedge", Opaque::PenumbraWedge)]).or_raise()?;
+    let opts = StsvOptions { object: ObjectOptions { epsilon, resolution, hull_degree }, opaque, two_sided };
+    let bvh = scene.bvh(py)?;
+    let out = py.detach(|| stsv_core(&scene.scene, bvh, &light.light, &receivers.receivers, &samples.samples, &opts)).or_raise()?;
+    output(py, out)
+}
+
+/// Face ids (V,) and corners (6 V, 3) of closed volumes.
+type Volumes<'py> = (Bound<'py, PyArray1<u32>>, Bound<'py, PyArray2<f32>>);
+
+/// The closed soft textured shadow volumes: face ids (V,) and corners (6 V, 3).
+#[pyfunction]
+fn stsv_volumes<'py>(
+    py: Python<'py>,
+    scene: &NativeScene,
+    light: &NativeLight,
+    receivers: &NativeReceivers,
+    hull_degree: usize,
+    two_sided: bool,
+) -> PyResult<Volumes<'py>> {
+    let rx = &receivers.receivers;
+    let points: Vec<_> = rx.points.iter().zip(&rx.valid).filter(|(_, &v)| v).map(|(p, _)| *p).collect();
+    let volumes = py.detach(|| stsv_volumes_core(&scene.scene, &light.light, hull_degree, two_sided, &points));
+    let ids: Vec<u32> = volumes.iter().map(|(id, _)| *id).collect();
+    let corners: Vec<f32> = volumes.iter().flat_map(|(_, c)| c.iter().flat_map(|p| p.to_array())).collect();
+    Ok((ids.into_pyarray(py), corners.into_pyarray(py).reshape([volumes.len() * 6, 3])?))
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(stsv_volumes, m)?)?;
+    m.add_function(wrap_pyfunction!(stsv, m)?)?;
     m.add_function(wrap_pyfunction!(dcs, m)?)?;
     m.add_function(wrap_pyfunction!(penumbra_wedge, m)?)?;
     m.add_function(wrap_pyfunction!(ray_traced, m)?)?;

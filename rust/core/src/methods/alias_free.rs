@@ -369,26 +369,72 @@ fn faces_whole_light(light: &Light, t: &[Vec3; 3]) -> bool {
 /// Errors: invalid options; no samples or more than [`MAX_SAMPLES`]; rotated or interleaved
 /// samples; the light's center inside the view samples' bounds; `TooLarge`.
 pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: &SampleSet, opts: &AliasFreeOptions) -> Result<(Vec<f32>, Stats)> {
+    let mut stats = Stats::default();
+    let masks = sample_masks(scene, light, receivers, samples, opts, false, &mut stats)?;
+    Ok(((0..receivers.len()).map(|i| masks.visibility(i)).collect(), stats))
+}
+
+/// Per receiver, the bitmask of its blocked light samples (bit `k`: sample `k`; one bit, the
+/// light's center, for a point light), and the samples' weights.
+pub(crate) struct SampleMasks {
+    pub words: usize,
+    /// `words` per receiver, in receivers' order; all set for receivers that see no part of the
+    /// light (and invalid ones).
+    pub masks: Vec<u64>,
+    pub weights: Vec<f64>,
+}
+
+impl SampleMasks {
+    /// The bitmask of receiver `i`.
+    pub fn mask(&self, i: usize) -> &[u64] {
+        &self.masks[i * self.words..(i + 1) * self.words]
+    }
+
+    /// The emission-weighted fraction of receiver `i`'s unblocked samples.
+    pub fn visibility(&self, i: usize) -> f32 {
+        let m = self.mask(i);
+        let total: f64 = self.weights.iter().sum();
+        let lit = (0..self.weights.len()).filter(|&k| m[k / 64] >> (k % 64) & 1 == 0).fold(0.0f64, |acc, k| acc + self.weights[k]);
+        if total > 0.0 {
+            (lit / total).clamp(0.0, 1.0) as f32
+        } else {
+            0.0
+        }
+    }
+}
+
+/// The bitmasks of [`alias_free`] (see the module documentation) with its stats; with
+/// `opaque_only`, perforated casters are left out (`stsv` adds their shadows).
+pub(crate) fn sample_masks(
+    scene: &Scene,
+    light: &Light,
+    receivers: &Receivers,
+    samples: &SampleSet,
+    opts: &AliasFreeOptions,
+    opaque_only: bool,
+    stats: &mut Stats,
+) -> Result<SampleMasks> {
     opts.validate()?;
     let light_samples = light_samples(light, samples)?;
-    let mut stats = Stats::default();
     for name in ["list_build_seconds", "rasterization_seconds", "visibility_seconds", "view_samples", "casters", "average_list_length", "max_list_length", "occupied_texels_percent", "silhouette_edges", "penumbra_texels_percent"] {
         stats.set(name, 0.0);
     }
     stats.set("light_samples", light_samples.points.len() as f64);
-    let mut vis = vec![0.0f32; receivers.len()];
+    let words = light_samples.words;
+    limits::check_memory("alias_free bitmasks", limits::bytes(&[receivers.len() as u64, words as u64, 8]))?;
+    let mut out = SampleMasks { words, masks: vec![!0u64; receivers.len() * words], weights: light_samples.weights.clone() };
     let view = view_samples(light, receivers, samples, opts.bias);
     stats.set("view_samples", view.len() as f64);
     if view.is_empty() {
-        return Ok((vis, stats));
+        return Ok(out);
     }
     let points: Vec<Vec3> = view.iter().map(|s| s.p.as_vec3()).collect();
     let lists = stats.time("list_build", || ReceiverLists::build(light, &points, opts.resolution))?;
-    lists.record_stats(&mut stats);
+    lists.record_stats(stats);
     let frustum = lists.frustum;
     let center = light.center().as_dvec3();
     let radius = light_samples.points.iter().map(|y| (*y - center).length()).fold(0.0f64, f64::max) * (1.0 + 1e-9) + 1e-12;
-    let casters = stats.time("rasterization", || CasterSet::prepare(scene, light, &lists, opts));
+    let casters = stats.time("rasterization", || CasterSet::prepare(scene, light, &lists, opts, opaque_only));
     stats.set("casters", casters.prepared.len() as f64);
     let penumbra = if opts.restrict_to_penumbra && light_samples.points.len() > 1 {
         let (flags, silhouettes) = stats.time("rasterization", || penumbra_texels(scene, light, &frustum, &casters, opts.hull_degree, (center, radius)));
@@ -404,7 +450,6 @@ pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: 
         Some(bins) if light_samples.points.len() > 1 && extent > 0.0 => Some(Lut::new(&light_samples, center, extent, bins)?),
         _ => None,
     };
-    limits::check_memory("alias_free bitmasks", limits::bytes(&[view.len() as u64, light_samples.words as u64, 8]))?;
     let mut masks = initial_masks(&lists, &view, &light_samples, center);
     let tester = Tester {
         scene,
@@ -419,17 +464,11 @@ pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: 
         full: light_samples.full_mask(),
     };
     stats.time("visibility", || tester.run(&mut masks));
-    let total: f64 = light_samples.weights.iter().sum();
-    let words = light_samples.words;
     for (e, &i) in lists.entries.iter().enumerate() {
-        let m = &masks[e * words..(e + 1) * words];
-        let lit = (0..light_samples.points.len())
-            .filter(|&k| m[k / 64] >> (k % 64) & 1 == 0)
-            .fold(0.0f64, |acc, k| acc + light_samples.weights[k]);
         let r = view[i as usize].receiver as usize;
-        vis[r] = if total > 0.0 { (lit / total).clamp(0.0, 1.0) as f32 } else { 0.0 };
+        out.masks[r * words..(r + 1) * words].copy_from_slice(&masks[e * words..(e + 1) * words]);
     }
-    Ok((vis, stats))
+    Ok(out)
 }
 
 /// The light samples of `samples` (one bit each; the light's center for a point light), after
@@ -495,7 +534,7 @@ struct CasterSet {
 impl CasterSet {
     /// The casters of `scene` for `light` (see the module documentation, step 4) and their
     /// influence regions in the lists' frustum, binned by bands of rows.
-    fn prepare(scene: &Scene, light: &Light, lists: &ReceiverLists, opts: &AliasFreeOptions) -> CasterSet {
+    fn prepare(scene: &Scene, light: &Light, lists: &ReceiverLists, opts: &AliasFreeOptions, opaque_only: bool) -> CasterSet {
         let frustum = &lists.frustum;
         let point = matches!(light.shape, Shape::Point { .. });
         let filter = match opts.casters {
@@ -504,8 +543,10 @@ impl CasterSet {
         };
         let mut raw = casters(scene, &RasterOptions { mode: RasterMode::Conservative, faces: filter, alpha_test: true }, frustum.eye);
         let front_only = |id: u32| opts.casters == Casters::Backfacing && !point && scene.is_closed_face(id);
-        // A closed triangle facing every point of the light is back-facing to no sample: it casts nothing.
-        raw.retain(|(id, t, _)| !(front_only(*id) && faces_whole_light(light, t)));
+        // A closed triangle facing every point of the light is back-facing to no sample: it casts
+        // nothing. With `opaque_only`, perforated casters are left to `stsv`.
+        let left_out = |id: u32, t: &[Vec3; 3], alpha: bool| (front_only(id) && faces_whole_light(light, t)) || (opaque_only && alpha);
+        raw.retain(|(id, t, alpha)| !left_out(*id, t, *alpha));
         let prepared = raw
             .iter()
             .map(|(id, t, alpha)| {

@@ -8,4 +8,5 @@ pub mod pcss;
 pub mod penumbra_wedge;
 pub mod ray_traced;
 pub mod shadow_map;
+pub mod stsv;
 pub mod vwss;

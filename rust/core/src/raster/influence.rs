@@ -234,7 +234,7 @@ pub fn light_points(light: &Light, v: DVec3, degree: usize) -> Vec<DVec3> {
 }
 
 /// The `degree`-gon circumscribing the circle of radius `r` about `c` in the plane normal to `n`.
-fn polygon(c: DVec3, n: DVec3, r: f64, degree: usize) -> Vec<DVec3> {
+pub(crate) fn polygon(c: DVec3, n: DVec3, r: f64, degree: usize) -> Vec<DVec3> {
     let (t, b) = tangent_frame(n.as_vec3());
     let (t, b) = (t.as_dvec3(), b.as_dvec3());
     let r = r / (std::f64::consts::PI / degree as f64).cos();

@@ -1,0 +1,371 @@
+//! `stsv`: soft textured shadow volumes (Forest, Barthe, Guennebaud and Paulin 2009, seed 001)
+//! for perforated triangles, combined with an object-based method for the opaque meshes.
+//!
+//! For each perforated triangle `t` and each receiver inside its volume, every light sample is
+//! projected through the receiver onto `t`'s plane and looked up in the alpha texture (Algorithm 1):
+//!
+//! 1. **Volume** (section 2.2): the front cap `t'` is `t` with its vertices moved towards the
+//!    light's center until all are as far from it as the nearest; each edge of `t'` extrudes the
+//!    outer quad of its penumbra wedge, the plane through the edge that touches the light with
+//!    the whole light outside; adjacent outer planes meet along the closing lines (the cross
+//!    product of their normals) through the shared vertex, extruded to the bounds of the scene
+//!    and the receivers, where the back cap closes the volume ([`stsv_volumes`] returns these
+//!    closed volumes). The light is bounded by a polygon or polytope ([`light_polytope`]): its
+//!    corners for a rectangle, a circumscribed `hull_degree`-gon for a disk, the circumscribed box
+//!    for spheres and ellipsoids.
+//! 2. **Points in the volume** (section 2.3): a receiver is inside when it lies on the inner side
+//!    of the four planes, the front cap and the three outer planes (the caps and the clamping
+//!    only serve the paper's z-fail rasterization; a back cap through three clamped points would
+//!    even cut receivers off). Receivers are found through the triangle's influence region in the
+//!    light-space lists (the paper rasterizes the volume in screen space).
+//! 3. **Transmittance** (section 2.4, equations 1–5): per triangle `M'` (world to triangle
+//!    space) and `S` (barycentric to texture space); per receiver `J = W M'` with `p` as the
+//!    projective center; per sample `s_h = J (y − p)` gives homogeneous barycentrics, tested
+//!    inside the triangle and beyond its plane, and `S s_h` the texture coordinates of the
+//!    alpha lookup. An opaque texel blocks the sample.
+//!
+//! A one-sided volume is built on the side of `t` that holds the light's center; with
+//! `two_sided`, a second one on the other side, for the part of the light behind `t`'s plane
+//! (section 6: otherwise that part is never blocked by `t`). The opaque meshes go through
+//! `Opaque::Bitmask` (`alias_free`'s exact bitmasks, OR-ed with the STSV masks), `Opaque::Dcs`
+//! (each blocked sample adds one to its depth complexity) or `Opaque::PenumbraWedge` (the
+//! STSV's occluded fraction is added to the wedges' visibility coefficient: approximate, the
+//! overlaps of opaque and perforated occluders count twice, seed 001 Figure 4a).
+
+use crate::error::{Error, Result};
+use crate::geometry::bvh::Bvh;
+use crate::geometry::mesh::{AlphaTexture, Scene};
+use crate::geometry::receivers::Receivers;
+use crate::light::lights::{Light, Shape};
+use crate::light::sampling::SampleSet;
+use crate::limits;
+use crate::methods::alias_free::{sample_masks, AliasFreeOptions, Casters};
+use crate::methods::dcs::{depth_complexity, visible_fraction, ObjectOptions, Origins};
+use crate::methods::penumbra_wedge::wedge_occlusion;
+use crate::raster::influence::polygon;
+use crate::stats::Stats;
+use glam::{DMat3, DVec2, DVec3, Vec3};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// How the opaque meshes cast (seed 001 section 3 and Algorithm 2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Opaque {
+    /// `alias_free`'s exact sample bitmasks, OR-ed with the STSV masks.
+    Bitmask,
+    /// Depth complexity sampling; blocked perforated samples add one to the count.
+    Dcs,
+    /// Penumbra wedges; the STSV's occluded fraction is added to the visibility coefficient.
+    PenumbraWedge,
+}
+
+/// Options of [`stsv`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StsvOptions {
+    pub object: ObjectOptions,
+    pub opaque: Opaque,
+    /// Extrude a volume on each side of every perforated triangle (section 6).
+    pub two_sided: bool,
+}
+
+/// One soft textured shadow volume.
+struct Volume {
+    face: u32,
+    /// The triangle's vertices (for its influence region).
+    triangle: [Vec3; 3],
+    /// Inside: `m · x >= k` for the front cap and the three outer planes (a plane is left out
+    /// where the light reaches past it: conservative).
+    planes: Vec<(DVec3, f64)>,
+    /// The closed volume's corners: the front cap t', then the back cap.
+    corners: [DVec3; 6],
+    /// `M'` of equation 2, `S` of equation 4, the triangle's first vertex.
+    to_triangle: DMat3,
+    to_texture: DMat3,
+    v0: DVec3,
+}
+
+/// Points whose convex hull holds the light.
+fn light_polytope(light: &Light, degree: usize) -> Vec<DVec3> {
+    let corners = |c: DVec3, a: DMat3| -> Vec<DVec3> {
+        (0..8).map(|k| c + a * DVec3::new(if k & 1 == 0 { -1.0 } else { 1.0 }, if k & 2 == 0 { -1.0 } else { 1.0 }, if k & 4 == 0 { -1.0 } else { 1.0 })).collect()
+    };
+    match light.shape {
+        Shape::Point { position } => vec![position.as_dvec3()],
+        Shape::Rect { center, u, v } => {
+            let (c, u, v) = (center.as_dvec3(), u.as_dvec3(), v.as_dvec3());
+            vec![c + u + v, c + u - v, c - u - v, c - u + v]
+        }
+        Shape::Disk { center, normal, radius } => polygon(center.as_dvec3(), normal.as_dvec3(), f64::from(radius), degree),
+        Shape::Sphere { center, radius } => corners(center.as_dvec3(), DMat3::from_diagonal(DVec3::splat(f64::from(radius)))),
+        Shape::Ellipsoid { center, axes } => corners(center.as_dvec3(), axes.as_dmat3()),
+    }
+}
+
+/// The part of the polytope `points` strictly on the side `sigma` of the plane `n · (x − v0) = 0`
+/// and on it: the points on that side and the plane's crossings of every pair of points.
+fn clip_to_side(points: &[DVec3], n: DVec3, v0: DVec3, sigma: f64) -> Vec<DVec3> {
+    let d: Vec<f64> = points.iter().map(|q| sigma * n.dot(*q - v0)).collect();
+    let mut out: Vec<DVec3> = points.iter().zip(&d).filter(|(_, &d)| d > 0.0).map(|(q, _)| *q).collect();
+    if out.is_empty() {
+        return out;
+    }
+    for i in 0..points.len() {
+        for j in i + 1..points.len() {
+            if d[i] * d[j] < 0.0 {
+                out.push(points[i] + (points[j] - points[i]) * (d[i] / (d[i] - d[j])));
+            }
+        }
+    }
+    out
+}
+
+/// The plane through the line `a b` that touches `light` with every light point outside and `c`
+/// inside, as `(m, k)` with inside `m · x >= k`; `None` when no plane through the line separates
+/// them (the line passes through the light's hull).
+fn outer_plane(a: DVec3, b: DVec3, c: DVec3, light: &[DVec3], toward_light: DVec3) -> Option<(DVec3, f64)> {
+    let d = (b - a).normalize();
+    let u = ((c - a) - d * (c - a).dot(d)).normalize();
+    let w = d.cross(u) * d.cross(u).dot(toward_light).signum();
+    let angles: Vec<f64> = light.iter().map(|q| (*q - a).dot(w).atan2((*q - a).dot(u))).collect();
+    let (lo, hi) = angles.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| (lo.min(x), hi.max(x)));
+    // Every light point at an angle in [lo, lo + pi) about the line, measured from c's direction
+    // towards the light's side: then c, at angle 0, is inside.
+    if !(lo >= 0.0 && hi - lo < std::f64::consts::PI) {
+        return None;
+    }
+    let m = u * lo.sin() - w * lo.cos();
+    Some((m, m.dot(a)))
+}
+
+/// Distance along `dir` from `o` (inside or on the box) to where it leaves the box `(lo, hi)`.
+fn exit_distance(o: DVec3, dir: DVec3, (lo, hi): (DVec3, DVec3)) -> f64 {
+    (0..3)
+        .filter(|&i| dir[i] != 0.0)
+        .map(|i| ((if dir[i] > 0.0 { hi[i] } else { lo[i] }) - o[i]) / dir[i])
+        .fold(f64::INFINITY, f64::min)
+        .max(0.0)
+}
+
+impl Volume {
+    /// The volume of triangle `tri` (face `face`, texture coordinates `uv`) for the part `light` of
+    /// the light's polytope on one side of it, seen from `center`; `None` for a degenerate triangle.
+    fn build(face: u32, tri: [Vec3; 3], uv: [DVec2; 3], light: &[DVec3], center: DVec3, bounds: (DVec3, DVec3)) -> Option<Volume> {
+        let v = tri.map(|p| p.as_dvec3());
+        let normal = (v[1] - v[0]).cross(v[2] - v[0]);
+        let dist = v.map(|p| (p - center).length());
+        if normal.length_squared() == 0.0 || dist.contains(&0.0) {
+            return None;
+        }
+        // The front cap t': every vertex as near to the center as the nearest one.
+        let nearest = dist.iter().copied().fold(f64::INFINITY, f64::min);
+        let front = [0, 1, 2].map(|i| center + (v[i] - center) * (nearest / dist[i]));
+        let cap = (front[1] - front[0]).cross(front[2] - front[0]);
+        if cap.length_squared() == 0.0 {
+            return None;
+        }
+        let toward_light = cap * cap.dot(center - front[0]).signum();
+        let mut planes = Vec::with_capacity(4);
+        // The front cap bounds the volume only when the whole light lies in front of it.
+        if light.iter().all(|q| toward_light.dot(*q - front[0]) > 0.0) {
+            planes.push((-toward_light, -toward_light.dot(front[0])));
+        }
+        let outer: Vec<Option<(DVec3, f64)>> = (0..3).map(|k| outer_plane(front[k], front[(k + 1) % 3], front[(k + 2) % 3], light, toward_light)).collect();
+        planes.extend(outer.iter().flatten());
+        // The closing lines through each vertex of t', extruded to the bounds: the back cap.
+        let back = [0, 1, 2].map(|k| {
+                let dir = match (outer[(k + 2) % 3], outer[k]) {
+                    (Some((m1, _)), Some((m2, _))) if m1.cross(m2).length_squared() > 0.0 => m1.cross(m2),
+                    _ => front[k] - center,
+                };
+                let dir = (dir * dir.dot(front[k] - center).signum()).normalize();
+                front[k] + dir * exit_distance(front[k], dir, bounds)
+            });
+        let n = normal.normalize();
+        let to_triangle = DMat3::from_cols(v[1] - v[0], v[2] - v[0], -n).inverse();
+        let (t01, t02) = (uv[1] - uv[0], uv[2] - uv[0]);
+        let to_texture = DMat3::from_cols(DVec3::new(t01.x, t01.y, 0.0), DVec3::new(t02.x, t02.y, 0.0), DVec3::new(uv[0].x, uv[0].y, 1.0));
+        let corners = [front[0], front[1], front[2], back[0], back[1], back[2]];
+        Some(Volume { face, triangle: tri, planes, corners, to_triangle, to_texture, v0: v[0] })
+    }
+
+    /// Whether `p` lies inside (section 2.3), with a relative tolerance that keeps the test
+    /// conservative against round-off.
+    fn contains(&self, p: DVec3) -> bool {
+        self.planes.iter().all(|(m, k)| m.dot(p) - k >= -1e-9 * m.length() * (1.0 + p.abs().max_element()))
+    }
+
+    /// Sets in `blocked` the samples `ys` that the triangle's opaque texels hide from `p`
+    /// (equations 1–5).
+    fn block(&self, p: DVec3, ys: &[Vec3], texture: &AlphaTexture, blocked: &mut [u64]) {
+        let r = self.to_triangle * (self.v0 - p);
+        let e = r.z;
+        if e == 0.0 {
+            return;
+        }
+        // W of equation 3: p as the projective center; the third row scales by the distance so
+        // that s_h.z = 1 / t for the segment parameter t of the plane's crossing.
+        let w = DMat3::from_cols(DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0), DVec3::new(-r.x / e, -r.y / e, 1.0 / e));
+        let j = w * self.to_triangle;
+        for (k, y) in ys.iter().enumerate().take(blocked.len() * 64) {
+            let s = j * (y.as_dvec3() - p);
+            if !(s.z > 1.0 && s.x >= 0.0 && s.y >= 0.0 && s.x + s.y <= s.z) {
+                continue;
+            }
+            let st = self.to_texture * s;
+            let uv = glam::Vec2::new((st.x / st.z) as f32, (st.y / st.z) as f32);
+            if texture.is_opaque(uv) {
+                blocked[k / 64] |= 1 << (k % 64);
+            }
+        }
+    }
+}
+
+/// The volumes of every perforated triangle of `scene` (two per triangle with `two_sided` when
+/// the light reaches both sides), within `bounds`.
+fn volumes(scene: &Scene, light: &Light, degree: usize, two_sided: bool, bounds: (DVec3, DVec3)) -> Vec<Volume> {
+    let polytope = light_polytope(light, degree);
+    let center = light.center().as_dvec3();
+    let mut out = Vec::new();
+    for (id, tri) in scene.triangles() {
+        let r = scene.face_ref(id);
+        let mesh = &scene.meshes[r.mesh as usize];
+        let (Some(uvs), Some(_)) = (&mesh.uvs, &mesh.alpha) else { continue };
+        let f = mesh.faces[r.face as usize];
+        let uv = f.map(|i| uvs[i as usize].as_dvec2());
+        let v = tri.map(|p| p.as_dvec3());
+        let n = (v[1] - v[0]).cross(v[2] - v[0]);
+        let own = if n.dot(center - v[0]) < 0.0 { -1.0 } else { 1.0 };
+        let sides: &[f64] = if two_sided { &[own, -own] } else { &[own] };
+        for &sigma in sides {
+            let part = clip_to_side(&polytope, n, v[0], sigma);
+            if part.is_empty() {
+                continue;
+            }
+            let part_center = if sigma == own { center } else { part.iter().sum::<DVec3>() / part.len() as f64 };
+            out.extend(Volume::build(id, tri, uv, &part, part_center, bounds));
+        }
+    }
+    out
+}
+
+/// The bounds of the scene and of `points`, padded by 1% of their diagonal.
+fn padded_bounds(scene: &Scene, points: &[Vec3]) -> (DVec3, DVec3) {
+    let (lo, hi) = points.iter().fold(scene.bounds(), |(l, h), &o| (l.min(o), h.max(o)));
+    let pad = (hi - lo).length() * 0.01 + 1e-6;
+    ((lo - pad).as_dvec3(), (hi + pad).as_dvec3())
+}
+
+/// The closed soft textured shadow volumes of the perforated triangles of `scene` (section 2.2,
+/// Figure 3), each as its six corners: the front cap t', then the back cap at the bounds of the
+/// scene and of `points`; with the face id of each. The faces: the two caps and the quads
+/// between corners `k, k + 1` of the front and back caps.
+pub fn stsv_volumes(scene: &Scene, light: &Light, hull_degree: usize, two_sided: bool, points: &[Vec3]) -> Vec<(u32, [Vec3; 6])> {
+    volumes(scene, light, hull_degree, two_sided, padded_bounds(scene, points)).iter().map(|v| (v.face, v.corners.map(|c| c.as_vec3()))).collect()
+}
+
+/// Per list entry of `origins`, the bitmask of the samples that the perforated triangles block
+/// (`words` per entry); stats `volumes`, `receivers_tested`, `receivers_inside`.
+fn perforated_masks(scene: &Scene, origins: &Origins, opts: &StsvOptions, words: usize, stats: &mut Stats) -> Result<Vec<u64>> {
+    let lists = &origins.lists;
+    limits::check_memory("stsv bitmasks", limits::bytes(&[lists.entries.len() as u64, words as u64, 8]))?;
+    let bounds = padded_bounds(scene, &origins.origins);
+    let volumes = volumes(scene, origins.light, opts.object.hull_degree, opts.two_sided, bounds);
+    stats.set("volumes", volumes.len() as f64);
+    let (tested, inside) = (AtomicU64::new(0), AtomicU64::new(0));
+    let mut masks = vec![0u64; lists.entries.len() * words];
+    lists.visit_regions(origins.light, opts.object.hull_degree, &volumes, |v| &v.triangle, &mut masks, words, |volume, k, mask| {
+        tested.fetch_add(1, Ordering::Relaxed);
+        let p = origins.origins[k].as_dvec3();
+        if !volume.contains(p) {
+            return;
+        }
+        inside.fetch_add(1, Ordering::Relaxed);
+        let r = scene.face_ref(volume.face);
+        let Some(texture) = &scene.meshes[r.mesh as usize].alpha else { return };
+        let (mut ys, mut ws) = (Vec::new(), Vec::new());
+        origins.fill(k, &mut ys, &mut ws);
+        volume.block(p, &ys, texture, mask);
+    });
+    stats.set("receivers_tested", tested.into_inner() as f64);
+    stats.set("receivers_inside", inside.into_inner() as f64);
+    Ok(masks)
+}
+
+/// Visibility of every receiver with the perforated meshes' shadows by soft textured shadow
+/// volumes and the opaque meshes' by `opts.opaque` (see the module doc). Returns the visibility
+/// (receivers' order) and stats: `opaque_seconds`, `perforated_seconds`, `volumes`,
+/// `receivers_tested` and `receivers_inside` (receiver and volume pairs), `light_samples`, and
+/// the opaque method's own.
+pub fn stsv(scene: &Scene, bvh: &Bvh, light: &Light, receivers: &Receivers, samples: &SampleSet, opts: &StsvOptions) -> Result<(Vec<f32>, Stats)> {
+    opts.object.validate()?;
+    bvh.check_scene(scene)?;
+    let s = samples.count();
+    if s > crate::methods::alias_free::MAX_SAMPLES {
+        return Err(Error::invalid("samples", format!("stsv keeps one bit per light sample: at most {}, got {s}", crate::methods::alias_free::MAX_SAMPLES)));
+    }
+    let mut stats = Stats::default();
+    for name in ["opaque_seconds", "perforated_seconds", "volumes", "receivers_tested", "receivers_inside"] {
+        stats.set(name, 0.0);
+    }
+    stats.set("light_samples", s as f64);
+    let mut vis = vec![0.0f32; receivers.len()];
+    let Some(origins) = Origins::new(light, receivers, samples, &opts.object)? else { return Ok((vis, stats)) };
+    let words = s.div_ceil(64);
+    let perforated = {
+        let start = std::time::Instant::now();
+        let masks = perforated_masks(scene, &origins, opts, words, &mut stats)?;
+        stats.add("perforated_seconds", start.elapsed().as_secs_f64());
+        masks
+    };
+    let start = std::time::Instant::now();
+    match opts.opaque {
+        Opaque::Bitmask => {
+            let af = AliasFreeOptions {
+                resolution: opts.object.resolution,
+                casters: Casters::Backfacing,
+                bias: opts.object.epsilon,
+                lut: None,
+                hull_degree: opts.object.hull_degree,
+                restrict_to_penumbra: true,
+            };
+            let mut opaque = sample_masks(scene, light, receivers, samples, &af, true, &mut stats)?;
+            for (e, &k) in origins.lists.entries.iter().enumerate() {
+                let i = origins.ids[k as usize] as usize;
+                let words = opaque.words.min(words);
+                for (a, b) in opaque.masks[i * opaque.words..i * opaque.words + words].iter_mut().zip(&perforated[e * words..]) {
+                    *a |= b;
+                }
+            }
+            vis.iter_mut().enumerate().for_each(|(i, v)| *v = opaque.visibility(i));
+        }
+        Opaque::Dcs => {
+            let mut counts = depth_complexity(scene, bvh, &origins, &opts.object, &mut stats)?;
+            for (c, bits) in counts.chunks_mut(s).zip(perforated.chunks(words)) {
+                for (k, c) in c.iter_mut().enumerate() {
+                    *c += i32::from(bits[k / 64] >> (k % 64) & 1 == 1);
+                }
+            }
+            vis = visible_fraction(&origins, &counts);
+        }
+        Opaque::PenumbraWedge => {
+            let occlusion = wedge_occlusion(scene, bvh, &origins, &opts.object, &mut stats);
+            let (mut ys, mut ws) = (Vec::new(), Vec::new());
+            for (e, (&k, occ)) in origins.lists.entries.iter().zip(occlusion).enumerate() {
+                origins.fill(k as usize, &mut ys, &mut ws);
+                let (p, n) = origins.receiver(k as usize);
+                let (mut front, mut hidden) = (0.0f64, 0.0f64);
+                for (j, (y, &w)) in ys.iter().zip(&ws).enumerate() {
+                    if (*y - p).dot(n) > 0.0 {
+                        front += f64::from(w);
+                        if perforated[e * words + j / 64] >> (j % 64) & 1 == 1 {
+                            hidden += f64::from(w);
+                        }
+                    }
+                }
+                let stsv_coef = if front > 0.0 { hidden / front } else { 0.0 };
+                vis[origins.ids[k as usize] as usize] = (occ.front * (1.0 - (occ.occlusion + stsv_coef).clamp(0.0, 1.0))) as f32;
+            }
+        }
+    }
+    stats.add("opaque_seconds", start.elapsed().as_secs_f64());
+    Ok((vis, stats))
+}

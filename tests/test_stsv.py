@@ -1,0 +1,133 @@
+"""Soft textured shadow volumes against the ray-traced oracle (with alpha test) on the same samples."""
+
+import numpy as np
+import pytest
+
+import softshadows as ss
+from conftest import quad
+from softshadows.methods import STSV_FACES, stsv_volumes
+
+
+def case(name, size=96, **options):
+    setup = ss.scenes.get(name, width=size, height=size, **options)
+    return setup, ss.gbuffer(setup.scene, setup.camera)
+
+
+def mixed(size=96):
+    """The columns (opaque, closed) with the fence's two perforated quads among them."""
+    columns, fence = ss.scenes.get("columns", width=size, height=size), ss.scenes.get("fence")
+    scene = ss.Scene(columns.scene.meshes + [m for m in fence.scene.meshes if m.perforated])
+    return columns.light, scene, ss.gbuffer(scene, columns.camera)
+
+
+def scenes():
+    for name in ("fence", "leaves"):
+        setup, gb = case(name)
+        yield name, setup.light, setup.scene, gb
+    yield ("mixed", *mixed())
+
+
+@pytest.mark.parametrize("opaque", ["bitmask", "dcs"])
+def test_exact_combinations_give_the_oracles_bits(opaque):
+    for name, light, scene, gb in scenes():
+        samples = light.samples(64, pattern="poisson", seed=3)
+        exact = ss.ray_traced(scene, light, gb, samples=samples)
+        assert np.mean((exact > 0) & (exact < 1) & gb.mask) > 0.05, f"{name} needs a penumbra"
+        vis, stats = ss.stsv(scene, light, gb, samples=samples, opaque=opaque, two_sided=True, return_stats=True)
+        assert np.mean((vis == exact)[gb.mask]) >= 0.995, name
+        assert stats["volumes"] > 0 and stats["receivers_inside"] > 0
+        assert stats["receivers_tested"] >= stats["receivers_inside"]
+
+
+def test_one_sided_volumes_miss_the_light_behind_a_triangle():
+    # Seed 001 section 6: leaves straddled by the light only block the part on their center's side.
+    setup, gb = case("leaves")
+    samples = setup.light.samples(64, seed=3)
+    exact = ss.ray_traced(setup.scene, setup.light, gb, samples=samples)
+    one, one_stats = ss.stsv(setup.scene, setup.light, gb, samples=samples, return_stats=True)
+    two, two_stats = ss.stsv(setup.scene, setup.light, gb, samples=samples, two_sided=True, return_stats=True)
+    assert two_stats["volumes"] > one_stats["volumes"]
+    assert np.all(one[gb.mask] >= exact[gb.mask]) and np.any(one[gb.mask] > exact[gb.mask])
+    assert np.mean((two == exact)[gb.mask]) > np.mean((one == exact)[gb.mask])
+
+
+def test_penumbra_wedges_with_volumes_are_close():
+    light, scene, gb = mixed()
+    samples = light.samples(64, seed=3)
+    exact = ss.ray_traced(scene, light, gb, samples=samples)
+    approx = ss.stsv(scene, light, gb, samples=samples, opaque="penumbra_wedge", two_sided=True)
+    err = (approx - exact)[gb.mask]
+    # Approximate (opaque and perforated shadows add up where they overlap), yet close.
+    assert 0 < np.sqrt(np.mean(err**2)) < 0.05
+
+
+def test_two_perforated_triangles_match_the_explicit_fence():
+    quads, mesh = ss.scenes.get("fence", width=96, height=96), ss.scenes.get("fence_mesh", width=96, height=96)
+    gb, gb_mesh = ss.gbuffer(quads.scene, quads.camera), ss.gbuffer(mesh.scene, mesh.camera)
+    samples = quads.light.samples(64, seed=1)
+    perforated = ss.stsv(quads.scene, quads.light, gb, samples=samples)
+    explicit = ss.dcs(mesh.scene, mesh.light, gb_mesh, samples=samples)
+    both = gb.mask & gb_mesh.mask
+    assert sum(len(m.faces) for m in mesh.scene.meshes) > 50 * sum(len(m.faces) for m in quads.scene.meshes if m.perforated)
+    assert np.sqrt(np.mean((perforated - explicit)[both] ** 2)) < 0.02
+
+
+def textured_quad_scene(alpha, uvs=None):
+    ground = quad((0, 0), 3.0, 0.0, name="ground")
+    card = quad((0.1, -0.2), 0.6, 1.0, uvs=True, alpha=alpha, name="card")
+    if uvs is not None:
+        card = ss.Mesh(card.vertices, card.faces, uvs=uvs, alpha=alpha, name="card")
+    light = ss.RectLight((0, 3, 0), (0.5, 0, 0), (0, 0, -0.5))
+    cam = ss.Camera.look_at((0, 4, 2.5), (0, 0, 0), fov_y=50, width=64, height=64)
+    scene = ss.Scene([ground, card])
+    return scene, light, ss.gbuffer(scene, cam)
+
+
+def test_all_transparent_and_all_opaque_textures():
+    scene, light, gb = textured_quad_scene(np.zeros((4, 4), np.float32))
+    samples = light.samples(64, seed=2)
+    assert np.all(ss.stsv(scene, light, gb, samples=samples)[gb.mask] == ss.dcs(ss.Scene(scene.meshes[:1]), light, gb, samples=samples)[gb.mask])
+    scene, light, gb = textured_quad_scene(np.ones((4, 4), np.float32))
+    solid = ss.Scene([scene.meshes[0], ss.Mesh(scene.meshes[1].vertices, scene.meshes[1].faces)])
+    vis = ss.stsv(scene, light, gb, samples=samples)
+    np.testing.assert_array_equal(vis, ss.dcs(solid, light, gb, samples=samples))
+    assert vis[gb.mask].min() == 0
+
+
+def test_uvs_outside_the_unit_square_wrap():
+    checker = np.indices((8, 8)).sum(axis=0) % 2
+    uvs = np.array([[-1.25, 0.5], [2.75, 0.5], [2.75, 4.5], [-1.25, 4.5]], np.float32)
+    scene, light, gb = textured_quad_scene(checker.astype(np.float32), uvs=uvs)
+    samples = light.samples(64, seed=2)
+    exact = ss.ray_traced(scene, light, gb, samples=samples)
+    assert np.mean((ss.stsv(scene, light, gb, samples=samples) == exact)[gb.mask]) >= 0.995
+
+
+def test_degenerate_perforated_triangles_cast_nothing():
+    scene, light, gb = textured_quad_scene(np.ones((4, 4), np.float32))
+    flat = scene.meshes[1].vertices.copy()
+    flat[2] = flat[0] + 0.5 * (flat[1] - flat[0])  # triangle [0, 2, 1] collapses onto an edge
+    flat[3] = flat[0]  # triangle [0, 3, 2] collapses too
+    card = ss.Mesh(flat, scene.meshes[1].faces, uvs=scene.meshes[1].uvs, alpha=scene.meshes[1].alpha)
+    degenerate = ss.Scene([scene.meshes[0], card])
+    vis, stats = ss.stsv(degenerate, light, gb, samples=16, return_stats=True)
+    assert stats["volumes"] == 0 and np.all(vis[gb.mask] == ss.ray_traced(degenerate, light, gb, samples=16)[gb.mask])
+
+
+def test_volumes_are_closed_and_hold_the_shadowed_receivers():
+    setup, gb = case("fence", size=48)
+    faces, corners = stsv_volumes(setup.scene, setup.light, gb)
+    assert len(faces) == 4 and corners.shape == (4, 6, 3)
+    import trimesh
+
+    for c in corners:
+        volume = trimesh.Trimesh(c, STSV_FACES, process=False)
+        assert volume.is_watertight and volume.volume > 0
+
+
+@pytest.mark.parametrize("options, match", [({"opaque": "shadow_map"}, "opaque"), ({"samples": 1025}, "samples"),
+                                            ({"resolution": 0}, "resolution"), ({"hull_degree": 2}, "hull_degree")])
+def test_bad_options_name_the_argument(options, match):
+    setup, gb = case("fence", size=16)
+    with pytest.raises(ValueError, match=match):
+        ss.stsv(setup.scene, setup.light, gb, **options)
