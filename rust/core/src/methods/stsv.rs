@@ -272,6 +272,7 @@ fn perforated_masks(scene: &Scene, origins: &Origins, opts: &StsvOptions, words:
     stats.set("volumes", volumes.len() as f64);
     let (tested, inside) = (AtomicU64::new(0), AtomicU64::new(0));
     let mut masks = vec![0u64; lists.entries.len() * words];
+    let shared = origins.samples.is_shared().then(|| origins.samples.pattern_for(0, 0));
     lists.visit_regions(origins.light, opts.object.hull_degree, &volumes, |v| &v.triangle, &mut masks, words, |volume, k, mask| {
         tested.fetch_add(1, Ordering::Relaxed);
         let p = origins.origins[k].as_dvec3();
@@ -281,9 +282,14 @@ fn perforated_masks(scene: &Scene, origins: &Origins, opts: &StsvOptions, words:
         inside.fetch_add(1, Ordering::Relaxed);
         let r = scene.face_ref(volume.face);
         let Some(texture) = &scene.meshes[r.mesh as usize].alpha else { return };
-        let (mut ys, mut ws) = (Vec::new(), Vec::new());
-        origins.fill(k, &mut ys, &mut ws);
-        volume.block(p, &ys, texture, mask);
+        match shared {
+            Some(ys) => volume.block(p, ys, texture, mask),
+            None => {
+                let (mut ys, mut ws) = (Vec::new(), Vec::new());
+                origins.fill(k, &mut ys, &mut ws);
+                volume.block(p, &ys, texture, mask);
+            }
+        }
     });
     stats.set("receivers_tested", tested.into_inner() as f64);
     stats.set("receivers_inside", inside.into_inner() as f64);
