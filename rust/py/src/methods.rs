@@ -8,7 +8,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use softshadows_core::methods::alias_free::{alias_free as alias_free_core, AliasFreeOptions, Casters};
 use softshadows_core::methods::cssm::{cssm as cssm_core, CssmOptions, Prefilter};
-use softshadows_core::methods::dcs::{dcs as dcs_core, ObjectOptions};
+use softshadows_core::methods::dcs::dcs as dcs_core;
 use softshadows_core::methods::envmap::{fit_area_lights as fit_core, texel_solid_angle, FitOptions};
 use softshadows_core::methods::mvr::{mvr as mvr_core, MultiViewOptions};
 use softshadows_core::methods::pcss::{pcss as pcss_core, PcssOptions};
@@ -16,6 +16,7 @@ use softshadows_core::methods::penumbra_wedge::penumbra_wedge as penumbra_wedge_
 use softshadows_core::methods::ray_traced::{ray_traced as ray_traced_core, RayTracedOptions};
 use softshadows_core::methods::shadow_map::{shadow_map as shadow_map_core, ShadowMapOptions};
 use softshadows_core::methods::stsv::{stsv as stsv_core, stsv_volumes as stsv_volumes_core, Opaque, StsvOptions};
+use softshadows_core::raster::influence::ObjectOptions;
 use softshadows_core::methods::vwss::{vwss as vwss_core, Mode, Parallel, Precision, VwssOptions};
 use softshadows_core::geometry::bvh::Bvh;
 use softshadows_core::geometry::mesh::Scene;

@@ -73,6 +73,12 @@ pub fn edges(scene: &Scene) -> Vec<Edge> {
     out
 }
 
+/// The edges of the opaque meshes of `scene` that are silhouettes from some point of the ball
+/// `(center, radius)`.
+pub fn opaque_silhouettes(scene: &Scene, center: DVec3, radius: f64) -> Vec<Edge> {
+    edges(scene).into_par_iter().filter(|e| !scene.is_perforated_face(e.faces[0]) && e.is_potential_silhouette(center, radius)).collect()
+}
+
 impl Edge {
     /// Whether some point of the ball `(center, radius)` sees this edge as a silhouette (always
     /// for a one-sided edge). Exact for a point light (`radius` 0); for a ball, the edge is

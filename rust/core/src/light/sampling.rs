@@ -256,10 +256,13 @@ impl SampleSet {
         Ok(Self { patterns: vec![samples], interleave: 1, rotate })
     }
 
-    /// The largest distance from `center` to a sample of any pattern, before rotation (rigid
-    /// rotations about the center keep it; the others keep samples on the light).
-    pub fn radius_about(&self, center: Vec3) -> f32 {
-        self.patterns.iter().flatten().map(|y| (*y - center).length()).fold(0.0, f32::max)
+    /// The radius of a sphere about the light's center that holds the light and every sample of
+    /// every pattern (a hair more, against round-off). Rigid rotations about the center keep the
+    /// samples' distances; the other decorrelations keep samples on the light.
+    pub fn bounding_radius(&self, light: &Light) -> f64 {
+        let center = light.center();
+        let farthest = self.patterns.iter().flatten().map(|y| (*y - center).length()).fold(light.extent(), f32::max);
+        f64::from(farthest) * (1.0 + 1e-6) + 1e-12
     }
 
     /// Samples per receiver.

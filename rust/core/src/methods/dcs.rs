@@ -18,101 +18,18 @@
 //! Counts are exact integers, so the result equals `ray_traced`'s on the same samples up to
 //! floating-point ties. Perforated meshes are left out here: `stsv` adds them.
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::geometry::bvh::Bvh;
-use crate::geometry::edges::{edges, Edge};
+use crate::geometry::edges::opaque_silhouettes;
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
 use crate::limits;
-use crate::raster::influence::ReceiverLists;
+use crate::raster::influence::{ObjectOptions, Origins};
 use crate::stats::Stats;
-use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
-
-/// Options of [`dcs`] (and of the other object-based methods).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ObjectOptions {
-    /// Offset of the shadow-ray origins along the receiver normal (world units), as `ray_traced`.
-    pub epsilon: f32,
-    /// Side of the light-space receiver lists in texels.
-    pub resolution: usize,
-    /// Sides of the bounding polygons of disk, sphere and ellipsoid lights.
-    pub hull_degree: usize,
-}
-
-impl ObjectOptions {
-    pub(crate) fn validate(&self) -> Result<()> {
-        if !(self.epsilon.is_finite() && self.epsilon >= 0.0) {
-            return Err(Error::invalid("epsilon", format!("must be finite and >= 0, got {}", self.epsilon)));
-        }
-        if !(1..=crate::raster::depth::MAX_RESOLUTION).contains(&self.resolution) {
-            return Err(Error::invalid("resolution", format!("must be in 1..=65536, got {}", self.resolution)));
-        }
-        if !(3..=64).contains(&self.hull_degree) {
-            return Err(Error::invalid("hull_degree", format!("must be in 3..=64, got {}", self.hull_degree)));
-        }
-        Ok(())
-    }
-}
-
-/// The receivers the object-based methods test: the valid ones facing some part of the light,
-/// their shadow-ray origins, and those origins in light-space lists; with the light and the
-/// samples they are tested against.
-pub(crate) struct Origins<'a> {
-    pub light: &'a Light,
-    pub receivers: &'a Receivers,
-    pub samples: &'a SampleSet,
-    /// Receiver index of each origin.
-    pub ids: Vec<u32>,
-    pub origins: Vec<Vec3>,
-    pub lists: ReceiverLists,
-}
-
-impl<'a> Origins<'a> {
-    /// `None` when no receiver faces the light.
-    pub fn new(light: &'a Light, receivers: &'a Receivers, samples: &'a SampleSet, opts: &ObjectOptions) -> Result<Option<Self>> {
-        let (c, extent) = (light.center(), light.extent());
-        let ids: Vec<u32> = (0..receivers.len() as u32)
-            .filter(|&i| {
-                let (p, n) = (receivers.points[i as usize], receivers.normals[i as usize]);
-                receivers.valid[i as usize] && n.dot(c - p) > -extent * n.length() && p != c
-            })
-            .collect();
-        if ids.is_empty() {
-            return Ok(None);
-        }
-        let origins: Vec<Vec3> = ids.iter().map(|&i| receivers.points[i as usize] + receivers.normals[i as usize] * opts.epsilon).collect();
-        let lists = ReceiverLists::build(light, &origins, opts.resolution)?;
-        Ok(Some(Origins { light, receivers, samples, ids, origins, lists }))
-    }
-
-    /// The samples and weights of origin `k` (its receiver's samples) into the buffers.
-    pub fn fill(&self, k: usize, ys: &mut Vec<Vec3>, ws: &mut Vec<f32>) {
-        let i = self.ids[k] as usize;
-        self.samples.fill(self.light, i, self.receivers.pixel(i), ys, ws);
-    }
-
-    /// The receiver point and normal of origin `k`.
-    pub fn receiver(&self, k: usize) -> (Vec3, Vec3) {
-        let i = self.ids[k] as usize;
-        (self.receivers.points[i], self.receivers.normals[i])
-    }
-}
-
-/// The edges of the scene's opaque meshes that are silhouettes from some point of the ball
-/// `(center, radius)`.
-pub(crate) fn silhouette_edges(scene: &Scene, center: DVec3, radius: f64) -> Vec<Edge> {
-    edges(scene).into_par_iter().filter(|e| !scene.is_perforated_face(e.faces[0]) && e.is_potential_silhouette(center, radius)).collect()
-}
-
-/// The radius of a sphere about the light's center that holds the light and every sample (a
-/// hair more, against round-off).
-pub(crate) fn sample_radius(light: &Light, samples: &SampleSet) -> f64 {
-    f64::from(light.extent().max(samples.radius_about(light.center()))) * (1.0 + 1e-6) + 1e-12
-}
 
 /// Per origin and sample, the number of opaque faces between the origin and the sample (see the
 /// module doc), in list order (`S` values per list entry); and the stats of the passes.
@@ -130,8 +47,8 @@ pub(crate) fn depth_complexity(scene: &Scene, bvh: &Bvh, origins: &Origins, opts
             c.fill(bvh.count_hits(o, center - o, 1.0, opaque) as i32);
         });
     });
-    let radius = sample_radius(light, samples);
-    let silhouettes = stats.time("silhouettes", || silhouette_edges(scene, center.as_dvec3(), radius));
+    let radius = samples.bounding_radius(light);
+    let silhouettes = stats.time("silhouettes", || opaque_silhouettes(scene, center.as_dvec3(), radius));
     stats.set("silhouette_edges", silhouettes.len() as f64);
     let tested = AtomicU64::new(0);
     stats.time("wedges", || {
@@ -216,6 +133,7 @@ mod tests {
     use super::*;
     use crate::geometry::mesh::Mesh;
     use crate::light::sampling::{Pattern, Rng};
+    use glam::Vec3;
 
     /// A ground quad, a soup of random open triangles (overlapping, three boundary edges each) and
     /// a closed octahedron, under a rect light at y = 4.

@@ -23,7 +23,8 @@ use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
-use crate::methods::dcs::{silhouette_edges, ObjectOptions, Origins};
+use crate::geometry::edges::opaque_silhouettes;
+use crate::raster::influence::{ObjectOptions, Origins};
 use crate::stats::Stats;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -84,7 +85,7 @@ pub(crate) fn wedge_occlusion(scene: &Scene, bvh: &Bvh, origins: &Origins, opts:
             )
             .collect()
     });
-    let silhouettes = stats.time("silhouettes", || silhouette_edges(scene, center.as_dvec3(), 0.0));
+    let silhouettes = stats.time("silhouettes", || opaque_silhouettes(scene, center.as_dvec3(), 0.0));
     stats.set("silhouette_edges", silhouettes.len() as f64);
     let tested = AtomicU64::new(0);
     stats.time("wedges", || {

@@ -12,16 +12,88 @@
 //! bounding polygons), and for an ellipsoid the sphere's by virtual scaling. A point light's
 //! region is the primitive's own projection. Regions are rasterized conservatively
 //! ([`crate::raster::region`]) and processed by bands of rows in parallel, each band owning the
-//! lists of its texels.
+//! lists of its texels. [`Origins`] are the receivers of the object-based methods in such lists.
 
-use crate::error::Result;
+use crate::error::{Error, Result};
+use crate::geometry::receivers::Receivers;
 use crate::light::lights::{tangent_frame, Light, Shape};
+use crate::light::sampling::SampleSet;
 use crate::raster::depth::{band_rows, bin_row_ranges, LightFrustum, NEAR_FRACTION};
 use crate::raster::region::{conservative_rows, convex_hull};
 use crate::stats::Stats;
 use glam::{DVec2, DVec3, Vec3};
 use rayon::prelude::*;
 use std::ops::Range;
+
+/// Options of the object-based methods (`dcs`, `penumbra_wedge`, `stsv`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ObjectOptions {
+    /// Offset of the shadow-ray origins along the receiver normal (world units), as `ray_traced`.
+    pub epsilon: f32,
+    /// Side of the light-space receiver lists in texels.
+    pub resolution: usize,
+    /// Sides of the bounding polygons of disk, sphere and ellipsoid lights.
+    pub hull_degree: usize,
+}
+
+impl ObjectOptions {
+    pub fn validate(&self) -> Result<()> {
+        if !(self.epsilon.is_finite() && self.epsilon >= 0.0) {
+            return Err(Error::invalid("epsilon", format!("must be finite and >= 0, got {}", self.epsilon)));
+        }
+        if !(1..=crate::raster::depth::MAX_RESOLUTION).contains(&self.resolution) {
+            return Err(Error::invalid("resolution", format!("must be in 1..=65536, got {}", self.resolution)));
+        }
+        if !(3..=64).contains(&self.hull_degree) {
+            return Err(Error::invalid("hull_degree", format!("must be in 3..=64, got {}", self.hull_degree)));
+        }
+        Ok(())
+    }
+}
+
+/// The receivers the object-based methods test: the valid ones facing some part of the light,
+/// their shadow-ray origins, and those origins in light-space lists; with the light and the
+/// samples they are tested against.
+pub(crate) struct Origins<'a> {
+    pub light: &'a Light,
+    pub receivers: &'a Receivers,
+    pub samples: &'a SampleSet,
+    /// Receiver index of each origin.
+    pub ids: Vec<u32>,
+    pub origins: Vec<Vec3>,
+    pub lists: ReceiverLists,
+}
+
+impl<'a> Origins<'a> {
+    /// `None` when no receiver faces the light.
+    pub fn new(light: &'a Light, receivers: &'a Receivers, samples: &'a SampleSet, opts: &ObjectOptions) -> Result<Option<Self>> {
+        let (c, extent) = (light.center(), light.extent());
+        let ids: Vec<u32> = (0..receivers.len() as u32)
+            .filter(|&i| {
+                let (p, n) = (receivers.points[i as usize], receivers.normals[i as usize]);
+                receivers.valid[i as usize] && n.dot(c - p) > -extent * n.length() && p != c
+            })
+            .collect();
+        if ids.is_empty() {
+            return Ok(None);
+        }
+        let origins: Vec<Vec3> = ids.iter().map(|&i| receivers.points[i as usize] + receivers.normals[i as usize] * opts.epsilon).collect();
+        let lists = ReceiverLists::build(light, &origins, opts.resolution)?;
+        Ok(Some(Origins { light, receivers, samples, ids, origins, lists }))
+    }
+
+    /// The samples and weights of origin `k` (its receiver's samples) into the buffers.
+    pub fn fill(&self, k: usize, ys: &mut Vec<Vec3>, ws: &mut Vec<f32>) {
+        let i = self.ids[k] as usize;
+        self.samples.fill(self.light, i, self.receivers.pixel(i), ys, ws);
+    }
+
+    /// The receiver point and normal of origin `k`.
+    pub fn receiver(&self, k: usize) -> (Vec3, Vec3) {
+        let i = self.ids[k] as usize;
+        (self.receivers.points[i], self.receivers.normals[i])
+    }
+}
 
 /// Receivers in per-texel lists (compressed rows): texel `t` holds the receiver indices
 /// `entries[start[t]..start[t + 1]]`; `depths` are the receivers' linear depths in the frustum.
