@@ -142,6 +142,21 @@ def stsv(
 def stsv_volumes(
     scene: NativeScene, light: NativeLight, receivers: NativeReceivers, hull_degree: int, two_sided: bool
 ) -> tuple[npt.NDArray[np.uint32], F32]: ...
+def backprojection(
+    scene: NativeScene,
+    light: NativeLight,
+    receivers: NativeReceivers,
+    resolution: int,
+    occluder: str,
+    extend: bool,
+    accumulation: str,
+    bitmask_side: int,
+    budget: list[float] | None,
+    level: int | None,
+    blend: bool,
+    smoothing: int,
+    bias: float | None,
+) -> tuple[F32, F32, dict[str, float]]: ...
 def alias_free(
     scene: NativeScene,
     light: NativeLight,

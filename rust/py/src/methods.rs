@@ -7,6 +7,9 @@ use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArrayDyn}
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use softshadows_core::methods::alias_free::{alias_free as alias_free_core, AliasFreeOptions, Casters};
+use softshadows_core::methods::backprojection::{
+    backprojection_levels, Accumulation, BackprojectionOptions, Budget, Occluder,
+};
 use softshadows_core::methods::cssm::{cssm as cssm_core, CssmOptions, Prefilter};
 use softshadows_core::methods::dcs::dcs as dcs_core;
 use softshadows_core::methods::envmap::{fit_area_lights as fit_core, texel_solid_angle, FitOptions};
@@ -330,7 +333,43 @@ fn stsv_volumes<'py>(
     Ok((ids.into_pyarray(py), corners.into_pyarray(py).reshape([volumes.len() * 6, 3])?))
 }
 
+/// Visibility (N,), LOQ levels (N,) and stats.
+type LevelsOutput<'py> = (Bound<'py, PyArray1<f32>>, Bound<'py, PyArray1<f32>>, Bound<'py, PyDict>);
+
+/// Backprojection soft shadow mapping with micro-occluders, budgets and LOQ blending.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+fn backprojection<'py>(
+    py: Python<'py>,
+    scene: &NativeScene,
+    light: &NativeLight,
+    receivers: &NativeReceivers,
+    resolution: usize,
+    occluder: &str,
+    extend: bool,
+    accumulation: &str,
+    bitmask_side: usize,
+    budget: Option<Vec<f32>>,
+    level: Option<usize>,
+    blend: bool,
+    smoothing: usize,
+    bias: Option<f32>,
+) -> PyResult<LevelsOutput<'py>> {
+    let occluder = choice("occluder", occluder, &[("micropatch", Occluder::Micropatch { extend }), ("microquad", Occluder::Microquad), ("microrect", Occluder::Microrect)]).or_raise()?;
+    let accumulation = choice("accumulation", accumulation, &[("area", Accumulation::Area), ("bitmask", Accumulation::Bitmask { side: bitmask_side })]).or_raise()?;
+    let budget = match budget {
+        None => Budget::Infinite,
+        Some(b) if b.len() == 1 => Budget::Uniform(b[0]),
+        Some(b) => Budget::Map(b),
+    };
+    let opts = BackprojectionOptions { resolution, occluder, accumulation, budget, level, blend, smoothing, bias };
+    let (vis, levels, stats) = py.detach(|| backprojection_levels(&scene.scene, &light.light, &receivers.receivers, &opts)).or_raise()?;
+    let (vis, stats) = output(py, (vis, stats))?;
+    Ok((vis, levels.into_pyarray(py), stats))
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(backprojection, m)?)?;
     m.add_function(wrap_pyfunction!(stsv_volumes, m)?)?;
     m.add_function(wrap_pyfunction!(stsv, m)?)?;
     m.add_function(wrap_pyfunction!(dcs, m)?)?;

@@ -1,5 +1,6 @@
 //! One module per soft-shadow method, named as in the Python API.
 pub mod alias_free;
+pub mod backprojection;
 pub mod cssm;
 pub mod dcs;
 pub mod envmap;

@@ -10,7 +10,7 @@
 //!    the whole light outside; adjacent outer planes meet along the closing lines (the cross
 //!    product of their normals) through the shared vertex, extruded to the bounds of the scene
 //!    and the receivers, where the back cap closes the volume ([`stsv_volumes`] returns these
-//!    closed volumes). The light is bounded by a polygon or polytope ([`light_polytope`]): its
+//!    closed volumes). The light is bounded by a polygon or polytope ([`light_polytope`](crate::raster::influence::light_polytope)): its
 //!    corners for a rectangle, a circumscribed `hull_degree`-gon for a disk, the circumscribed box
 //!    for spheres and ellipsoids.
 //! 2. **Points in the volume** (section 2.3): a receiver is inside when it lies on the inner side
@@ -36,13 +36,13 @@ use crate::error::{Error, Result};
 use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::{AlphaTexture, Scene};
 use crate::geometry::receivers::Receivers;
-use crate::light::lights::{Light, Shape};
+use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
 use crate::limits;
 use crate::methods::alias_free::{sample_masks, AliasFreeOptions, Casters};
 use crate::methods::dcs::{depth_complexity, visible_fraction};
 use crate::methods::penumbra_wedge::wedge_occlusion;
-use crate::raster::influence::{polygon, ObjectOptions, Origins};
+use crate::raster::influence::{light_polytope, ObjectOptions, Origins};
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -81,23 +81,6 @@ struct Volume {
     to_triangle: DMat3,
     to_texture: DMat3,
     v0: DVec3,
-}
-
-/// Points whose convex hull holds the light.
-fn light_polytope(light: &Light, degree: usize) -> Vec<DVec3> {
-    let corners = |c: DVec3, a: DMat3| -> Vec<DVec3> {
-        (0..8).map(|k| c + a * DVec3::new(if k & 1 == 0 { -1.0 } else { 1.0 }, if k & 2 == 0 { -1.0 } else { 1.0 }, if k & 4 == 0 { -1.0 } else { 1.0 })).collect()
-    };
-    match light.shape {
-        Shape::Point { position } => vec![position.as_dvec3()],
-        Shape::Rect { center, u, v } => {
-            let (c, u, v) = (center.as_dvec3(), u.as_dvec3(), v.as_dvec3());
-            vec![c + u + v, c + u - v, c - u - v, c - u + v]
-        }
-        Shape::Disk { center, normal, radius } => polygon(center.as_dvec3(), normal.as_dvec3(), f64::from(radius), degree),
-        Shape::Sphere { center, radius } => corners(center.as_dvec3(), DMat3::from_diagonal(DVec3::splat(f64::from(radius)))),
-        Shape::Ellipsoid { center, axes } => corners(center.as_dvec3(), axes.as_dmat3()),
-    }
 }
 
 /// The part of the polytope `points` strictly on the side `sigma` of the plane `n · (x − v0) = 0`

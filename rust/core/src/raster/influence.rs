@@ -21,7 +21,7 @@ use crate::light::sampling::SampleSet;
 use crate::raster::depth::{band_rows, bin_row_ranges, LightFrustum, NEAR_FRACTION};
 use crate::raster::region::{conservative_rows, convex_hull};
 use crate::stats::Stats;
-use glam::{DVec2, DVec3, Vec3};
+use glam::{DMat3, DVec2, DVec3, Vec3};
 use rayon::prelude::*;
 use std::ops::Range;
 
@@ -328,6 +328,24 @@ fn sphere_silhouette(c: DVec3, r: f64, v: DVec3, degree: usize) -> Vec<DVec3> {
     }
     // The silhouette circle seen from v: center c + d r²/|d|², radius r sqrt(1 − r²/|d|²).
     polygon(c + d * (r * r / dist2), d / dist2.sqrt(), r * (1.0 - r * r / dist2).sqrt(), degree)
+}
+
+/// Points whose convex hull holds the light: a rectangle's corners, the circumscribed
+/// `degree`-gon of a disk, the circumscribed box of a sphere or an ellipsoid, a point light itself.
+pub fn light_polytope(light: &Light, degree: usize) -> Vec<DVec3> {
+    let corners = |c: DVec3, a: DMat3| -> Vec<DVec3> {
+        (0..8).map(|k| c + a * DVec3::new(if k & 1 == 0 { -1.0 } else { 1.0 }, if k & 2 == 0 { -1.0 } else { 1.0 }, if k & 4 == 0 { -1.0 } else { 1.0 })).collect()
+    };
+    match light.shape {
+        Shape::Point { position } => vec![position.as_dvec3()],
+        Shape::Rect { center, u, v } => {
+            let (c, u, v) = (center.as_dvec3(), u.as_dvec3(), v.as_dvec3());
+            vec![c + u + v, c + u - v, c - u - v, c - u + v]
+        }
+        Shape::Disk { center, normal, radius } => polygon(center.as_dvec3(), normal.as_dvec3(), f64::from(radius), degree),
+        Shape::Sphere { center, radius } => corners(center.as_dvec3(), DMat3::from_diagonal(DVec3::splat(f64::from(radius)))),
+        Shape::Ellipsoid { center, axes } => corners(center.as_dvec3(), axes.as_dmat3()),
+    }
 }
 
 /// The influence region of the world points `points` (a triangle's or an edge's vertices): the
