@@ -151,6 +151,8 @@ def backprojection(
     extend: bool,
     accumulation: str,
     bitmask_side: int,
+    accel: str,
+    ysm_resolution: int,
     budget: list[float] | None,
     level: int | None,
     blend: bool,

@@ -11,7 +11,7 @@ use softshadows_core::methods::shadow_map::{shadow_map, ShadowMapOptions};
 use softshadows_core::raster::depth::{
     rasterize_depth, FaceFilter, LightFrustum, RasterMode, RasterOptions, Rasterizer, TexelRect,
 };
-use softshadows_core::raster::pyramid::{MinMaxPyramid, MipMap, SummedAreaTable};
+use softshadows_core::raster::pyramid::{MinMaxPyramid, MipMap, MultiScaleMap, SummedAreaTable};
 use softshadows_core::geometry::bvh::Bvh;
 use softshadows_core::geometry::camera::Camera;
 use softshadows_core::geometry::gbuffer::gbuffer;
@@ -493,6 +493,23 @@ fn min_max_pyramid_matches_brute_force() {
     let empty = vec![f32::INFINITY; 16];
     assert_eq!(MinMaxPyramid::new(4, 4, &empty).unwrap().query(0, 0, 0, 4, 4), None);
     assert!(MinMaxPyramid::new(4, 4, &[f32::NAN; 16]).is_err());
+}
+
+#[test]
+fn multi_scale_map_queries_are_exact() {
+    let (w, h) = (45, 38);
+    let mut rng = Rng::new(4);
+    let depth: Vec<f32> = (0..w * h).map(|_| if rng.next_f32() < 0.2 { f32::INFINITY } else { 1.0 + 9.0 * rng.next_f32() }).collect();
+    let mssm = MultiScaleMap::new(w, h, &depth).unwrap();
+    assert_eq!(mssm.scales.len(), 7); // squares of 1 to 64 texels
+    for _ in 0..2000 {
+        let (x0, y0) = (rng.below(w), rng.below(h));
+        let (x1, y1) = (x0 + 1 + rng.below(w - x0), y0 + 1 + rng.below(h - y0));
+        let inside: Vec<f32> = (y0..y1).flat_map(|y| (x0..x1).map(move |x| (x, y))).map(|(x, y)| depth[y * w + x]).filter(|d| d.is_finite()).collect();
+        let exact = (!inside.is_empty()).then(|| (inside.iter().cloned().fold(f32::INFINITY, f32::min), inside.iter().cloned().fold(0.0, f32::max)));
+        assert_eq!(mssm.query(x0, y0, x1, y1), exact, "{x0},{y0}..{x1},{y1}");
+    }
+    assert_eq!(mssm.memory_bytes(), 7 * w * h * 8);
 }
 
 #[test]

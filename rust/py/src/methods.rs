@@ -8,7 +8,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use softshadows_core::methods::alias_free::{alias_free as alias_free_core, AliasFreeOptions, Casters};
 use softshadows_core::methods::backprojection::{
-    backprojection_levels, Accumulation, BackprojectionOptions, Budget, Occluder,
+    backprojection_levels, Acceleration, Accumulation, BackprojectionOptions, Budget, Occluder,
 };
 use softshadows_core::methods::cssm::{cssm as cssm_core, CssmOptions, Prefilter};
 use softshadows_core::methods::dcs::dcs as dcs_core;
@@ -349,6 +349,8 @@ fn backprojection<'py>(
     extend: bool,
     accumulation: &str,
     bitmask_side: usize,
+    accel: &str,
+    ysm_resolution: usize,
     budget: Option<Vec<f32>>,
     level: Option<usize>,
     blend: bool,
@@ -357,12 +359,13 @@ fn backprojection<'py>(
 ) -> PyResult<LevelsOutput<'py>> {
     let occluder = choice("occluder", occluder, &[("micropatch", Occluder::Micropatch { extend }), ("microquad", Occluder::Microquad), ("microrect", Occluder::Microrect)]).or_raise()?;
     let accumulation = choice("accumulation", accumulation, &[("area", Accumulation::Area), ("bitmask", Accumulation::Bitmask { side: bitmask_side })]).or_raise()?;
+    let acceleration = choice("accel", accel, &[("hsm", Acceleration::Hsm), ("mssm", Acceleration::Mssm), ("ysm", Acceleration::Ysm { resolution: ysm_resolution })]).or_raise()?;
     let budget = match budget {
         None => Budget::Infinite,
         Some(b) if b.len() == 1 => Budget::Uniform(b[0]),
         Some(b) => Budget::Map(b),
     };
-    let opts = BackprojectionOptions { resolution, occluder, accumulation, budget, level, blend, smoothing, bias };
+    let opts = BackprojectionOptions { resolution, occluder, accumulation, acceleration, budget, level, blend, smoothing, bias };
     let (vis, levels, stats) = py.detach(|| backprojection_levels(&scene.scene, &light.light, &receivers.receivers, &opts)).or_raise()?;
     let (vis, stats) = output(py, (vis, stats))?;
     Ok((vis, levels.into_pyarray(py), stats))

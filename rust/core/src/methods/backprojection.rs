@@ -39,7 +39,7 @@ use crate::light::sampling::Rng;
 use crate::raster::depth::{rasterize_depth, LightFrustum, RasterOptions};
 use crate::raster::influence::light_polytope;
 use crate::raster::pcf::{DepthBias, ReceiverDepth, RASTERIZED_SLACK};
-use crate::raster::pyramid::MinMaxPyramid;
+use crate::raster::pyramid::{MinMaxPyramid, MultiScaleMap};
 use crate::stats::Stats;
 use glam::{DVec2, DVec3, Vec3};
 use rayon::prelude::*;
@@ -64,6 +64,19 @@ pub enum Accumulation {
     Bitmask { side: usize },
 }
 
+/// The acceleration structure of the search areas and of the umbra / lit classification
+/// (sections 3 and 6).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Acceleration {
+    /// The hierarchical shadow map: a min/max pyramid (conservative ranges).
+    Hsm,
+    /// The multi-scale shadow map: exact ranges from every power-of-two neighbourhood.
+    Mssm,
+    /// The Y shadow map: the HSM's levels down to `resolution` texels per side, and an MSSM of
+    /// that level (256 by default).
+    Ysm { resolution: usize },
+}
+
 /// The micro-occluder budget `b_mo` (micro-occluders per light axis).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Budget {
@@ -82,6 +95,7 @@ pub struct BackprojectionOptions {
     pub resolution: usize,
     pub occluder: Occluder,
     pub accumulation: Accumulation,
+    pub acceleration: Acceleration,
     pub budget: Budget,
     /// A fixed shadow-map level for every receiver instead of the budget's.
     pub level: Option<usize>,
@@ -99,6 +113,7 @@ impl Default for BackprojectionOptions {
             resolution: 1024,
             occluder: Occluder::Micropatch { extend: false },
             accumulation: Accumulation::Bitmask { side: 16 },
+            acceleration: Acceleration::Hsm,
             budget: Budget::Infinite,
             level: None,
             blend: true,
@@ -127,10 +142,52 @@ impl BackprojectionOptions {
             Budget::Map(m) if !m.iter().all(|&b| positive(b)) => return Err(Error::invalid("budget", "every budget must be >= 1")),
             _ => {}
         }
+        if let Acceleration::Ysm { resolution } = self.acceleration {
+            if resolution == 0 {
+                return Err(Error::invalid("ysm_resolution", "must be >= 1"));
+            }
+        }
         if self.smoothing.is_multiple_of(2) || self.smoothing > 101 {
             return Err(Error::invalid("smoothing", format!("must be odd and at most 101, got {}", self.smoothing)));
         }
         Ok(())
+    }
+}
+
+/// The built acceleration structure: the HSM (always: the micro-occluder levels come from it)
+/// and, for the MSSM and the YSM, a multi-scale map of HSM level `base`.
+struct Accel {
+    hsm: MinMaxPyramid,
+    multi: Option<(usize, MultiScaleMap)>,
+}
+
+impl Accel {
+    fn new(kind: Acceleration, width: usize, height: usize, depth: &[f32]) -> Result<Accel> {
+        let hsm = MinMaxPyramid::new(width, height, depth)?;
+        let base = match kind {
+            Acceleration::Hsm => return Ok(Accel { hsm, multi: None }),
+            Acceleration::Mssm => 0,
+            Acceleration::Ysm { resolution } => hsm.levels.iter().position(|l| l.width.max(l.height) <= resolution).unwrap_or(hsm.levels.len() - 1),
+        };
+        let multi = MultiScaleMap::from_level(hsm.levels[base].clone())?;
+        Ok(Accel { hsm, multi: Some((base, multi)) })
+    }
+
+    /// `(min, max)` over the non-empty level-0 rectangle `[x0, x1) × [y0, y1)`: the HSM reads a
+    /// superset at the level where it spans 2 × 2 texels; the MSSM gives the exact range; the
+    /// YSM reads its HSM part while that level is finer than its MSSM's, then the MSSM (exact at
+    /// that level's texels).
+    fn range(&self, x0: usize, y0: usize, x1: usize, y1: usize) -> Option<(f32, f32)> {
+        match &self.multi {
+            Some((base, multi)) if self.hsm.region_level(x0, y0, x1, y1) >= *base => {
+                multi.query(x0 >> base, y0 >> base, ((x1 - 1) >> base) + 1, ((y1 - 1) >> base) + 1)
+            }
+            _ => self.hsm.query_region(x0, y0, x1, y1),
+        }
+    }
+
+    fn memory_bytes(&self) -> usize {
+        self.hsm.levels.iter().map(|l| l.min.len() * 8).sum::<usize>() + self.multi.as_ref().map_or(0, |(_, m)| m.memory_bytes())
     }
 }
 
@@ -375,7 +432,7 @@ fn in_quad(q: &[DVec2; 4], s: DVec2) -> bool {
 /// Everything the per-receiver passes read.
 struct Context<'a> {
     frustum: LightFrustum,
-    hsm: &'a MinMaxPyramid,
+    accel: &'a Accel,
     levels: &'a Levels,
     light: &'a LightPlane,
     opts: &'a BackprojectionOptions,
@@ -435,7 +492,7 @@ impl Context<'_> {
         let mut z = self.near;
         let mut area = self.area(p, rd, z, level);
         for _ in 0..4 {
-            let Some((lo, hi)) = self.hsm.query_region(area.0, area.1, area.2, area.3) else { return Search::Lit };
+            let Some((lo, hi)) = self.accel.range(area.0, area.1, area.2, area.3) else { return Search::Lit };
             if lo >= threshold {
                 return Search::Lit;
             }
@@ -617,7 +674,7 @@ pub fn backprojection_levels(scene: &Scene, light: &Light, receivers: &Receivers
     };
     let plane = LightPlane::new(light, side)?;
     let mut stats = Stats::default();
-    for name in ["depth_map_seconds", "acceleration_seconds", "search_seconds", "smoothing_seconds", "backprojection_seconds", "backprojecting_percent", "occluders_mean", "occluders_std", "level_mean", "umbra", "lit"] {
+    for name in ["depth_map_seconds", "acceleration_seconds", "microrects_seconds", "search_seconds", "smoothing_seconds", "backprojection_seconds", "backprojecting_percent", "occluders_mean", "occluders_std", "level_mean", "umbra", "lit"] {
         stats.set(name, 0.0);
     }
     let n = receivers.len();
@@ -626,14 +683,11 @@ pub fn backprojection_levels(scene: &Scene, light: &Light, receivers: &Receivers
     let map = stats.time("depth_map", || rasterize_depth(scene, &frustum, &RasterOptions::default()))?;
     let stored: Vec<f32> = map.depth.iter().map(|&d| if d.is_finite() { d } else { EMPTY }).collect();
     let near = stored.iter().copied().fold(f32::INFINITY, f32::min).max(frustum.near);
-    let (hsm, levels) = stats.time("acceleration", || -> Result<_> {
-        let hsm = MinMaxPyramid::new(map.width, map.height, &stored)?;
-        let levels = Levels::new(&hsm, opts.occluder == Occluder::Microrect);
-        Ok((hsm, levels))
-    })?;
-    let bytes: usize = hsm.levels.iter().map(|l| l.min.len() * 8).sum::<usize>() + levels.levels.iter().map(|l| l.extent.len() * 16).sum::<usize>();
-    stats.set("acceleration_bytes", bytes as f64);
-    let ctx = Context { frustum, hsm: &hsm, levels: &levels, light: &plane, opts, bias: DepthBias::new(opts.bias, RASTERIZED_SLACK)?, near };
+    let accel = stats.time("acceleration", || Accel::new(opts.acceleration, map.width, map.height, &stored))?;
+    stats.set("acceleration_bytes", accel.memory_bytes() as f64);
+    let levels = stats.time("microrects", || Levels::new(&accel.hsm, opts.occluder == Occluder::Microrect));
+    stats.set("microrects_bytes", levels.levels.iter().map(|l| l.extent.len() * 20).sum::<usize>() as f64);
+    let ctx = Context { frustum, accel: &accel, levels: &levels, light: &plane, opts, bias: DepthBias::new(opts.bias, RASTERIZED_SLACK)?, near };
     let budget = |i: usize| match &opts.budget {
         Budget::Infinite => None,
         Budget::Uniform(b) => Some(*b),
@@ -742,6 +796,25 @@ mod tests {
                 assert!(e[0] <= rx && rx < e[2] && e[1] <= ry && ry < e[3], "level {i}, microrect {k}: {e:?}");
                 assert!(e[2] - e[0] < 2 * s && e[3] - e[1] < 2 * s);
             }
+        }
+    }
+
+    #[test]
+    fn finer_structures_give_nested_depth_ranges() {
+        let (w, h) = (200, 170);
+        let mut rng = Rng::new(3);
+        let depth: Vec<f32> = (0..w * h).map(|i| if rng.next_f32() < 0.05 { EMPTY } else { 1.0 + ((i % w) as f32 * 0.05).sin() + rng.next_f32() }).collect();
+        let hsm = Accel::new(Acceleration::Hsm, w, h, &depth).unwrap();
+        let ysm = Accel::new(Acceleration::Ysm { resolution: 64 }, w, h, &depth).unwrap();
+        let mssm = Accel::new(Acceleration::Mssm, w, h, &depth).unwrap();
+        for _ in 0..3000 {
+            let (x0, y0) = ((rng.next_f32() * w as f32) as usize, (rng.next_f32() * h as f32) as usize);
+            let (x1, y1) = ((x0 + 1 + (rng.next_f32() * 40.0) as usize).min(w), (y0 + 1 + (rng.next_f32() * 40.0) as usize).min(h));
+            let depth = &depth;
+            let exact = (y0..y1).flat_map(|y| (x0..x1).map(move |x| depth[y * w + x])).fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), d| (a.min(d), b.max(d)));
+            let [m, y, hh] = [&mssm, &ysm, &hsm].map(|a| a.range(x0, y0, x1, y1).unwrap());
+            assert_eq!(m, exact);
+            assert!(hh.0 <= y.0 && y.0 <= m.0 && m.1 <= y.1 && y.1 <= hh.1, "{x0},{y0}..{x1},{y1}: hsm {hh:?} ysm {y:?} mssm {m:?}");
         }
     }
 }

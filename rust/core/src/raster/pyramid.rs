@@ -1,5 +1,6 @@
 //! Image pyramids over shadow maps: min/max depth pyramids (hierarchical shadow maps for
-//! backprojection), summed-area tables and mipmaps (prefiltering for CSSM and PCSS).
+//! backprojection), multi-scale shadow maps (the depth range of every power-of-two
+//! neighbourhood of every texel), summed-area tables and mipmaps (prefiltering for CSSM and PCSS).
 //!
 //! # Conventions
 //!
@@ -103,10 +104,16 @@ impl MinMaxPyramid {
         if x0 >= x1 || y0 >= y1 {
             return None;
         }
-        let level = (0..self.levels.len())
-            .find(|&l| ((x1 - 1) >> l) - (x0 >> l) <= 1 && ((y1 - 1) >> l) - (y0 >> l) <= 1)
-            .unwrap_or(self.levels.len().saturating_sub(1));
+        let level = self.region_level(x0, y0, x1, y1);
         self.query(level, x0 >> level, y0 >> level, ((x1 - 1) >> level) + 1, ((y1 - 1) >> level) + 1)
+    }
+
+    /// The level [`MinMaxPyramid::query_region`] reads for the non-empty level-0 rectangle
+    /// `[x0, x1) × [y0, y1)`: the finest where it spans at most 2 × 2 texels.
+    pub fn region_level(&self, x0: usize, y0: usize, x1: usize, y1: usize) -> usize {
+        (0..self.levels.len())
+            .find(|&l| ((x1 - 1) >> l) - (x0 >> l) <= 1 && ((y1 - 1) >> l) - (y0 >> l) <= 1)
+            .unwrap_or(self.levels.len().saturating_sub(1))
     }
 }
 
@@ -142,6 +149,90 @@ fn children(x: usize, y: usize, w: usize, h: usize) -> ([(usize, usize); 4], usi
         }
     }
     (out, count)
+}
+
+/// A multi-scale shadow map (MSSM, Schwarz and Stamminger 2007): for every texel `(x, y)` and
+/// every scale `k`, the `(min, max)` depth over the `2^k × 2^k` square of texels from `(x, y)`
+/// (clipped to the image). Any rectangle is the union of a few such squares, so its depth range
+/// comes out exactly in a handful of reads (the HSM reads a superset). Empty texels as in
+/// [`MinMaxPyramid`]. Memory: `8 · scales` bytes per texel.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MultiScaleMap {
+    pub width: usize,
+    pub height: usize,
+    /// `scales[k]`: the per-texel `(min, max)` of the `2^k` squares, row-major.
+    pub scales: Vec<MinMaxLevel>,
+}
+
+impl MultiScaleMap {
+    /// The MSSM of a `width × height` depth image (`+inf` = empty), up to squares covering it.
+    ///
+    /// Errors: wrong length; NaN or `−inf` depths; `TooLarge` past the memory limit.
+    pub fn new(width: usize, height: usize, depth: &[f32]) -> Result<Self> {
+        Self::from_level(MinMaxPyramid::new(width, height, depth)?.levels.swap_remove(0))
+    }
+
+    /// The MSSM over the texels of a min/max level (for the YSM: a level of an HSM, whose texels
+    /// each hold a range already).
+    pub fn from_level(base: MinMaxLevel) -> Result<Self> {
+        let (width, height) = (base.width, base.height);
+        let count = usize::BITS as usize - (width.max(height).max(1) - 1).leading_zeros() as usize + 1;
+        limits::check_memory("multi-scale shadow map", limits::bytes(&[width as u64, height as u64, 8, count as u64]))?;
+        let mut scales = vec![base];
+        for k in 1..count {
+            let next = Self::coarser(&scales[k - 1], 1 << (k - 1));
+            scales.push(next);
+        }
+        Ok(Self { width, height, scales })
+    }
+
+    /// The `(min, max)` of the squares twice as large as those of `prev` (side `2 half`).
+    fn coarser(prev: &MinMaxLevel, half: usize) -> MinMaxLevel {
+        let (width, height) = (prev.width, prev.height);
+        let mut min = vec![f32::INFINITY; width * height];
+        let mut max = vec![f32::NEG_INFINITY; width * height];
+        min.par_chunks_mut(width).zip(max.par_chunks_mut(width)).enumerate().for_each(|(y, (mn, mx))| {
+            for x in 0..width {
+                for (dx, dy) in [(0, 0), (half, 0), (0, half), (half, half)] {
+                    if x + dx < width && y + dy < height {
+                        let i = (y + dy) * width + x + dx;
+                        mn[x] = mn[x].min(prev.min[i]);
+                        mx[x] = mx[x].max(prev.max[i]);
+                    }
+                }
+            }
+        });
+        MinMaxLevel { width, height, min, max }
+    }
+
+    /// Exact `(min, max)` over the drawn texels of `[x0, x1) × [y0, y1)` (clamped to the image);
+    /// `None` when it holds none.
+    pub fn query(&self, x0: usize, y0: usize, x1: usize, y1: usize) -> Option<(f32, f32)> {
+        let (x1, y1) = (x1.min(self.width), y1.min(self.height));
+        if x0 >= x1 || y0 >= y1 {
+            return None;
+        }
+        let side = (x1 - x0).min(y1 - y0);
+        let k = ((usize::BITS - 1 - side.leading_zeros()) as usize).min(self.scales.len() - 1);
+        let (s, level) = (1usize << k, &self.scales[k]);
+        // Squares from a grid of step s, the last one flush with the far edge: they cover the
+        // rectangle exactly (at most 2 per axis for a squarish one).
+        let starts = |a: usize, b: usize| (a..b).step_by(s).map(move |v| v.min(b.saturating_sub(s).max(a)));
+        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+        for y in starts(y0, y1) {
+            for x in starts(x0, x1) {
+                let i = y * self.width + x;
+                lo = lo.min(level.min[i]);
+                hi = hi.max(level.max[i]);
+            }
+        }
+        (lo <= hi).then_some((lo, hi))
+    }
+
+    /// Bytes held.
+    pub fn memory_bytes(&self) -> usize {
+        self.scales.len() * self.width * self.height * 8
+    }
 }
 
 /// A multi-channel summed-area table in **f64**.
