@@ -127,3 +127,28 @@ def test_non_planar_lights_are_refused():
     setup = ss.scenes.get("ground_sphere", width=16, height=16, light="sphere")
     with pytest.raises(ValueError, match="light"):
         ss.backprojection(setup.scene, setup.light, ss.gbuffer(setup.scene, setup.camera))
+
+
+def test_msaa_resolve_takes_the_neighbour_of_closest_depth():
+    # Three pixels in a row at depths 1, 2 and 3 (camera at the origin looking down +x); the
+    # middle pixel's four samples: two at its own depth, one at the left's, one at the right's.
+    from softshadows.camera import Camera, GBuffer
+
+    camera = Camera.look_at((0, 0, 0), (1, 0, 0), fov_y=10, width=3, height=1)
+    positions = np.array([[[1.0, 0, 0], [2.0, 0, 0], [3.0, 0, 0]]], np.float32)
+    depths = np.array([[[1, 1, 1, 1], [2, 2, 1.0, 3.0], [3, 3, 3, np.inf]]], np.float32)
+    gb = GBuffer(positions, np.tile(np.float32([-1, 0, 0]), (1, 3, 1)), np.ones((1, 3), bool), np.zeros((1, 3), np.int64), depths, camera)
+    resolved = ss.resolve_msaa(np.array([[0.0, 0.5, 1.0]], np.float32), gb)
+    np.testing.assert_allclose(resolved, [[0.0, (0.5 + 0.5 + 0.0 + 1.0) / 4, 1.0]])
+
+
+def test_multisampled_gbuffers_backproject_once_per_pixel():
+    setup = ss.scenes.get("columns", width=96, height=96)
+    single, multi = ss.gbuffer(setup.scene, setup.camera), ss.gbuffer(setup.scene, setup.camera, msaa=4)
+    v1 = ss.backprojection(setup.scene, setup.light, single, resolution=512, extend=True)
+    v4, stats = ss.backprojection(setup.scene, setup.light, multi, resolution=512, extend=True, return_stats=True)
+    depth = np.linalg.norm(single.positions - setup.camera.eye, axis=-1)
+    agree = single.mask & np.all(np.abs(multi.sample_depths - depth[..., None]) <= 0.01 * depth[..., None], axis=-1)
+    np.testing.assert_array_equal(v4[agree], v1[agree])
+    assert np.any(v4[single.mask & ~agree] != v1[single.mask & ~agree])
+    assert 0 < stats["msaa_overhead"] < 1

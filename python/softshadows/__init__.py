@@ -15,7 +15,7 @@ from . import _core, _validate, envmap, io, metrics, plot, reference, scenes, sh
 from .camera import Camera, GBuffer, Receivers, gbuffer
 from .envmap import environment
 from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight
-from .methods import METHODS, alias_free, backprojection, cssm, dcs, mvr, pcss, penumbra_wedge, ray_traced, shadow_map, stsv, vwss
+from .methods import METHODS, alias_free, backprojection, cssm, dcs, mvr, pcss, penumbra_wedge, ray_traced, resolve_msaa, shadow_map, stsv, vwss
 from .scene import Mesh, Scene
 
 __version__ = "0.1.0"
@@ -41,6 +41,7 @@ __all__ = [
     "dcs",
     "penumbra_wedge",
     "stsv",
+    "resolve_msaa",
     "Camera",
     "DiskLight",
     "GBuffer",
