@@ -462,7 +462,8 @@ impl Context<'_> {
 
     /// The search area of receiver `p` (`rd`) through linear depth `z` (step 1): the bounding box,
     /// in level-0 texels, of the light's bounding points projected from `p` onto the plane at
-    /// depth `z` (exact for a light tilted against the map), grown to whole level-`level` texels.
+    /// depth `z` (exact for a light tilted against the map), grown to the support of the
+    /// level-`level` micro-occluders it partly covers (the over-precision fix of Figure 7).
     fn area(&self, p: Vec3, rd: &ReceiverDepth, z: f32, level: usize) -> (usize, usize, usize, usize) {
         let f = &self.frustum;
         let zp = rd.depth();
@@ -479,8 +480,10 @@ impl Context<'_> {
         let (w, h) = (f.width, f.height);
         let clamp = |v: f32, n: usize| (v.max(0.0) as usize).min(n);
         let s = 1usize << level;
-        let (x0, y0) = (clamp(lo.x.floor(), w) / s * s, clamp(lo.y.floor(), h) / s * s);
-        let (x1, y1) = (clamp(hi.x.ceil() + 1.0, w).div_ceil(s) * s, clamp(hi.y.ceil() + 1.0, h).div_ceil(s) * s);
+        // Microrects reach up to one level texel past their own (section 5.2): grow by their support.
+        let reach = if level > 0 && self.opts.occluder == Occluder::Microrect { s } else { 0 };
+        let (x0, y0) = ((clamp(lo.x.floor(), w) / s * s).saturating_sub(reach), (clamp(lo.y.floor(), h) / s * s).saturating_sub(reach));
+        let (x1, y1) = (clamp(hi.x.ceil() + 1.0, w).div_ceil(s) * s + reach, clamp(hi.y.ceil() + 1.0, h).div_ceil(s) * s + reach);
         (x0, y0, x1.min(w).max(x0 + 1), y1.min(h).max(y0 + 1))
     }
 
