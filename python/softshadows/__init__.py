@@ -11,9 +11,10 @@ Quick start::
 See DESIGN.md for the data model and the definition of visibility.
 """
 
-from . import _core, _validate, envmap, io, metrics, plot, reference, scenes, shading
+from . import _core, _validate, envmap, evaluation, io, metrics, plot, reference, scenes, shading
 from .camera import Camera, GBuffer, Receivers, gbuffer
 from .envmap import environment
+from .evaluation import evaluate
 from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight
 from .methods import METHODS, alias_free, backprojection, cssm, dcs, mvr, pcss, penumbra_wedge, ray_traced, resolve_msaa, shadow_map, stsv, vwss
 from .scene import Mesh, Scene
@@ -37,6 +38,7 @@ def memory_limit() -> int:
 
 __all__ = [
     "alias_free",
+    "evaluate",
     "backprojection",
     "dcs",
     "penumbra_wedge",
@@ -56,6 +58,7 @@ __all__ = [
     "gbuffer",
     "io",
     "envmap",
+    "evaluation",
     "environment",
     "metrics",
     "plot",

@@ -2,6 +2,8 @@
 
 ``softshadows demo [--out DIR]`` runs every method on a built-in scene against a Mitsuba
 reference and writes a picture grid, EXR files and a metrics table (Markdown and JSON).
+``softshadows evaluate --scenes A,B --methods X,Y --lights rect,disk --out DIR`` runs the
+evaluation suite (:mod:`softshadows.evaluation`) and writes its report.
 """
 
 from __future__ import annotations
@@ -12,15 +14,9 @@ import time
 from pathlib import Path
 
 
-
-#: The keyword through which each sample-based method takes the shared light samples; the other
-#: methods do not sample the light.
-SAMPLE_KEYWORDS = {"ray_traced": "samples", "alias_free": "samples", "dcs": "samples", "penumbra_wedge": "samples", "stsv": "samples", "mvr": "views", "vwss": "views"}
-
-
 def _run_methods(setup, gb, samples, progress):
     """Each method's visibility and seconds on the shared light samples."""
-    from .methods import METHODS
+    from .methods import METHODS, SAMPLE_KEYWORDS
 
     results, seconds = {}, {}
     for name, method in METHODS.items():
@@ -103,12 +99,41 @@ def main(argv=None) -> int:
     d.add_argument("--size", type=int, default=256, help="image width and height in pixels")
     d.add_argument("--samples", type=int, default=64, help="light samples for sample-based methods")
     d.add_argument("--reference-samples", type=int, default=1024, help="light samples of the Mitsuba reference")
+    e = sub.add_parser("evaluate", help="every method on every scene and light against Mitsuba, as a report")
+    e.add_argument("--scenes", default="columns", help="comma-separated scene names (default: columns)")
+    e.add_argument("--methods", default=None, help="comma-separated method names (default: all)")
+    e.add_argument("--lights", default="rect", help="comma-separated light kinds (default: rect)")
+    e.add_argument("--size", type=int, default=128, help="image width and height in pixels")
+    e.add_argument("--samples", type=int, default=64, help="light samples for sample-based methods")
+    e.add_argument("--reference-samples", type=int, default=4096, help="light samples of the Mitsuba reference")
+    e.add_argument("--out", type=Path, default=Path("evaluation"), help="output folder (default: ./evaluation)")
     args = parser.parse_args(argv)
+    if args.command == "evaluate":
+        return _evaluate(args)
     table = demo(args.out, scene=args.scene, size=args.size, samples=args.samples, reference_samples=args.reference_samples)
     width = max(map(len, table))
     for name, m in table.items():
         print(f"{name:<{width}}  RMSE {m['rmse']:.4f}  SSIM {m['ssim']:.4f}  FLIP {m['flip']:.4f}  {m['seconds']:.3f} s")
     print(f"wrote {args.out / 'demo.png'}, metrics.md, metrics.json and EXR files")
+    return 0
+
+
+def _evaluate(args) -> int:
+    from .evaluation import evaluate, report
+
+    split = lambda text: [t.strip() for t in text.split(",") if t.strip()]  # noqa: E731
+    frame = evaluate(
+        split(args.scenes),
+        None if args.methods is None else split(args.methods),
+        lights=split(args.lights),
+        size=args.size,
+        samples=args.samples,
+        reference_samples=args.reference_samples,
+        keep_images=True,
+    )
+    page = report(frame, args.out)
+    print(frame[["scene", "light", "method", "rmse", "ssim", "flip", "seconds"]].to_string(index=False, float_format="%.4f"))
+    print(f"wrote {page}, results.csv, pareto.png and the comparison grids")
     return 0
 
 

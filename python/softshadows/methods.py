@@ -988,6 +988,11 @@ for _method in (dcs, penumbra_wedge):
 for _method in (shadow_map, pcss, mvr, vwss, cssm, backprojection):
     _method.__doc__ = _method.__doc__.replace("{params}", _MULTIVIEW_PARAMETERS).replace("{casters}", _CASTERS_PARAMETER)
 
+#: The keyword through which each sample-based method takes the shared light samples (for the
+#: demo and the evaluation suite); the other methods do not sample the light.
+SAMPLE_KEYWORDS = {"ray_traced": "samples", "alias_free": "samples", "dcs": "samples", "penumbra_wedge": "samples",
+                   "stsv": "samples", "mvr": "views", "vwss": "views"}
+
 #: Every method by name, for the CLI and the evaluation suite.
 METHODS = {"ray_traced": ray_traced, "alias_free": alias_free, "stsv": stsv, "dcs": dcs, "penumbra_wedge": penumbra_wedge,
            "shadow_map": shadow_map, "pcss": pcss, "cssm": cssm, "backprojection": backprojection, "mvr": mvr, "vwss": vwss}

@@ -1,0 +1,201 @@
+"""The evaluation suite: every method on every scene against a Mitsuba reference.
+
+Users pick a soft-shadow method by its error and its cost on their kind of scene; :func:`evaluate`
+measures both on the same receivers, light samples and reference, and :func:`report` turns the
+table into a Markdown page, comparison grids and a time-versus-error chart with the Pareto front.
+``softshadows evaluate`` on the command line runs both.
+
+The reference of each scene and light is Mitsuba's own ``ray_test`` on ``reference_samples``
+Sobol samples (:func:`softshadows.reference.mitsuba_visibility`), cached on disk by input hash,
+so a second evaluation of the same setups does not call Mitsuba again.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["evaluate", "report", "pareto_front"]
+
+
+def evaluate(
+    scenes=("columns",),
+    methods=None,
+    *,
+    lights=("rect",),
+    size: int = 128,
+    samples: int = 64,
+    reference_samples: int = 4096,
+    options: dict | None = None,
+    keep_images: bool = False,
+    progress: bool = True,
+):
+    """Every method on every scene and light against the Mitsuba reference.
+
+    Parameters
+    ----------
+    scenes : sequence of str
+        Names from ``softshadows.scenes.SCENES``.
+    methods : sequence of str, optional
+        Names from ``softshadows.METHODS``; default all of them.
+    lights : sequence of {"rect", "disk", "sphere", "ellipsoid", "point"}
+        Light kinds, each at the scene's default placement and size.
+    size : int
+        Image width and height in pixels.
+    samples : int
+        Light samples of the sample-based methods (Poisson, seed 0, shared by all of them).
+    reference_samples : int
+        Sobol samples of the reference.
+    options : dict of str to dict, optional
+        Keyword options per method, e.g. ``{"backprojection": {"budget": 8}}``.
+    keep_images : bool
+        Keep every visibility image, the reference and the mask in ``frame.attrs["images"]``
+        (keyed by ``(scene, light)``) for :func:`report`'s grids.
+    progress : bool
+        Show a progress bar.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per scene, light and method: ``scene``, ``light``, ``method``, ``rmse``, ``ssim``,
+        ``flip`` (over the hit pixels), ``seconds``, ``error`` (why a method refused the setup,
+        e.g. a non-planar light for ``backprojection``; metrics are NaN then) and every stat the
+        method reports, as ``stats.<name>`` columns.
+    """
+    import pandas as pd
+    from tqdm.auto import tqdm
+
+    from . import metrics, reference
+    from . import scenes as scene_library
+    from .camera import gbuffer
+    from .methods import METHODS, SAMPLE_KEYWORDS
+
+    names = list(METHODS) if methods is None else list(methods)
+    unknown = [m for m in names if m not in METHODS]
+    if unknown:
+        raise ValueError(f"methods: unknown {unknown}; expected names from {list(METHODS)}")
+    options = dict(options or {})
+    rows, images = [], {}
+    setups = [(s, k) for s in scenes for k in lights]
+    with tqdm(total=len(setups) * (len(names) + 1), desc="evaluate", unit="run", disable=not progress) as bar:
+        for scene_name, kind in setups:
+            bar.set_description(f"{scene_name}/{kind}: reference")
+            setup = scene_library.get(scene_name, light=kind, width=size, height=size)
+            gb = gbuffer(setup.scene, setup.camera)
+            ref = reference.mitsuba_visibility(setup.scene, setup.light, gb, setup.light.samples(reference_samples, pattern="sobol", seed=1))
+            bar.update()
+            shared = setup.light.samples(samples, pattern="poisson", seed=0)
+            kept = {"reference": ref, "mask": gb.mask}
+            for name in names:
+                bar.set_description(f"{scene_name}/{kind}: {name}")
+                kwargs = {SAMPLE_KEYWORDS[name]: shared} if name in SAMPLE_KEYWORDS else {}
+                kwargs.update(options.get(name, {}))
+                row = {"scene": scene_name, "light": kind, "method": name, "error": None}
+                start = time.perf_counter()
+                try:
+                    vis, stats = METHODS[name](setup.scene, setup.light, gb, return_stats=True, **kwargs)
+                except ValueError as refusal:
+                    row.update(rmse=np.nan, ssim=np.nan, flip=np.nan, seconds=np.nan, error=str(refusal))
+                else:
+                    row.update(metrics.summary(vis, ref, gb.mask), seconds=time.perf_counter() - start)
+                    row.update({f"stats.{k}": v for k, v in stats.items()})
+                    kept[name] = vis
+                rows.append(row)
+                bar.update()
+            if keep_images:
+                images[(scene_name, kind)] = kept
+    frame = pd.DataFrame(rows)
+    if keep_images:
+        frame.attrs["images"] = images
+    frame.attrs["setup"] = {"size": size, "samples": samples, "reference": f"mitsuba ray_test, {reference_samples} Sobol samples"}
+    return frame
+
+
+def pareto_front(frame, x: str = "seconds", y: str = "rmse"):
+    """Whether each row is on the Pareto front of ``(x, y)`` among its rows: no other row is at
+    least as low in both and lower in one (faster and as accurate, or as fast and more accurate).
+    Rows with NaN are not. Returns a boolean Series; :func:`report` applies it per scene and light."""
+    values = frame[[x, y]].to_numpy(dtype=float)
+    ok = np.isfinite(values).all(axis=1)
+    front = []
+    for i, (a, b) in enumerate(values):
+        dominated = ok & (values[:, 0] <= a) & (values[:, 1] <= b) & ((values[:, 0] < a) | (values[:, 1] < b))
+        front.append(bool(ok[i] and not dominated.any()))
+    import pandas as pd
+
+    return pd.Series(front, index=frame.index, name="pareto")
+
+
+def report(frame, out) -> Path:
+    """Writes the evaluation report: ``report.md`` (a table per scene and light, the Pareto-front
+    methods in bold), ``results.csv``, ``pareto.png`` (seconds against RMSE, one point per row,
+    the front joined) and, when ``frame`` kept its images, one comparison grid per scene and light.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        From :func:`evaluate`.
+    out : str or Path
+        Output folder (created).
+
+    Returns
+    -------
+    Path
+        The Markdown page.
+    """
+    import matplotlib.pyplot as plt
+    import pandas as pd
+
+    from . import plot
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    fronts = [pareto_front(group) for _, group in frame.groupby(["scene", "light"], sort=False)]
+    frame = frame.assign(pareto=pd.concat(fronts).reindex(frame.index))
+    frame.to_csv(out / "results.csv", index=False)
+    setup = frame.attrs.get("setup", {})
+    lines = ["# softshadows evaluation", ""]
+    if setup:
+        lines += [f"{setup['size']}x{setup['size']} receivers; sample-based methods: {setup['samples']} Poisson samples; "
+                  f"reference: {setup['reference']}. Bold: on the time-versus-RMSE Pareto front of its scene and light.", ""]
+    for (scene, light), group in frame.groupby(["scene", "light"], sort=False):
+        lines += [f"## {scene}, {light} light", "", "| method | RMSE | SSIM | FLIP | seconds |", "|---|---|---|---|---|"]
+        for _, r in group.iterrows():
+            if r["error"] is not None and isinstance(r["error"], str):
+                lines.append(f"| {r['method']} | refused: {r['error']} | | | |")
+                continue
+            name = f"**{r['method']}**" if r["pareto"] else r["method"]
+            lines.append(f"| {name} | {r['rmse']:.4f} | {r['ssim']:.4f} | {r['flip']:.4f} | {r['seconds']:.3f} |")
+        images = frame.attrs.get("images", {}).get((scene, light))
+        if images:
+            grid = f"{scene}_{light}.png"
+            results = {k: v for k, v in images.items() if k not in ("reference", "mask")}
+            titles = {k: f"RMSE {_rmse_of(group, k):.4f}" for k in results}
+            plot.comparison_grid(images["reference"], results, images["mask"], path=out / grid, titles=titles)
+            plt.close("all")
+            lines += ["", f"![{scene}, {light}]({grid})"]
+        lines.append("")
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ok = frame.dropna(subset=["seconds", "rmse"])
+    for (scene, light), group in ok.groupby(["scene", "light"], sort=False):
+        dots = ax.scatter(group["seconds"], group["rmse"], label=f"{scene}/{light}", s=18)
+        for _, r in group.iterrows():
+            ax.annotate(r["method"], (r["seconds"], r["rmse"]), fontsize=6, xytext=(2, 2), textcoords="offset points")
+        front = group[group["pareto"]].sort_values("seconds")
+        ax.plot(front["seconds"], front["rmse"], "--", lw=1, color=dots.get_facecolor()[0])
+    ax.set(xscale="log", xlabel="seconds", ylabel="RMSE against the reference", title="time against error (dashed: Pareto fronts)")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out / "pareto.png", dpi=150)
+    plt.close(fig)
+    lines += ["## Time against error", "", "![time against error](pareto.png)", ""]
+    page = out / "report.md"
+    page.write_text("\n".join(lines))
+    return page
+
+
+def _rmse_of(group, method: str) -> float:
+    """The RMSE of one method's row in a scene and light's rows."""
+    return float(group.loc[group["method"] == method, "rmse"].iloc[0])

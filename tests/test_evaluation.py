@@ -1,0 +1,59 @@
+"""The evaluation suite's engine: rows, refusals, the Pareto front, the report and the cache."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import softshadows as ss
+from softshadows import evaluation, reference
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("SOFTSHADOWS_CACHE", str(tmp_path / "cache"))
+    return tmp_path / "cache"
+
+
+def test_rows_per_scene_light_and_method_with_refusals(cache):
+    frame = ss.evaluate(["columns"], ["ray_traced", "shadow_map", "backprojection"], lights=("rect", "sphere"), size=32,
+                        reference_samples=64, progress=False)
+    assert len(frame) == 6 and set(frame["method"]) == {"ray_traced", "shadow_map", "backprojection"}
+    refused = frame[frame["error"].notna()]
+    assert list(zip(refused["light"], refused["method"])) == [("sphere", "backprojection")]
+    assert "planar" in refused["error"].iloc[0] and refused["rmse"].isna().all()
+    done = frame[frame["error"].isna()]
+    assert done["rmse"].between(0, 1).all() and done["ssim"].between(-1, 1).all() and (done["seconds"] > 0).all()
+    # Each method's own stats come along, and the exact oracle beats the hard shadow map.
+    assert done.loc[done["method"] == "ray_traced", "stats.rays"].gt(0).all()
+    for light in ("rect", "sphere"):
+        rows = done[done["light"] == light].set_index("method")
+        assert rows.loc["ray_traced", "rmse"] < rows.loc["shadow_map", "rmse"]
+
+
+def test_unknown_methods_are_refused():
+    with pytest.raises(ValueError, match="methods"):
+        ss.evaluate(["columns"], ["ray_trace"], progress=False)
+
+
+def test_pareto_front():
+    frame = pd.DataFrame({"seconds": [1.0, 2.0, 0.5, 3.0, 1.0, np.nan], "rmse": [0.1, 0.05, 0.3, 0.05, 0.2, 0.0]})
+    assert evaluation.pareto_front(frame).tolist() == [True, True, True, False, False, False]
+
+
+def test_report_and_cached_references(cache, tmp_path, monkeypatch):
+    kwargs = dict(size=32, reference_samples=64, progress=False, keep_images=True)
+    frame = ss.evaluate(["columns"], ["ray_traced", "pcss"], **kwargs)
+    page = evaluation.report(frame, tmp_path / "report")
+    text = page.read_text()
+    assert "| **ray_traced** |" in text or "| **pcss** |" in text
+    for name in ("results.csv", "pareto.png", "columns_rect.png"):
+        assert (tmp_path / "report" / name).stat().st_size > 0
+    # A second run reads the references from the cache: Mitsuba traces nothing again...
+    calls = []
+    real = reference._Tracer
+    monkeypatch.setattr(reference, "_Tracer", lambda *a: calls.append(1) or real(*a))
+    again = ss.evaluate(["columns"], ["ray_traced", "pcss"], **kwargs)
+    assert not calls and np.allclose(again["rmse"], frame["rmse"])
+    # ... until an input changes.
+    ss.evaluate(["columns"], ["pcss"], **{**kwargs, "reference_samples": 65})
+    assert calls
