@@ -57,3 +57,18 @@ def test_report_and_cached_references(cache, tmp_path, monkeypatch):
     # ... until an input changes.
     ss.evaluate(["columns"], ["pcss"], **{**kwargs, "reference_samples": 65})
     assert calls
+
+
+def test_readme_table_is_rewritten_between_its_markers(tmp_path):
+    frame = pd.DataFrame({"scene": ["a", "a", "b", "b"], "light": ["rect"] * 4, "method": ["x", "y", "x", "y"],
+                          "rmse": [0.1, 0.2, np.nan, 0.3], "ssim": [0.9, 0.8, np.nan, 0.7], "seconds": [1.0, 2.0, np.nan, 3.0]})
+    readme = tmp_path / "README.md"
+    readme.write_text("intro\n<!-- evaluation:start -->\nold table\n<!-- evaluation:end -->\noutro\n")
+    evaluation.update_readme(frame, readme)
+    text = readme.read_text()
+    assert "old table" not in text and text.startswith("intro\n") and text.endswith("outro\n")
+    assert "| x | 0.1000, 0.900, 1.000 | - |" in text and "| y | 0.2000, 0.800, 2.000 | 0.3000, 0.700, 3.000 |" in text
+    plain = tmp_path / "plain.md"
+    plain.write_text("no markers\n")
+    with pytest.raises(ValueError, match="path"):
+        evaluation.update_readme(frame, plain)

@@ -107,6 +107,7 @@ def main(argv=None) -> int:
     e.add_argument("--samples", type=int, default=64, help="light samples for sample-based methods")
     e.add_argument("--reference-samples", type=int, default=4096, help="light samples of the Mitsuba reference")
     e.add_argument("--out", type=Path, default=Path("evaluation"), help="output folder (default: ./evaluation)")
+    e.add_argument("--readme", type=Path, default=None, help="also rewrite the results table of this README")
     args = parser.parse_args(argv)
     if args.command == "evaluate":
         return _evaluate(args)
@@ -119,7 +120,7 @@ def main(argv=None) -> int:
 
 
 def _evaluate(args) -> int:
-    from .evaluation import evaluate, report
+    from .evaluation import evaluate, report, update_readme
 
     split = lambda text: [t.strip() for t in text.split(",") if t.strip()]  # noqa: E731
     frame = evaluate(
@@ -132,6 +133,8 @@ def _evaluate(args) -> int:
         keep_images=True,
     )
     page = report(frame, args.out)
+    if args.readme is not None:
+        update_readme(frame, args.readme)
     print(frame[["scene", "light", "method", "rmse", "ssim", "flip", "seconds"]].to_string(index=False, float_format="%.4f"))
     print(f"wrote {page}, results.csv, pareto.png and the comparison grids")
     return 0

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["evaluate", "report", "pareto_front"]
+__all__ = ["evaluate", "report", "pareto_front", "results_table", "update_readme"]
 
 
 def evaluate(
@@ -29,6 +29,7 @@ def evaluate(
     samples: int = 64,
     reference_samples: int = 4096,
     options: dict | None = None,
+    repeat: int = 2,
     keep_images: bool = False,
     progress: bool = True,
 ):
@@ -50,6 +51,8 @@ def evaluate(
         Sobol samples of the reference.
     options : dict of str to dict, optional
         Keyword options per method, e.g. ``{"backprojection": {"budget": 8}}``.
+    repeat : int
+        Runs per method; ``seconds`` is the fastest (the machines are shared and noisy).
     keep_images : bool
         Keep every visibility image, the reference and the mask in ``frame.attrs["images"]``
         (keyed by ``(scene, light)``) for :func:`report`'s grids.
@@ -60,7 +63,7 @@ def evaluate(
     -------
     pandas.DataFrame
         One row per scene, light and method: ``scene``, ``light``, ``method``, ``rmse``, ``ssim``,
-        ``flip`` (over the hit pixels), ``seconds``, ``error`` (why a method refused the setup,
+        ``flip`` (over the hit pixels), ``seconds`` (wall-clock, fastest of ``repeat`` runs), ``error`` (why a method refused the setup,
         e.g. a non-planar light for ``backprojection``; metrics are NaN then) and every stat the
         method reports, as ``stats.<name>`` columns.
     """
@@ -93,13 +96,16 @@ def evaluate(
                 kwargs = {SAMPLE_KEYWORDS[name]: shared} if name in SAMPLE_KEYWORDS else {}
                 kwargs.update(options.get(name, {}))
                 row = {"scene": scene_name, "light": kind, "method": name, "error": None}
-                start = time.perf_counter()
                 try:
-                    vis, stats = METHODS[name](setup.scene, setup.light, gb, return_stats=True, **kwargs)
+                    seconds = []
+                    for _ in range(max(1, repeat)):
+                        start = time.perf_counter()
+                        vis, stats = METHODS[name](setup.scene, setup.light, gb, return_stats=True, **kwargs)
+                        seconds.append(time.perf_counter() - start)
                 except ValueError as refusal:
                     row.update(rmse=np.nan, ssim=np.nan, flip=np.nan, seconds=np.nan, error=str(refusal))
                 else:
-                    row.update(metrics.summary(vis, ref, gb.mask), seconds=time.perf_counter() - start)
+                    row.update(metrics.summary(vis, ref, gb.mask), seconds=min(seconds))
                     row.update({f"stats.{k}": v for k, v in stats.items()})
                     kept[name] = vis
                 rows.append(row)
@@ -199,3 +205,39 @@ def report(frame, out) -> Path:
 def _rmse_of(group, method: str) -> float:
     """The RMSE of one method's row in a scene and light's rows."""
     return float(group.loc[group["method"] == method, "rmse"].iloc[0])
+
+
+#: The markers around the results table in the README, which :func:`update_readme` rewrites.
+README_MARKERS = ("<!-- evaluation:start -->", "<!-- evaluation:end -->")
+
+
+def results_table(frame) -> str:
+    """A Markdown table of each method's RMSE, SSIM and seconds, one column group per scene and
+    light (refusals as a dash)."""
+    groups = list(frame.groupby(["scene", "light"], sort=False))
+    head = "| method | " + " | ".join(f"{s} / {k}: RMSE, SSIM, s" for (s, k), _ in groups) + " |"
+    lines = [head, "|---|" + "---|" * len(groups)]
+    for method in dict.fromkeys(frame["method"]):
+        cells = []
+        for _, group in groups:
+            r = group[group["method"] == method]
+            ok = len(r) and np.isfinite(r["rmse"].iloc[0])
+            cells.append(f"{r['rmse'].iloc[0]:.4f}, {r['ssim'].iloc[0]:.3f}, {r['seconds'].iloc[0]:.3f}" if ok else "-")
+        lines.append(f"| {method} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def update_readme(frame, path) -> None:
+    """Replaces the block between :data:`README_MARKERS` in the file ``path`` with
+    :func:`results_table` and the setup it was measured on."""
+    path = Path(path)
+    text = path.read_text()
+    start, end = README_MARKERS
+    if start not in text or end not in text:
+        raise ValueError(f"path: {path} has no {start} ... {end} block to fill")
+    setup = frame.attrs.get("setup", {})
+    note = (f"*{setup.get('size')}x{setup.get('size')} receivers, {setup.get('samples')} light samples, against "
+            f"{setup.get('reference')}; written by `softshadows evaluate --readme`.*") if setup else ""
+    block = f"{start}\n{results_table(frame)}\n\n{note}\n{end}"
+    head, rest = text.split(start, 1)
+    path.write_text(head + block + rest.split(end, 1)[1])
