@@ -87,7 +87,8 @@ def evaluate(
             bar.set_description(f"{scene_name}/{kind}: reference")
             setup = scene_library.get(scene_name, light=kind, width=size, height=size)
             gb = gbuffer(setup.scene, setup.camera)
-            ref = reference.mitsuba_visibility(setup.scene, setup.light, gb, setup.light.samples(reference_samples, pattern="sobol", seed=1))
+            ref_samples = setup.light.samples(reference_samples, pattern="sobol", seed=1)
+            ref = reference.mitsuba_visibility(setup.scene, setup.light, gb, ref_samples, progress=progress)
             bar.update()
             shared = setup.light.samples(samples, pattern="poisson", seed=0)
             kept = {"reference": ref, "mask": gb.mask}
