@@ -72,3 +72,25 @@ def test_readme_table_is_rewritten_between_its_markers(tmp_path):
     plain.write_text("no markers\n")
     with pytest.raises(ValueError, match="path"):
         evaluation.update_readme(frame, plain)
+
+
+def test_sweep_gives_the_same_records_on_a_process_pool_and_on_dask(cache):
+    distributed = pytest.importorskip("distributed", reason='needs pip install "softshadows[test]" (dask.distributed)')
+    grid = {"budget": [5, 12], "extend": [True, False]}
+    local = ss.sweep("backprojection", grid, size=32, reference_samples=64, progress=False)
+    assert len(local) == 4 and list(local["budget"]) == [5, 5, 12, 12] and local["rmse"].between(0, 1).all()
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        with distributed.Client(cluster) as client:
+            remote = ss.sweep("backprojection", grid, size=32, reference_samples=64, progress=False, executor=client.get_executor())
+    columns = [c for c in local.columns if c != "seconds"]
+    pd.testing.assert_frame_equal(local[columns], remote[columns])
+
+
+def test_sweep_parameters_reach_the_setup_and_the_method(cache):
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(1) as pool:
+        frame = ss.sweep("ray_traced", {"samples": [8, 128]}, size=32, reference_samples=256, progress=False, executor=pool)
+    assert list(frame["samples"]) == [8, 128] and frame["rmse"].iloc[1] < frame["rmse"].iloc[0]
+    with pytest.raises(ValueError, match="method"):
+        ss.sweep("ray_trace", {"samples": [8]})

@@ -1,4 +1,4 @@
-"""Every notebook runs from top to bottom against the installed package (slow)."""
+"""Every notebook runs from top to bottom against the installed package (in CI every time)."""
 
 from pathlib import Path
 
@@ -7,7 +7,6 @@ import pytest
 NOTEBOOKS = sorted((Path(__file__).parent.parent / "notebooks").glob("*.ipynb"))
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
 def test_notebook_runs(path, tmp_path):
     nbformat = pytest.importorskip("nbformat")

@@ -14,7 +14,7 @@ See DESIGN.md for the data model and the definition of visibility.
 from . import _core, _validate, envmap, evaluation, io, metrics, plot, reference, scenes, shading
 from .camera import Camera, GBuffer, Receivers, gbuffer
 from .envmap import environment
-from .evaluation import evaluate
+from .evaluation import evaluate, sweep
 from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight
 from .methods import METHODS, alias_free, backprojection, cssm, dcs, mvr, pcss, penumbra_wedge, ray_traced, resolve_msaa, shadow_map, stsv, vwss
 from .scene import Mesh, Scene
@@ -39,6 +39,7 @@ def memory_limit() -> int:
 __all__ = [
     "alias_free",
     "evaluate",
+    "sweep",
     "backprojection",
     "dcs",
     "penumbra_wedge",

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["evaluate", "report", "pareto_front", "results_table", "update_readme"]
+__all__ = ["evaluate", "sweep", "report", "pareto_front", "results_table", "update_readme"]
 
 
 def evaluate(
@@ -118,6 +118,93 @@ def evaluate(
         frame.attrs["images"] = images
     frame.attrs["setup"] = {"size": size, "samples": samples, "reference": f"mitsuba ray_test, {reference_samples} Sobol samples"}
     return frame
+
+
+#: Sweep parameters that shape the setup rather than the method's call.
+SETUP_PARAMETERS = ("light_size", "samples")
+
+
+def sweep(method: str, parameters: dict, *, scenes=("columns",), lights=("rect",), size: int = 96,
+          samples: int = 64, reference_samples: int = 1024, executor=None, progress: bool = True):
+    """One method over a grid of parameters, every combination on every scene and light, run on
+    any :class:`concurrent.futures.Executor`.
+
+    Parameters
+    ----------
+    method : str
+        A name from ``softshadows.METHODS``.
+    parameters : dict of str to sequence
+        The values of each parameter; every combination is one task. The method's keyword
+        options (``budget``, ``order``, ``views``, ``lut``, ...), plus ``samples`` (light samples
+        or views of the sample-based methods) and ``light_size`` (the scene's light size).
+    scenes, lights, size, samples, reference_samples
+        As in :func:`evaluate` (``samples`` is the default when ``parameters`` has none).
+    executor : concurrent.futures.Executor, optional
+        Where the tasks run: by default a local process pool (spawned workers, one per core); a
+        Dask ``distributed.Client(...).get_executor()`` runs them on a cluster. Workers share
+        the on-disk reference cache when they share a file system.
+    progress : bool
+        Show a progress bar.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per task, in grid order: ``scene``, ``light``, ``method``, the parameters, ``rmse``,
+        ``ssim``, ``flip``, ``seconds`` and ``error``.
+    """
+    import itertools
+    import multiprocessing
+    import os
+    from concurrent.futures import ProcessPoolExecutor
+
+    import pandas as pd
+    from tqdm.auto import tqdm
+
+    from .methods import METHODS
+
+    if method not in METHODS:
+        raise ValueError(f"method: expected a name from {list(METHODS)}, got {method!r}")
+    keys = list(parameters)
+    grid = list(itertools.product(*(list(parameters[k]) for k in keys)))
+    tasks = [(scene, light, method, dict(zip(keys, values)), size, samples, reference_samples)
+             for scene in scenes for light in lights for values in grid]
+    own = executor is None
+    if own:
+        # Spawned, not forked: a forked child would inherit a thread pool without its threads.
+        executor = ProcessPoolExecutor(max_workers=os.cpu_count(), mp_context=multiprocessing.get_context("spawn"))
+    try:
+        records = list(tqdm(executor.map(_sweep_task, tasks), total=len(tasks), desc=f"sweep {method}", disable=not progress))
+    finally:
+        if own:
+            executor.shutdown()
+    return pd.DataFrame(records)
+
+
+def _sweep_task(task) -> dict:
+    """One sweep task (a top-level function, so that it pickles to any executor's workers)."""
+    from . import metrics, reference
+    from . import scenes as scene_library
+    from .camera import gbuffer
+    from .methods import METHODS, SAMPLE_KEYWORDS
+
+    scene_name, light, method, params, size, samples, reference_samples = task
+    setup_options = {k: v for k, v in params.items() if k == "light_size"}
+    setup = scene_library.get(scene_name, light=light, width=size, height=size, **setup_options)
+    gb = gbuffer(setup.scene, setup.camera)
+    ref = reference.mitsuba_visibility(setup.scene, setup.light, gb, setup.light.samples(reference_samples, pattern="sobol", seed=1),
+                                       progress=False)
+    kwargs = {k: v for k, v in params.items() if k not in SETUP_PARAMETERS}
+    if method in SAMPLE_KEYWORDS:
+        count = params.get("samples", samples)
+        kwargs[SAMPLE_KEYWORDS[method]] = setup.light.samples(count, pattern="poisson", seed=0) if SAMPLE_KEYWORDS[method] == "samples" else count
+    record = {"scene": scene_name, "light": light, "method": method, **params, "error": None}
+    start = time.perf_counter()
+    try:
+        vis = METHODS[method](setup.scene, setup.light, gb, **kwargs)
+    except ValueError as refusal:
+        return {**record, "rmse": np.nan, "ssim": np.nan, "flip": np.nan, "seconds": np.nan, "error": str(refusal)}
+    seconds = time.perf_counter() - start
+    return {**record, **metrics.summary(vis, ref, gb.mask), "seconds": seconds}
 
 
 def pareto_front(frame, x: str = "seconds", y: str = "rmse"):
