@@ -94,3 +94,9 @@ def test_sweep_parameters_reach_the_setup_and_the_method(cache):
     assert list(frame["samples"]) == [8, 128] and frame["rmse"].iloc[1] < frame["rmse"].iloc[0]
     with pytest.raises(ValueError, match="method"):
         ss.sweep("ray_trace", {"samples": [8]})
+
+
+def test_shaded_images_against_the_path_traced_reference(cache):
+    frame = ss.evaluate(["columns"], ["ray_traced", "shadow_map"], size=32, reference_samples=64, shaded=True, render_spp=16,
+                        progress=False, repeat=1)
+    assert frame["shaded.rmse"].gt(0).all() and frame["shaded.flip"].between(0, 1).all()

@@ -30,6 +30,8 @@ def evaluate(
     reference_samples: int = 4096,
     options: dict | None = None,
     repeat: int = 2,
+    shaded: bool = False,
+    render_spp: int = 256,
     keep_images: bool = False,
     progress: bool = True,
 ):
@@ -53,6 +55,13 @@ def evaluate(
         Keyword options per method, e.g. ``{"backprojection": {"budget": 8}}``.
     repeat : int
         Runs per method; ``seconds`` is the fastest (the machines are shared and noisy).
+    shaded : bool
+        Also compare shaded images: each visibility through :func:`softshadows.shading.direct`
+        (albedo 0.8) against Mitsuba's path-traced direct light
+        (:func:`softshadows.reference.mitsuba_render`, ``render_spp`` samples per pixel), as the
+        ``shaded.rmse`` and ``shaded.flip`` columns.
+    render_spp : int
+        Samples per pixel of the shaded reference.
     keep_images : bool
         Keep every visibility image, the reference and the mask in ``frame.attrs["images"]``
         (keyed by ``(scene, light)``) for :func:`report`'s grids.
@@ -63,14 +72,15 @@ def evaluate(
     -------
     pandas.DataFrame
         One row per scene, light and method: ``scene``, ``light``, ``method``, ``rmse``, ``ssim``,
-        ``flip`` (over the hit pixels), ``seconds`` (wall-clock, fastest of ``repeat`` runs), ``error`` (why a method refused the setup,
+        ``flip`` (over the hit pixels), ``seconds`` (wall-clock, fastest of ``repeat`` runs),
+        ``shaded.rmse`` and ``shaded.flip`` with ``shaded``, ``error`` (why a method refused the setup,
         e.g. a non-planar light for ``backprojection``; metrics are NaN then) and every stat the
         method reports, as ``stats.<name>`` columns.
     """
     import pandas as pd
     from tqdm.auto import tqdm
 
-    from . import metrics, reference
+    from . import metrics, reference, shading
     from . import scenes as scene_library
     from .camera import gbuffer
     from .methods import METHODS, SAMPLE_KEYWORDS
@@ -91,6 +101,7 @@ def evaluate(
             ref = reference.mitsuba_visibility(setup.scene, setup.light, gb, ref_samples, progress=progress)
             bar.update()
             shared = setup.light.samples(samples, pattern="poisson", seed=0)
+            render = reference.mitsuba_render(setup.scene, setup.light, setup.camera, spp=render_spp)[..., 0] if shaded else None
             kept = {"reference": ref, "mask": gb.mask}
             for name in names:
                 bar.set_description(f"{scene_name}/{kind}: {name}")
@@ -107,6 +118,9 @@ def evaluate(
                     row.update(rmse=np.nan, ssim=np.nan, flip=np.nan, seconds=np.nan, error=str(refusal))
                 else:
                     row.update(metrics.summary(vis, ref, gb.mask), seconds=min(seconds))
+                    if render is not None:
+                        image = shading.direct(gb, setup.light, vis)
+                        row.update({"shaded.rmse": metrics.rmse(image, render, gb.mask), "shaded.flip": metrics.flip(image, render, gb.mask)})
                     row.update({f"stats.{k}": v for k, v in stats.items()})
                     kept[name] = vis
                 rows.append(row)
@@ -182,7 +196,7 @@ def sweep(method: str, parameters: dict, *, scenes=("columns",), lights=("rect",
 
 def _sweep_task(task) -> dict:
     """One sweep task (a top-level function, so that it pickles to any executor's workers)."""
-    from . import metrics, reference
+    from . import metrics, reference, shading
     from . import scenes as scene_library
     from .camera import gbuffer
     from .methods import METHODS, SAMPLE_KEYWORDS
