@@ -11,6 +11,8 @@ Quick start::
 See DESIGN.md for the data model and the definition of visibility.
 """
 
+import os as _os
+
 from . import _core, _validate, envmap, evaluation, io, metrics, plot, reference, scenes, shading
 from .camera import Camera, GBuffer, Receivers, gbuffer
 from .envmap import environment
@@ -34,6 +36,25 @@ def set_memory_limit(bytes: int | None) -> None:
 def memory_limit() -> int:
     """The current memory limit in bytes."""
     return int(_core.memory_limit())
+
+
+def set_num_threads(threads: int | None) -> None:
+    """Sets the worker threads of every heavy call (``None`` or 0: one per core).
+
+    Results do not depend on it: every method's output is the same bits for any thread count.
+    """
+    _core.set_num_threads(0 if threads is None else _validate.nonneg_int("threads", threads))
+
+
+def num_threads() -> int:
+    """The worker threads of every heavy call."""
+    return int(_core.num_threads())
+
+
+# A forked child has none of the parent's worker threads: it builds its own pool on first use
+# (as Hugging Face's tokenizers does after fork).
+if hasattr(_os, "register_at_fork"):
+    _os.register_at_fork(after_in_child=_core.after_fork_in_child)
 
 
 __all__ = [
@@ -72,6 +93,8 @@ __all__ = [
     "pcss",
     "ray_traced",
     "set_memory_limit",
+    "set_num_threads",
+    "num_threads",
     "shadow_map",
     "vwss",
 ]

@@ -6,6 +6,7 @@
 mod convert;
 mod error;
 mod methods;
+mod threads;
 
 use convert::{faces, image, vec2s, vec3, vec3s};
 use error::OrRaise;
@@ -34,7 +35,7 @@ impl NativeScene {
         if let Some(bvh) = self.bvh.get() {
             return Ok(bvh);
         }
-        let built = py.detach(|| Bvh::build(&self.scene)).or_raise()?;
+        let built = threads::detached(py, || Bvh::build(&self.scene)).or_raise()?;
         Ok(self.bvh.get_or_init(|| built))
     }
 }
@@ -90,7 +91,7 @@ impl NativeScene {
         Bound<'py, PyArray1<f32>>,
     )> {
         let bvh = self.bvh(py)?;
-        let gb = py.detach(|| gbuffer(&self.scene, bvh, &camera.camera, msaa)).or_raise()?;
+        let gb = threads::detached(py, || gbuffer(&self.scene, bvh, &camera.camera, msaa)).or_raise()?;
         let n = gb.positions.len();
         let as2 = |v: Vec<f32>| v.into_pyarray(py).reshape([n, 3]);
         Ok((
@@ -160,7 +161,7 @@ impl NativeLight {
     fn samples<'py>(&self, py: Python<'py>, n: usize, pattern: &str, seed: u64, frame: u64) -> PyResult<Bound<'py, PyArray2<f32>>> {
         let pattern = Pattern::parse(pattern).or_raise()?;
         softshadows_core::limits::check_memory("light samples", softshadows_core::limits::bytes(&[n as u64, 12])).or_raise()?;
-        let pts = py.detach(|| light_samples(&self.light, n, pattern, seed, frame));
+        let pts = threads::detached(py, || light_samples(&self.light, n, pattern, seed, frame));
         convert::flat3(&pts).into_pyarray(py).reshape([n, 3])
     }
 
@@ -241,7 +242,7 @@ impl NativeSamples {
         let pattern = Pattern::parse(pattern).or_raise()?;
         let total = softshadows_core::limits::bytes(&[n as u64, interleave as u64, interleave as u64, 12]);
         softshadows_core::limits::check_memory("light sample patterns", total).or_raise()?;
-        let samples = py.detach(|| SampleSet::generate(&light.light, n, pattern, seed, interleave, rotate, frame)).or_raise()?;
+        let samples = threads::detached(py, || SampleSet::generate(&light.light, n, pattern, seed, interleave, rotate, frame)).or_raise()?;
         Ok(Self { samples })
     }
 
@@ -279,6 +280,9 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<NativeSamples>()?;
     m.add_function(wrap_pyfunction!(set_memory_limit, m)?)?;
     m.add_function(wrap_pyfunction!(memory_limit, m)?)?;
+    m.add_function(wrap_pyfunction!(threads::set_num_threads, m)?)?;
+    m.add_function(wrap_pyfunction!(threads::num_threads, m)?)?;
+    m.add_function(wrap_pyfunction!(threads::after_fork_in_child, m)?)?;
     methods::register(m)?;
     Ok(())
 }

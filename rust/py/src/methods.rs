@@ -52,8 +52,7 @@ fn ray_traced<'py>(
 ) -> PyResult<Output<'py>> {
     let opts = RayTracedOptions { epsilon };
     let bvh = scene.bvh(py)?;
-    let out = py
-        .detach(|| ray_traced_core(&scene.scene, bvh, &light.light, &receivers.receivers, &samples.samples, &opts))
+    let out = crate::threads::detached(py, || ray_traced_core(&scene.scene, bvh, &light.light, &receivers.receivers, &samples.samples, &opts))
         .or_raise()?;
     output(py, out)
 }
@@ -70,7 +69,7 @@ fn shadow_map<'py>(
     pcf: usize,
 ) -> PyResult<Output<'py>> {
     let opts = ShadowMapOptions { resolution, bias, pcf, frustum: None };
-    let out = py.detach(|| shadow_map_core(&scene.scene, &light.light, &receivers.receivers, &opts)).or_raise()?;
+    let out = crate::threads::detached(py, || shadow_map_core(&scene.scene, &light.light, &receivers.receivers, &opts)).or_raise()?;
     output(py, out)
 }
 
@@ -88,8 +87,7 @@ fn mvr<'py>(
     bias: Option<f32>,
 ) -> PyResult<Output<'py>> {
     let opts = MultiViewOptions { resolution, pcf, bias };
-    let out = py
-        .detach(|| mvr_core(&scene.scene, &light.light, &receivers.receivers, &samples.samples, &opts))
+    let out = crate::threads::detached(py, || mvr_core(&scene.scene, &light.light, &receivers.receivers, &samples.samples, &opts))
         .or_raise()?;
     output(py, out)
 }
@@ -139,8 +137,7 @@ fn vwss<'py>(
         point_density,
         source_resolution,
     };
-    let out = py
-        .detach(|| vwss_core(&scene.scene, &light.light, &receivers.receivers, &samples.samples, &opts))
+    let out = crate::threads::detached(py, || vwss_core(&scene.scene, &light.light, &receivers.receivers, &samples.samples, &opts))
         .or_raise()?;
     output(py, out)
 }
@@ -161,7 +158,7 @@ fn pcss<'py>(
     seed: u64,
 ) -> PyResult<Output<'py>> {
     let opts = PcssOptions { resolution, blocker_samples, filter_samples, bias, near, seed };
-    let out = py.detach(|| pcss_core(&scene.scene, &light.light, &receivers.receivers, &opts)).or_raise()?;
+    let out = crate::threads::detached(py, || pcss_core(&scene.scene, &light.light, &receivers.receivers, &opts)).or_raise()?;
     output(py, out)
 }
 
@@ -184,7 +181,7 @@ fn cssm<'py>(
 ) -> PyResult<Output<'py>> {
     let prefilter = choice("prefilter", prefilter, &[("sat", Prefilter::Sat), ("mipmap", Prefilter::Mipmap)]).or_raise()?;
     let opts = CssmOptions { resolution, order, prefilter, near, offset, scale, sharpen_a, sharpen_b };
-    let out = py.detach(|| cssm_core(&scene.scene, &light.light, &receivers.receivers, &opts)).or_raise()?;
+    let out = crate::threads::detached(py, || cssm_core(&scene.scene, &light.light, &receivers.receivers, &opts)).or_raise()?;
     output(py, out)
 }
 
@@ -203,7 +200,7 @@ fn fit_area_lights(
 ) -> PyResult<Vec<FittedTuple>> {
     let values = cube.as_slice().map_err(|_| pyo3::exceptions::PyValueError::new_err("env: expected a contiguous array"))?;
     let opts = FitOptions { threshold, max_lights, square };
-    let lights = py.detach(|| fit_core(values, n, &opts)).or_raise()?;
+    let lights = crate::threads::detached(py, || fit_core(values, n, &opts)).or_raise()?;
     Ok(lights.into_iter().map(|l| (l.face, l.i0, l.i1, l.j0, l.j1, (l.energy[0], l.energy[1], l.energy[2]))).collect())
 }
 
@@ -232,8 +229,7 @@ fn alias_free<'py>(
 ) -> PyResult<Output<'py>> {
     let casters = choice("casters", casters, &[("backfacing", Casters::Backfacing), ("all", Casters::All)]).or_raise()?;
     let opts = AliasFreeOptions { resolution, casters, bias, lut, hull_degree, restrict_to_penumbra };
-    let out = py
-        .detach(|| alias_free_core(&scene.scene, &light.light, &receivers.receivers, &samples.samples, &opts))
+    let out = crate::threads::detached(py, || alias_free_core(&scene.scene, &light.light, &receivers.receivers, &samples.samples, &opts))
         .or_raise()?;
     output(py, out)
 }
@@ -254,7 +250,7 @@ fn object_method<'py>(
 ) -> PyResult<Output<'py>> {
     let opts = ObjectOptions { epsilon, resolution, hull_degree };
     let bvh = scene.bvh(py)?;
-    let out = py.detach(|| method(&scene.scene, bvh, &light.light, &receivers.receivers, &samples.samples, &opts)).or_raise()?;
+    let out = crate::threads::detached(py, || method(&scene.scene, bvh, &light.light, &receivers.receivers, &samples.samples, &opts)).or_raise()?;
     output(py, out)
 }
 
@@ -308,7 +304,7 @@ fn stsv<'py>(
     let opaque = choice("opaque", opaque, &[("bitmask", Opaque::Bitmask), ("dcs", Opaque::Dcs), ("penumbra_wedge", Opaque::PenumbraWedge)]).or_raise()?;
     let opts = StsvOptions { object: ObjectOptions { epsilon, resolution, hull_degree }, opaque, two_sided };
     let bvh = scene.bvh(py)?;
-    let out = py.detach(|| stsv_core(&scene.scene, bvh, &light.light, &receivers.receivers, &samples.samples, &opts)).or_raise()?;
+    let out = crate::threads::detached(py, || stsv_core(&scene.scene, bvh, &light.light, &receivers.receivers, &samples.samples, &opts)).or_raise()?;
     output(py, out)
 }
 
@@ -327,7 +323,7 @@ fn stsv_volumes<'py>(
 ) -> PyResult<Volumes<'py>> {
     let rx = &receivers.receivers;
     let points: Vec<_> = rx.points.iter().zip(&rx.valid).filter(|(_, &v)| v).map(|(p, _)| *p).collect();
-    let volumes = py.detach(|| stsv_volumes_core(&scene.scene, &light.light, hull_degree, two_sided, &points));
+    let volumes = crate::threads::detached(py, || stsv_volumes_core(&scene.scene, &light.light, hull_degree, two_sided, &points));
     let ids: Vec<u32> = volumes.iter().map(|(id, _)| *id).collect();
     let corners: Vec<f32> = volumes.iter().flat_map(|(_, c)| c.iter().flat_map(|p| p.to_array())).collect();
     Ok((ids.into_pyarray(py), corners.into_pyarray(py).reshape([volumes.len() * 6, 3])?))
@@ -366,7 +362,7 @@ fn backprojection<'py>(
         Some(b) => Budget::Map(b),
     };
     let opts = BackprojectionOptions { resolution, occluder, accumulation, acceleration, budget, level, blend, smoothing, bias };
-    let (vis, levels, stats) = py.detach(|| backprojection_levels(&scene.scene, &light.light, &receivers.receivers, &opts)).or_raise()?;
+    let (vis, levels, stats) = crate::threads::detached(py, || backprojection_levels(&scene.scene, &light.light, &receivers.receivers, &opts)).or_raise()?;
     let (vis, stats) = output(py, (vis, stats))?;
     Ok((vis, levels.into_pyarray(py), stats))
 }
