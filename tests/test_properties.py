@@ -1,0 +1,90 @@
+"""Property-based tests (hypothesis): adversarial scenes, lights and receivers never crash the
+process; every call either refuses with a ValueError naming an argument or returns visibility in
+[0, 1] without NaN, and the exact methods keep the oracle's bits on well-conditioned soups."""
+
+import re
+
+import numpy as np
+import pytest
+
+hypothesis = pytest.importorskip("hypothesis", reason='needs pip install "softshadows[test]" (hypothesis)')
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+import softshadows as ss  # noqa: E402
+
+SETTINGS = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# Coordinates from ordinary to extreme, with NaN and infinities.
+COORD = st.one_of(st.floats(-3, 3), st.sampled_from([0.0, 1e-30, -1e-30, 1e30, -1e30, np.nan, np.inf, -np.inf]))
+ARGUMENT = re.compile(r"^\w+:")
+
+
+def refusal_names_an_argument(error: ValueError):
+    assert ARGUMENT.match(str(error)), f"a ValueError must start with the argument's name: {error}"
+
+
+@st.composite
+def meshes(draw):
+    n = draw(st.integers(0, 7))
+    vertices = draw(st.lists(st.tuples(COORD, COORD, COORD), min_size=n, max_size=n))
+    faces = draw(st.lists(st.tuples(*[st.integers(0, max(n, 1) + 1)] * 3), min_size=0, max_size=6))
+    return np.array(vertices, np.float32).reshape(-1, 3), np.array(faces, np.int64).reshape(-1, 3)
+
+
+def ground_receivers(k=16):
+    xs = np.linspace(-1.5, 1.5, k, dtype=np.float32)
+    points = np.stack([xs, np.zeros_like(xs), np.zeros_like(xs)], axis=1)
+    return ss.Receivers(points, np.tile(np.float32([0, 1, 0]), (k, 1)))
+
+
+def check_visibility(vis):
+    assert np.all(np.isfinite(vis)) and np.all((vis >= 0) & (vis <= 1))
+
+
+@SETTINGS
+@given(meshes(), st.sampled_from(["ray_traced", "shadow_map", "pcss", "dcs", "alias_free", "backprojection"]))
+def test_adversarial_meshes_are_refused_or_shadowed(mesh, method):
+    vertices, faces = mesh
+    try:
+        scene = ss.Scene([ss.Mesh(vertices, faces)])
+        light = ss.RectLight((0, 3, 0), (0.5, 0, 0), (0, 0, 0.5))
+        vis = ss.METHODS[method](scene, light, ground_receivers())
+    except ValueError as error:
+        refusal_names_an_argument(error)
+        return
+    check_visibility(vis)
+
+
+@SETTINGS
+@given(st.tuples(COORD, COORD, COORD), st.one_of(st.floats(0, 4), st.sampled_from([0.0, -1.0, 1e-30, 1e30, np.nan])),
+       st.sampled_from(["rect", "disk", "sphere"]))
+def test_adversarial_lights_are_refused_or_shadowed(center, size, kind):
+    scene = ss.scenes.ground_sphere(width=8, height=8).scene
+    try:
+        light = {"rect": lambda: ss.RectLight(center, (size, 0, 0), (0, 0, size)),
+                 "disk": lambda: ss.DiskLight(center, (0, -1, 0), size),
+                 "sphere": lambda: ss.SphereLight(center, size)}[kind]()
+        vis = ss.ray_traced(scene, light, ground_receivers(), samples=8)
+    except ValueError as error:
+        refusal_names_an_argument(error)
+        return
+    check_visibility(vis)
+
+
+@SETTINGS
+@given(st.integers(0, 2**32 - 1), st.sampled_from(["dcs", "alias_free"]))
+def test_exact_methods_keep_the_oracles_bits_on_random_soups(seed, method):
+    rng = np.random.default_rng(seed)
+    centers = rng.uniform([-1, 0.3, -1], [1, 1.5, 1], (12, 1, 3))
+    soup = (centers + rng.uniform(-0.3, 0.3, (12, 3, 3))).reshape(-1, 3).astype(np.float32)
+    ground = ss.Mesh(np.float32([[-3, 0, -3], [3, 0, -3], [3, 0, 3], [-3, 0, 3]]), np.uint32([[0, 2, 1], [0, 3, 2]]))
+    scene = ss.Scene([ground, ss.Mesh(soup, np.arange(36, dtype=np.uint32).reshape(12, 3))])
+    light = ss.RectLight((0.2, 3, 0.1), (0.6, 0, 0), (0, 0, -0.6))
+    xs = np.linspace(-2, 2, 24, dtype=np.float32)
+    grid = np.stack(np.meshgrid(xs, xs), -1).reshape(-1, 2)
+    receivers = ss.Receivers(np.stack([grid[:, 0], np.zeros(len(grid), np.float32), grid[:, 1]], 1), np.tile(np.float32([0, 1, 0]), (len(grid), 1)))
+    samples = light.samples(32, seed=int(seed % 1000))
+    exact = ss.ray_traced(scene, light, receivers, samples=samples)
+    options = {"lut": None} if method == "alias_free" else {}
+    vis = ss.METHODS[method](scene, light, receivers, samples=samples, **options)
+    assert np.mean(vis == exact) >= 0.99
