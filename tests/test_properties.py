@@ -88,3 +88,56 @@ def test_exact_methods_keep_the_oracles_bits_on_random_soups(seed, method):
     options = {"lut": None} if method == "alias_free" else {}
     vis = ss.METHODS[method](scene, light, receivers, samples=samples, **options)
     assert np.mean(vis == exact) >= 0.99
+
+
+@SETTINGS
+@given(st.integers(0, 2), st.sampled_from([(1, 1), (0, 0), (0, 3), (2, 5)]), st.floats(-5, 5), st.booleans())
+def test_alpha_textures_and_uvs_of_any_size_and_range(kind, shape, offset, contiguous):
+    ground = ss.Mesh(np.float32([[-3, 0, -3], [3, 0, -3], [3, 0, 3], [-3, 0, 3]]), np.uint32([[0, 2, 1], [0, 3, 2]]))
+    quad = np.float32([[-0.5, 1, -0.5], [0.5, 1, -0.5], [0.5, 1, 0.5], [-0.5, 1, 0.5]])
+    uvs = np.float32([[0, 0], [1, 0], [1, 1], [0, 1]]) * 3 + offset
+    if not contiguous:
+        uvs = np.asfortranarray(np.repeat(uvs, 2, axis=0)[::2])
+    alpha = np.ones(shape, np.float32) if kind == 0 else np.indices(shape).sum(0).astype(np.float32) % 2 if shape[0] else np.ones(shape)
+    light = ss.RectLight((0, 3, 0), (0.4, 0, 0), (0, 0, 0.4))
+    try:
+        card = ss.Mesh(quad, np.uint32([[0, 2, 1], [0, 3, 2]]), uvs=uvs, alpha=alpha)
+        scene = ss.Scene([ground, card])
+        samples = light.samples(16)
+        exact = ss.ray_traced(scene, light, ground_receivers(), samples=samples)
+        vis = ss.stsv(scene, light, ground_receivers(), samples=samples, two_sided=True)
+    except ValueError as error:
+        refusal_names_an_argument(error)
+        assert 0 in shape, "only an empty texture is refused"
+        return
+    check_visibility(vis)
+    assert np.mean(vis == exact) >= 0.99
+
+
+@SETTINGS
+@given(st.sampled_from(["empty", "on_surface", "wrong_dtype", "nan_normal", "zero_normal"]),
+       st.sampled_from(["ray_traced", "alias_free", "dcs", "stsv", "cssm", "mvr", "vwss", "backprojection"]))
+def test_odd_receivers(kind, method):
+    setup = ss.scenes.ground_sphere(width=8, height=8)
+    points = np.float32([[0.3, 0, 0.2], [-0.2, 0, 0.4], [0.1, 0, -0.3]])
+    normals = np.tile(np.float32([0, 1, 0]), (3, 1))
+    if kind == "empty":
+        points, normals = points[:0], normals[:0]
+    elif kind == "on_surface":
+        top = setup.scene.meshes[1].vertices.max(axis=0)
+        points = np.repeat(top[None], 3, axis=0).astype(np.float32)  # on the sphere, exactly
+    elif kind == "wrong_dtype":
+        points, normals = points.astype(np.float64), normals.astype(np.int32)
+    elif kind == "nan_normal":
+        normals = normals.copy()
+        normals[1] = np.nan
+    elif kind == "zero_normal":
+        normals = normals.copy()
+        normals[2] = 0
+    try:
+        vis = ss.METHODS[method](setup.scene, setup.light, ss.Receivers(points, normals))
+    except ValueError as error:
+        refusal_names_an_argument(error)
+        return
+    assert vis.shape == (len(points),)
+    check_visibility(vis)
