@@ -789,6 +789,12 @@ def _object_inputs(scene, light, receivers, *, samples, pattern, seed, rotate, i
     return receivers, (*inputs, native_samples, *options)
 
 
+def _refuse_perforated(scene, method: str) -> None:
+    """The opaque frameworks leave perforated meshes to ``stsv(opaque=method)``."""
+    if any(m.perforated for m in scene.meshes):
+        raise ValueError(f'scene: {method} casts from opaque meshes only; use stsv(..., opaque="{method}") for perforated ones')
+
+
 def dcs(
     scene,
     light,
@@ -829,8 +835,7 @@ def dcs(
     -------
     ndarray, float32, the receivers' shape; with ``return_stats`` a ``(visibility, stats)`` tuple.
     """
-    if any(m.perforated for m in scene.meshes):
-        raise ValueError('scene: dcs casts from opaque meshes only; use stsv(..., opaque="dcs") for perforated ones')
+    _refuse_perforated(scene, "dcs")
     receivers, args = _object_inputs(scene, light, receivers, samples=samples, pattern=pattern, seed=seed, rotate=rotate,
                                      interleaved=interleaved, frame=frame, epsilon=epsilon, resolution=resolution,
                                      hull_degree=hull_degree)
@@ -877,10 +882,7 @@ def penumbra_wedge(
     -------
     ndarray, float32, the receivers' shape; with ``return_stats`` a ``(visibility, stats)`` tuple.
     """
-    if any(m.perforated for m in scene.meshes):
-        raise ValueError(
-            'scene: penumbra_wedge casts from opaque meshes only; use stsv(..., opaque="penumbra_wedge") for perforated ones'
-        )
+    _refuse_perforated(scene, "penumbra_wedge")
     receivers, args = _object_inputs(scene, light, receivers, samples=samples, pattern=pattern, seed=seed, rotate=rotate,
                                      interleaved=interleaved, frame=frame, epsilon=epsilon, resolution=resolution,
                                      hull_degree=hull_degree)
