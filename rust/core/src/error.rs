@@ -30,10 +30,10 @@ impl fmt::Display for Error {
             Error::InvalidInput { arg, message } => write!(f, "{arg}: {message}"),
             Error::TooLarge { what, bytes, limit } => write!(
                 f,
-                "{what} needs about {:.2} GiB, above the memory limit of {:.2} GiB \
+                "{what} needs about {} ({bytes} bytes), above the memory limit of {} \
                  (lower the resolution or sample count, or raise softshadows.set_memory_limit)",
-                *bytes as f64 / (1u64 << 30) as f64,
-                *limit as f64 / (1u64 << 30) as f64
+                human_bytes(*bytes),
+                human_bytes(*limit)
             ),
             Error::Unavailable(message) => write!(f, "{message}"),
         }
@@ -41,3 +41,15 @@ impl fmt::Display for Error {
 }
 
 impl std::error::Error for Error {}
+
+/// `bytes` in the largest binary unit that keeps the number at least 1, two decimals.
+fn human_bytes(bytes: u64) -> String {
+    let units = ["bytes", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"];
+    let mut value = bytes as f64;
+    let mut unit = 0;
+    while value >= 1024.0 && unit + 1 < units.len() {
+        value /= 1024.0;
+        unit += 1;
+    }
+    if unit == 0 { format!("{bytes} bytes") } else { format!("{value:.2} {}", units[unit]) }
+}

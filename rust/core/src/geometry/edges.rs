@@ -11,6 +11,7 @@
 //! the light crosses one (Sintorn et al. 2008, section 4.3; Akenine-Möller and Assarsson 2005).
 
 use crate::geometry::mesh::Scene;
+use crate::limits::Peak;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
@@ -31,6 +32,12 @@ impl Edge {
     pub fn opposites(&self) -> &[Vec3] {
         &self.opposite[..1 + usize::from(self.two_faced)]
     }
+}
+
+/// The memory of [`edges`] and of the silhouettes picked from them, with the influence-region
+/// bins of each (at most three edges per face, each sorted key and its edge, twice over).
+pub fn edges_peak(scene: &Scene) -> Peak {
+    Peak::default().buffer(&[scene.num_faces() as u64, 3, 2 * (std::mem::size_of::<Edge>() as u64 + 16)])
 }
 
 /// Every edge of `scene`, mesh by mesh, in order of their sorted vertex indices.

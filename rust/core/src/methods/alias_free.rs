@@ -44,13 +44,13 @@
 //! The result is the emission-weighted fraction of unblocked samples, as `ray_traced`'s.
 
 use crate::error::{Error, Result};
-use crate::geometry::edges::{edges, Edge};
+use crate::geometry::edges::{edges, edges_peak, Edge};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::{Light, Shape};
 use crate::light::sampling::SampleSet;
-use crate::limits;
-use crate::raster::depth::{casters, Caster, FaceFilter, LightFrustum, RasterMode, RasterOptions};
+use crate::limits::{self, Peak};
+use crate::raster::depth::{band_rows, casters, Caster, FaceFilter, LightFrustum, RasterMode, RasterOptions};
 use crate::raster::influence::{influence_hull, ReceiverLists};
 use crate::raster::region::conservative_rows;
 use crate::stats::Stats;
@@ -370,6 +370,8 @@ fn faces_whole_light(light: &Light, t: &[Vec3; 3]) -> bool {
 /// samples; the light's center inside the view samples' bounds; `TooLarge`.
 pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: &SampleSet, opts: &AliasFreeOptions) -> Result<(Vec<f32>, Stats)> {
     let mut stats = Stats::default();
+    let n = receivers.len();
+    Peak::default().buffer(&[n as u64, 4]).and(masks_peak(scene, n, samples.count(), opts)).check("alias_free", &mut stats)?;
     let masks = sample_masks(scene, light, receivers, samples, opts, false, &mut stats)?;
     Ok(((0..receivers.len()).map(|i| masks.visibility(i)).collect(), stats))
 }
@@ -401,6 +403,26 @@ impl SampleMasks {
             0.0
         }
     }
+}
+
+/// The memory of [`sample_masks`] for `receivers` receivers and `samples` light samples: per
+/// receiver its bitmask, its list entry's, its view sample and point, and the lists; per caster
+/// its set-up, influence region and band bins; the lookup table; the penumbra flags and the
+/// silhouettes. (The row spans of the penumbra regions, transient, are left out.)
+pub(crate) fn masks_peak(scene: &Scene, receivers: usize, samples: usize, opts: &AliasFreeOptions) -> Peak {
+    let (n, words, res) = (receivers as u64, samples.div_ceil(64).max(1) as u64, opts.resolution as u64);
+    let hull = 24 + 16 * 3 * opts.hull_degree.max(8) as u64;
+    let bands = res.div_ceil(band_rows(opts.resolution) as u64);
+    let per_caster = (std::mem::size_of::<Caster>() + std::mem::size_of::<Prepared>()) as u64 + hull + 4 * bands;
+    let lut = opts.lut.map_or(Peak::default(), |bins| Peak::default().buffer(&[bins as u64, bins as u64, bins as u64, words, 8]));
+    let penumbra = if opts.restrict_to_penumbra { Peak::default().buffer(&[res, res]).and(edges_peak(scene)) } else { Peak::default() };
+    Peak::default()
+        .buffer(&[n, words, 2 * 8])
+        .buffer(&[n, std::mem::size_of::<ViewSample>() as u64 + 12])
+        .and(ReceiverLists::peak(receivers, opts.resolution))
+        .buffer(&[scene.num_faces() as u64, per_caster])
+        .and(lut)
+        .and(penumbra)
 }
 
 /// The bitmasks of [`alias_free`] (see the module documentation) with its stats; with

@@ -36,7 +36,8 @@ use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::{concentric_disk, tangent_frame, Light, Shape};
 use crate::light::sampling::Rng;
-use crate::raster::depth::{rasterize_depth, LightFrustum, RasterOptions};
+use crate::limits::Peak;
+use crate::raster::depth::{raster_peak, rasterize_depth, LightFrustum, RasterOptions};
 use crate::raster::influence::light_polytope;
 use crate::raster::pcf::{DepthBias, ReceiverDepth, RASTERIZED_SLACK};
 use crate::raster::pyramid::{MinMaxPyramid, MultiScaleMap};
@@ -654,6 +655,26 @@ fn smooth_levels(levels: &[Option<f32>], depth: &[f32], (w, h): (usize, usize), 
     pass(&across, (0, 1))
 }
 
+/// The memory of [`backprojection_levels`] for `receivers` receivers and a `w × h` shadow map:
+/// the map and its stored copy, the acceleration structure, the micro-occluder levels (depths;
+/// for microrects also extents and the merge's buffers), and per receiver its search, levels
+/// (raw, depths, smoothed twice), result, visibility and level.
+fn peak(scene: &Scene, receivers: usize, (w, h): (usize, usize), opts: &BackprojectionOptions) -> Peak {
+    let hsm = MinMaxPyramid::peak(w, h);
+    let accel = match opts.acceleration {
+        Acceleration::Hsm => hsm,
+        Acceleration::Mssm => hsm.and(MultiScaleMap::peak(w, h)),
+        Acceleration::Ysm { resolution } => hsm.and(MultiScaleMap::peak(w.min(resolution), h.min(resolution))),
+    };
+    let per_texel = if opts.occluder == Occluder::Microrect { 4 + 16 + 1 + 16 + 4 } else { 4 };
+    let per_receiver = std::mem::size_of::<(Search, Option<ReceiverDepth>, Option<f32>)>() + 3 * 8 + 4 + 8 + 4 + 4;
+    raster_peak(scene, w, h)
+        .buffer(&[w as u64, h as u64, 4])
+        .and(accel)
+        .buffer(&[w as u64, h as u64, 2 * per_texel])
+        .buffer(&[receivers as u64, per_receiver as u64])
+}
+
 /// Soft-shadow visibility of every receiver by backprojection soft shadow mapping (see the module
 /// doc). Returns the visibility (receivers' order) and stats: `depth_map_seconds`,
 /// `acceleration_seconds` (HSM and micro-occluder levels), `acceleration_bytes`,
@@ -683,6 +704,7 @@ pub fn backprojection_levels(scene: &Scene, light: &Light, receivers: &Receivers
     let n = receivers.len();
     let Some(bounds) = receivers.bounds() else { return Ok((vec![0.0; n], vec![f32::NAN; n], stats)) };
     let frustum = LightFrustum::for_light_aligned(light, bounds, opts.resolution)?;
+    peak(scene, n, (frustum.width, frustum.height), opts).check("backprojection", &mut stats)?;
     let map = stats.time("depth_map", || rasterize_depth(scene, &frustum, &RasterOptions::default()))?;
     let stored: Vec<f32> = map.depth.iter().map(|&d| if d.is_finite() { d } else { EMPTY }).collect();
     let near = stored.iter().copied().fold(f32::INFINITY, f32::min).max(frustum.near);

@@ -51,8 +51,8 @@ use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
-use crate::limits;
-use crate::raster::depth::{rasterize_depth, DepthMap, LightFrustum, RasterOptions, MAX_RESOLUTION};
+use crate::limits::{self, Peak};
+use crate::raster::depth::{raster_peak, rasterize_depth, DepthMap, LightFrustum, RasterOptions, MAX_RESOLUTION};
 use crate::raster::footprint::LightFootprint;
 use crate::raster::pyramid::{MipMap, SummedAreaTable};
 use crate::stats::Stats;
@@ -296,6 +296,10 @@ pub fn cssm(scene: &Scene, light: &Light, receivers: &Receivers, opts: &CssmOpti
     stats.set("basis_images", (4 * opts.order + 1) as f64);
     let Some(bounds) = receivers.bounds() else { return Ok((vec![0.0; receivers.len()], stats)) };
     let frustum = LightFrustum::for_light_aligned(light, bounds, opts.resolution)?;
+    Peak::default()
+        .buffer(&[receivers.len() as u64, 4])
+        .and(cssm_peak(scene, frustum.width, frustum.height, opts))
+        .check("cssm", &mut stats)?;
     let map = stats.time("shadow_map", || rasterize_depth(scene, &frustum, &RasterOptions::default()))?;
     let range = depth_range(&map, &frustum, receivers);
     let near = opts.near.unwrap_or(range.lo).max(frustum.near);
@@ -319,6 +323,17 @@ pub fn cssm(scene: &Scene, light: &Light, receivers: &Receivers, opts: &CssmOpti
             .collect()
     });
     Ok((vis, stats))
+}
+
+/// The memory of the maps of [`cssm`] at `width × height`: the shadow map, then its basis images
+/// and their prefiltered form, all held together while the prefilter is built.
+fn cssm_peak(scene: &Scene, width: usize, height: usize, opts: &CssmOptions) -> Peak {
+    let channels = 4 * opts.order + 1;
+    let filtered = match opts.prefilter {
+        Prefilter::Sat => SummedAreaTable::peak(width, height, channels),
+        Prefilter::Mipmap => MipMap::peak(width, height, channels),
+    };
+    raster_peak(scene, width, height).buffer(&[width as u64, height as u64, channels as u64, 4]).and(filtered)
 }
 
 /// The normalization range: from the nearest stored depth to the farthest of the stored depths

@@ -20,16 +20,22 @@
 
 use crate::error::Result;
 use crate::geometry::bvh::Bvh;
-use crate::geometry::edges::opaque_silhouettes;
+use crate::geometry::edges::{edges_peak, opaque_silhouettes};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
-use crate::limits;
+use crate::limits::{self, Peak};
 use crate::raster::influence::{ObjectOptions, Origins};
 use crate::stats::Stats;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
+
+/// The memory of [`depth_complexity`] for `receivers` receivers and `samples` samples: the counts
+/// and the silhouettes.
+pub(crate) fn depth_complexity_peak(scene: &Scene, receivers: usize, samples: usize) -> Peak {
+    Peak::default().buffer(&[receivers as u64, samples as u64, 4]).and(edges_peak(scene))
+}
 
 /// Per origin and sample, the number of opaque faces between the origin and the sample (see the
 /// module doc), in list order (`S` values per list entry); and the stats of the passes.
@@ -122,6 +128,12 @@ pub fn dcs(scene: &Scene, bvh: &Bvh, light: &Light, receivers: &Receivers, sampl
         stats.set(name, 0.0);
     }
     stats.set("light_samples", samples.count() as f64);
+    let n = receivers.len();
+    Peak::default()
+        .buffer(&[n as u64, 4])
+        .and(Origins::peak(n, opts))
+        .and(depth_complexity_peak(scene, n, samples.count()))
+        .check("dcs", &mut stats)?;
     let Some(origins) = Origins::new(light, receivers, samples, opts)? else { return Ok((vec![0.0; receivers.len()], stats)) };
     stats.set("receivers", origins.ids.len() as f64);
     let counts = depth_complexity(scene, bvh, &origins, opts, &mut stats)?;

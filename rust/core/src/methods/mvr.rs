@@ -12,7 +12,8 @@ use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
-use crate::raster::depth::{rasterize_depth, RasterOptions};
+use crate::limits::Peak;
+use crate::raster::depth::{raster_peak, rasterize_depth, RasterOptions};
 use crate::raster::multiview::{accumulate, resolve, ViewSet};
 use crate::raster::pcf::{DepthBias, PcfKernel, RASTERIZED_SLACK};
 use crate::stats::Stats;
@@ -84,6 +85,11 @@ pub fn mvr(
     stats.set("resolution", opts.resolution as f64);
     let Some(bounds) = receivers.bounds() else { return Ok((vec![0.0; receivers.len()], stats)) };
     let views = ViewSet::fit(light, eyes, bounds, opts.resolution)?;
+    // The sums, the visibility and one view's map at a time.
+    Peak::default()
+        .buffer(&[receivers.len() as u64, 4 + 4])
+        .and(raster_peak(scene, opts.resolution, opts.resolution))
+        .check("mvr", &mut stats)?;
     let mut sums = vec![0.0f32; receivers.len()];
     for (s, view) in views.views.iter().enumerate() {
         let map = stats.time_add("depth_maps", || rasterize_depth(scene, view, &RasterOptions::default()))?;

@@ -30,7 +30,8 @@ use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
 use crate::light::sampling::{unit_disk_pattern, Pattern};
-use crate::raster::depth::{rasterize_depth, DepthMap, LightFrustum, RasterOptions, MAX_RESOLUTION};
+use crate::limits::Peak;
+use crate::raster::depth::{raster_peak, rasterize_depth, DepthMap, LightFrustum, RasterOptions, MAX_RESOLUTION};
 use crate::raster::footprint::LightFootprint;
 use crate::raster::pcf::{DepthBias, ReceiverDepth, RASTERIZED_SLACK};
 use crate::stats::Stats;
@@ -154,6 +155,11 @@ pub fn pcss(scene: &Scene, light: &Light, receivers: &Receivers, opts: &PcssOpti
     stats.set("resolution", opts.resolution as f64);
     let Some(bounds) = receivers.bounds() else { return Ok((vec![0.0; receivers.len()], stats)) };
     let frustum = LightFrustum::for_light_aligned(light, bounds, opts.resolution)?;
+    // The visibility and each receiver's outcome.
+    Peak::default()
+        .buffer(&[receivers.len() as u64, 4 + 8])
+        .and(raster_peak(scene, frustum.width, frustum.height))
+        .check("pcss", &mut stats)?;
     let map = stats.time("depth_map", || rasterize_depth(scene, &frustum, &RasterOptions::default()))?;
     let nearest_stored = map.depth.iter().copied().fold(f32::INFINITY, f32::min);
     let near = opts.near.unwrap_or(nearest_stored).max(frustum.near);

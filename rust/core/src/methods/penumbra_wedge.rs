@@ -23,7 +23,8 @@ use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
-use crate::geometry::edges::opaque_silhouettes;
+use crate::geometry::edges::{edges_peak, opaque_silhouettes};
+use crate::limits::Peak;
 use crate::raster::influence::{ObjectOptions, Origins};
 use crate::stats::Stats;
 use rayon::prelude::*;
@@ -41,6 +42,8 @@ pub fn penumbra_wedge(scene: &Scene, bvh: &Bvh, light: &Light, receivers: &Recei
         stats.set(name, 0.0);
     }
     stats.set("light_samples", samples.count() as f64);
+    let n = receivers.len();
+    Peak::default().buffer(&[n as u64, 4]).and(Origins::peak(n, opts)).and(wedge_occlusion_peak(scene, n)).check("penumbra_wedge", &mut stats)?;
     let mut vis = vec![0.0f32; receivers.len()];
     let Some(origins) = Origins::new(light, receivers, samples, opts)? else { return Ok((vis, stats)) };
     stats.set("receivers", origins.ids.len() as f64);
@@ -58,6 +61,12 @@ pub fn penumbra_wedge(scene: &Scene, bvh: &Bvh, light: &Light, receivers: &Recei
 pub(crate) struct WedgeOcclusion {
     pub front: f64,
     pub occlusion: f64,
+}
+
+/// The memory of [`wedge_occlusion`] for `receivers` receivers: one [`WedgeOcclusion`] each and
+/// the silhouettes.
+pub(crate) fn wedge_occlusion_peak(scene: &Scene, receivers: usize) -> Peak {
+    Peak::default().buffer(&[receivers as u64, std::mem::size_of::<WedgeOcclusion>() as u64]).and(edges_peak(scene))
 }
 
 /// The per list entry [`WedgeOcclusion`] of the receivers (see the module doc).

@@ -22,7 +22,7 @@ use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
-use crate::limits;
+use crate::limits::{self, Peak};
 use crate::stats::Stats;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -74,12 +74,9 @@ pub fn ray_traced(
     // or for shared samples a tile's front-facing flags (one byte per receiver and sample).
     let per_thread = limits::bytes(&[samples.count() as u64, 40 + TILE as u64]);
     let threads = rayon::current_num_threads() as u64;
-    limits::check_memory(
-        "ray_traced",
-        limits::bytes(&[n as u64, 4]).saturating_add(per_thread.saturating_mul(threads)),
-    )?;
-    let mut out = vec![0f32; n];
     let mut stats = Stats::default();
+    Peak::default().buffer(&[n as u64, 4]).buffer(&[per_thread, threads]).check("ray_traced", &mut stats)?;
+    let mut out = vec![0f32; n];
     let rays = stats.time("trace", || trace_all(scene, bvh, light, receivers, samples, opts.epsilon, &mut out));
     stats.set("rays", rays as f64);
     stats.set("receivers", receivers.valid.iter().filter(|&&v| v).count() as f64);

@@ -25,7 +25,8 @@ use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
-use crate::raster::depth::{rasterize_depth, DepthMap, LightFrustum, RasterOptions};
+use crate::limits::Peak;
+use crate::raster::depth::{raster_peak, rasterize_depth, DepthMap, LightFrustum, RasterOptions};
 use crate::raster::pcf::{DepthBias, PcfKernel, RASTERIZED_SLACK};
 use crate::stats::Stats;
 use rayon::prelude::*;
@@ -88,6 +89,10 @@ pub fn shadow_map(scene: &Scene, light: &Light, receivers: &Receivers, opts: &Sh
             return Ok((vec![0.0; receivers.len()], stats));
         }
     };
+    Peak::default()
+        .buffer(&[receivers.len() as u64, 4])
+        .and(raster_peak(scene, frustum.width, frustum.height))
+        .check("shadow_map", &mut stats)?;
     let map = stats.time("render", || rasterize_depth(scene, &frustum, &RasterOptions::default()))?;
     let vis = stats.time("lookup", || lookup_all(&map, &frustum, receivers, opts))?;
     stats.set("resolution", frustum.width as f64);

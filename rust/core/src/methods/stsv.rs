@@ -38,10 +38,10 @@ use crate::geometry::mesh::{AlphaTexture, Scene};
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
-use crate::limits;
-use crate::methods::alias_free::{sample_masks, AliasFreeOptions, Casters};
-use crate::methods::dcs::{depth_complexity, visible_fraction};
-use crate::methods::penumbra_wedge::wedge_occlusion;
+use crate::limits::{self, Peak};
+use crate::methods::alias_free::{masks_peak, sample_masks, AliasFreeOptions, Casters};
+use crate::methods::dcs::{depth_complexity, depth_complexity_peak, visible_fraction};
+use crate::methods::penumbra_wedge::{wedge_occlusion, wedge_occlusion_peak};
 use crate::raster::influence::{light_polytope, ObjectOptions, Origins};
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
@@ -296,9 +296,31 @@ pub fn stsv(scene: &Scene, bvh: &Bvh, light: &Light, receivers: &Receivers, samp
         stats.set(name, 0.0);
     }
     stats.set("light_samples", s as f64);
-    let mut vis = vec![0.0f32; receivers.len()];
-    let Some(origins) = Origins::new(light, receivers, samples, &opts.object)? else { return Ok((vis, stats)) };
     let words = s.div_ceil(64);
+    let af = AliasFreeOptions {
+        resolution: opts.object.resolution,
+        casters: Casters::Backfacing,
+        bias: opts.object.epsilon,
+        lut: None,
+        hull_degree: opts.object.hull_degree,
+        restrict_to_penumbra: true,
+    };
+    let n = receivers.len();
+    // The visibility, the origins, the perforated bitmasks and volumes, then the opaque part's.
+    let opaque_peak = match opts.opaque {
+        Opaque::Bitmask => masks_peak(scene, n, s, &af),
+        Opaque::Dcs => depth_complexity_peak(scene, n, s),
+        Opaque::PenumbraWedge => wedge_occlusion_peak(scene, n),
+    };
+    Peak::default()
+        .buffer(&[n as u64, 4])
+        .and(Origins::peak(n, &opts.object))
+        .buffer(&[n as u64, words as u64, 8])
+        .buffer(&[scene.num_faces() as u64, 2 * std::mem::size_of::<Volume>() as u64 + 16 * 8])
+        .and(opaque_peak)
+        .check("stsv", &mut stats)?;
+    let mut vis = vec![0.0f32; n];
+    let Some(origins) = Origins::new(light, receivers, samples, &opts.object)? else { return Ok((vis, stats)) };
     let perforated = {
         let start = std::time::Instant::now();
         let masks = perforated_masks(scene, &origins, opts, words, &mut stats)?;
@@ -308,14 +330,6 @@ pub fn stsv(scene: &Scene, bvh: &Bvh, light: &Light, receivers: &Receivers, samp
     let start = std::time::Instant::now();
     match opts.opaque {
         Opaque::Bitmask => {
-            let af = AliasFreeOptions {
-                resolution: opts.object.resolution,
-                casters: Casters::Backfacing,
-                bias: opts.object.epsilon,
-                lut: None,
-                hull_degree: opts.object.hull_degree,
-                restrict_to_penumbra: true,
-            };
             let mut opaque = sample_masks(scene, light, receivers, samples, &af, true, &mut stats)?;
             for (e, &k) in origins.lists.entries.iter().enumerate() {
                 let i = origins.ids[k as usize] as usize;

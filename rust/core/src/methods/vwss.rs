@@ -50,10 +50,10 @@ use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
-use crate::limits;
+use crate::limits::{self, Peak};
 use crate::methods::mvr::{shared_eyes, MultiViewOptions};
 use crate::raster::depth::{
-    casters, rasterize_depth, Caster, DepthMap, FaceFilter, LightFrustum, RasterMode, RasterOptions, Rasterizer,
+    casters, raster_peak, rasterize_depth, Caster, DepthMap, FaceFilter, LightFrustum, RasterMode, RasterOptions, Rasterizer,
     TexelRect, MAX_RESOLUTION, NEAR_FRACTION,
 };
 use crate::raster::multiview::{accumulate, resolve, ViewSet};
@@ -254,24 +254,36 @@ impl Points {
 /// Triangles per parallel work item of the source rasterization.
 const CASTER_CHUNK: usize = 256;
 
-/// Rasterizes `source` and returns the points of section 3.1 (see the module documentation).
-///
-/// Errors: `TooLarge` when the points could exceed the memory limit (estimated from the
-/// triangles' texel bounds before rasterizing).
-pub fn generate_points(scene: &Scene, source: &LightFrustum, opts: &VwssOptions) -> Result<Points> {
-    let bytes_per_point = match opts.precision {
-        Precision::Float32 => 12,
+/// The memory of [`generate_points`]: the points (12 bytes each, 6 more for their f16 copy) at an
+/// upper bound of their number: the source map's texels, whose rasterization it also holds; or,
+/// layered, the triangles' texel bounds summed, twice (the per-chunk vectors and their
+/// concatenation), with the triangles' set-up.
+pub fn points_peak(scene: &Scene, source: &LightFrustum, opts: &VwssOptions) -> Result<Peak> {
+    let f16_copy = match opts.precision {
+        Precision::Float32 => 0,
         Precision::Float16 => 6,
     };
+    if !opts.layered {
+        return Ok(raster_peak(scene, source.width, source.height).buffer(&[source.width as u64, source.height as u64, 12 + f16_copy]));
+    }
+    let raster = Rasterizer::new(source, RasterMode::Standard)?;
+    let bound: u64 = casters(scene, &opts.raster_options(), source.eye)
+        .par_iter()
+        .filter_map(|(_, t, _)| raster.bounds(t))
+        .map(|r| ((r.x1 - r.x0) * (r.y1 - r.y0)) as u64)
+        .sum();
+    Ok(Peak::default().buffer(&[bound, 2 * 12 + f16_copy]).buffer(&[scene.num_faces() as u64, 96]))
+}
+
+/// Rasterizes `source` and returns the points of section 3.1 (see the module documentation).
+///
+/// Errors: `TooLarge` when the points could exceed the memory limit ([`points_peak`], estimated
+/// before rasterizing).
+pub fn generate_points(scene: &Scene, source: &LightFrustum, opts: &VwssOptions) -> Result<Points> {
+    limits::check_memory("vwss point buffer", points_peak(scene, source, opts)?.bytes())?;
     let world: Vec<Vec3> = if opts.layered {
         let raster = Rasterizer::new(source, RasterMode::Standard)?;
         let casters = casters(scene, &opts.raster_options(), source.eye);
-        let bound: u64 = casters
-            .par_iter()
-            .filter_map(|(_, t, _)| raster.bounds(t))
-            .map(|r| ((r.x1 - r.x0) * (r.y1 - r.y0)) as u64)
-            .sum();
-        limits::check_memory("vwss point buffer", limits::bytes(&[bound, bytes_per_point]))?;
         let full = TexelRect::full(source.width, source.height);
         let chunks: Vec<Vec<Vec3>> = casters
             .par_chunks(CASTER_CHUNK)
@@ -425,6 +437,18 @@ pub fn vwss(scene: &Scene, light: &Light, receivers: &Receivers, samples: &Sampl
     let source = source_view(scene, light, &views, opts)?;
     stats.set("source_resolution", source.width as f64);
     stats.set("pull_back", f64::from((light.center() - source.eye).dot(source.forward)));
+    let side = opts.multiview.resolution;
+    // The sums and the visibility, the atomic and plain maps of one traversal, and the points
+    // (streamed when unbuffered: only the triangles' set-up).
+    let points_peak = match opts.mode {
+        Mode::Buffered => points_peak(scene, &source, opts)?,
+        Mode::Unbuffered => Peak::default().buffer(&[scene.num_faces() as u64, 96]),
+    };
+    Peak::default()
+        .buffer(&[receivers.len() as u64, 4 + 4])
+        .buffer(&[per_pass as u64, side as u64, side as u64, 4 + 4])
+        .and(points_peak)
+        .check("vwss", &mut stats)?;
     let points = match opts.mode {
         Mode::Buffered => Some(stats.time("point_generation", || generate_points(scene, &source, opts))?),
         Mode::Unbuffered => None,
@@ -433,7 +457,6 @@ pub fn vwss(scene: &Scene, light: &Light, receivers: &Receivers, samples: &Sampl
         Some(p) => PointSource::Buffer(p),
         None => PointSource::Raster { scene, source: &source, opts },
     };
-    let side = opts.multiview.resolution;
     let atomic = AtomicMaps::new(per_pass, side * side)?;
     let mut maps: Vec<DepthMap> = (0..per_pass).map(|_| DepthMap::empty(side, side)).collect::<Result<_>>()?;
     let mut sums = vec![0.0f32; receivers.len()];

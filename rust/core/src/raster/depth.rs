@@ -52,7 +52,7 @@
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::light::lights::Light;
-use crate::limits;
+use crate::limits::{self, Peak};
 use glam::{DVec2, DVec3, Vec3};
 use rayon::prelude::*;
 
@@ -1002,6 +1002,12 @@ impl Rasterizer {
     }
 }
 
+/// The memory of [`rasterize_depth`] into a `width × height` map: the map and the triangles'
+/// set-up and row bins (96 bytes per face).
+pub fn raster_peak(scene: &Scene, width: usize, height: usize) -> Peak {
+    Peak::default().buffer(&[width as u64, height as u64, 4]).buffer(&[scene.num_faces() as u64, 96])
+}
+
 /// Rasterizes the linear depth of every triangle of `scene` that passes `opts.faces` into a
 /// `frustum.width × frustum.height` map (minimum depth per texel, `+inf` where nothing was drawn),
 /// alpha-testing perforated meshes when `opts.alpha_test`.
@@ -1010,11 +1016,7 @@ impl Rasterizer {
 pub fn rasterize_depth(scene: &Scene, frustum: &LightFrustum, opts: &RasterOptions) -> Result<DepthMap> {
     let raster = Rasterizer::new(frustum, opts.mode)?;
     let (w, h) = (frustum.width, frustum.height);
-    let faces = scene.num_faces() as u64;
-    limits::check_memory(
-        "depth-map rasterization",
-        limits::bytes(&[w as u64, h as u64, 4]).saturating_add(limits::bytes(&[faces, 96])),
-    )?;
+    limits::check_memory("depth-map rasterization", raster_peak(scene, w, h).bytes())?;
     let mut map = DepthMap::empty(w, h)?;
     let casters = casters(scene, opts, frustum.eye);
     let band = band_rows(h);

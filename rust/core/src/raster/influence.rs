@@ -18,6 +18,7 @@ use crate::error::{Error, Result};
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::{tangent_frame, Light, Shape};
 use crate::light::sampling::SampleSet;
+use crate::limits::Peak;
 use crate::raster::depth::{band_rows, bin_row_ranges, LightFrustum, NEAR_FRACTION};
 use crate::raster::region::{conservative_rows, convex_hull};
 use crate::stats::Stats;
@@ -66,6 +67,11 @@ pub(crate) struct Origins<'a> {
 
 impl<'a> Origins<'a> {
     /// `None` when no receiver faces the light.
+    /// The memory of the origins of `receivers` receivers (ids and points) and their lists.
+    pub fn peak(receivers: usize, opts: &ObjectOptions) -> Peak {
+        Peak::default().buffer(&[receivers as u64, 4 + 12]).and(ReceiverLists::peak(receivers, opts.resolution))
+    }
+
     pub fn new(light: &'a Light, receivers: &'a Receivers, samples: &'a SampleSet, opts: &ObjectOptions) -> Result<Option<Self>> {
         let (c, extent) = (light.center(), light.extent());
         let ids: Vec<u32> = (0..receivers.len() as u32)
@@ -108,6 +114,12 @@ impl ReceiverLists {
     /// Bins `points` (at least one, none at the light's center) into the texels of the frustum
     /// from the light's center fitted to them (section 4.3): the square fit of
     /// [`LightFrustum::fit`] for its axes, then the tightest fields of view and depth range.
+    /// The memory of the lists of `points` receivers at `resolution`: per receiver its texel,
+    /// entry and depth; per texel two list starts (the starts and the fill cursors).
+    pub fn peak(points: usize, resolution: usize) -> Peak {
+        Peak::default().buffer(&[points as u64, 8 + 4 + 8]).buffer(&[resolution as u64, resolution as u64, 2 * 8])
+    }
+
     pub fn build(light: &Light, points: &[Vec3], resolution: usize) -> Result<Self> {
         let frustum = fit_frustum(light, points, resolution)?;
         let (w, h) = (frustum.width, frustum.height);

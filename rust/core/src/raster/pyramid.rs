@@ -13,7 +13,7 @@
 //!   center is `x + 0.5`, whatever the level.
 
 use crate::error::{Error, Result};
-use crate::limits;
+use crate::limits::{self, Peak};
 use crate::raster::depth::DepthMap;
 use rayon::prelude::*;
 
@@ -50,13 +50,18 @@ impl MinMaxPyramid {
     /// Builds the pyramid of a `width × height` depth image (`+inf` = empty).
     ///
     /// Errors: wrong length; NaN or `−inf` depths; `TooLarge` past the memory limit.
+    /// The memory of the pyramid of a `width × height` image: two f32 per texel over all levels,
+    /// at most 4/3 of level 0 (plus rounding), so 3x is safe.
+    pub fn peak(width: usize, height: usize) -> Peak {
+        Peak::default().buffer(&[width as u64, height as u64, 8, 3])
+    }
+
     pub fn new(width: usize, height: usize, depth: &[f32]) -> Result<Self> {
         check_image("depth", width, height, 1, depth.len())?;
         if depth.iter().any(|d| d.is_nan() || *d == f32::NEG_INFINITY) {
             return Err(Error::invalid("depth", "contains NaN or -inf (use +inf for empty texels)"));
         }
-        // Two f32 per texel over all levels: at most 4/3 of level 0 (plus rounding), so 3x is safe.
-        limits::check_memory("min/max pyramid", limits::bytes(&[width as u64, height as u64, 8, 3]))?;
+        limits::check_memory("min/max pyramid", Self::peak(width, height).bytes())?;
         let base = MinMaxLevel {
             width,
             height,
@@ -172,12 +177,23 @@ impl MultiScaleMap {
         Self::from_level(MinMaxPyramid::new(width, height, depth)?.levels.swap_remove(0))
     }
 
+    /// The number of scales of the MSSM of a `width × height` map: sides 1, 2, 4, … up to the
+    /// first that covers the map.
+    fn scale_count(width: usize, height: usize) -> usize {
+        usize::BITS as usize - (width.max(height).max(1) - 1).leading_zeros() as usize + 1
+    }
+
+    /// The memory of the MSSM of a `width × height` map: one min/max level per scale.
+    pub fn peak(width: usize, height: usize) -> Peak {
+        Peak::default().buffer(&[width as u64, height as u64, 8, Self::scale_count(width, height) as u64])
+    }
+
     /// The MSSM over the texels of a min/max level (for the YSM: a level of an HSM, whose texels
     /// each hold a range already).
     pub fn from_level(base: MinMaxLevel) -> Result<Self> {
         let (width, height) = (base.width, base.height);
-        let count = usize::BITS as usize - (width.max(height).max(1) - 1).leading_zeros() as usize + 1;
-        limits::check_memory("multi-scale shadow map", limits::bytes(&[width as u64, height as u64, 8, count as u64]))?;
+        limits::check_memory("multi-scale shadow map", Self::peak(width, height).bytes())?;
+        let count = Self::scale_count(width, height);
         let mut scales = vec![base];
         for k in 1..count {
             let next = Self::coarser(&scales[k - 1], 1 << (k - 1));
@@ -258,6 +274,11 @@ pub struct SummedAreaTable {
 }
 
 impl SummedAreaTable {
+    /// The memory of the table of a `width × height` image with `channels` channels.
+    pub fn peak(width: usize, height: usize, channels: usize) -> Peak {
+        Peak::default().buffer(&[width as u64 + 1, height as u64 + 1, channels as u64, 8])
+    }
+
     /// A table of a `width × height` image with `channels` interleaved channels.
     ///
     /// Errors: wrong length, non-finite values, `TooLarge` past the memory limit.
@@ -267,7 +288,7 @@ impl SummedAreaTable {
             return Err(Error::invalid("image", "contains NaN or Inf"));
         }
         let (tw, th) = (width + 1, height + 1);
-        limits::check_memory("summed-area table", limits::bytes(&[tw as u64, th as u64, channels as u64, 8]))?;
+        limits::check_memory("summed-area table", Self::peak(width, height, channels).bytes())?;
         let mut table = vec![0.0f64; tw * th * channels];
         // Row prefix sums in parallel (row y of the image fills table row y + 1) ...
         table.par_chunks_mut(tw * channels).skip(1).enumerate().for_each(|(y, row)| {
@@ -437,6 +458,12 @@ pub struct MipMap {
 }
 
 impl MipMap {
+    /// The memory of the mipmap of a `width × height` image with `channels` channels: all levels
+    /// hold at most 4/3 of level 0 (plus rounding), so 3x is safe.
+    pub fn peak(width: usize, height: usize, channels: usize) -> Peak {
+        Peak::default().buffer(&[width as u64, height as u64, channels as u64, 4, 3])
+    }
+
     /// The mipmap of a `width × height` image with `channels` interleaved channels.
     ///
     /// Errors: wrong length, non-finite values, `TooLarge` past the memory limit.
@@ -445,7 +472,7 @@ impl MipMap {
         if data.iter().any(|v| !v.is_finite()) {
             return Err(Error::invalid("image", "contains NaN or Inf"));
         }
-        limits::check_memory("mipmap", limits::bytes(&[width as u64, height as u64, channels as u64, 4, 3]))?;
+        limits::check_memory("mipmap", Self::peak(width, height, channels).bytes())?;
         let mut levels = vec![MipLevel { width, height, data: data.to_vec() }];
         while let Some(next) = levels.last().and_then(|l| reduce_mean(l, channels)) {
             levels.push(next);
