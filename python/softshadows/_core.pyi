@@ -1,50 +1,84 @@
 """Type stubs for the private extension module ``softshadows._core`` (rust/py)."""
 
+from typing import Self, final
+
 import numpy as np
 import numpy.typing as npt
 
-F32 = npt.NDArray[np.float32]
+__all__ = [
+    "NativeCamera",
+    "NativeLight",
+    "NativeReceivers",
+    "NativeSamples",
+    "NativeScene",
+    "after_fork_in_child",
+    "alias_free",
+    "backprojection",
+    "cssm",
+    "cube_solid_angles",
+    "dcs",
+    "fit_area_lights",
+    "memory_limit",
+    "mvr",
+    "num_threads",
+    "pcss",
+    "penumbra_wedge",
+    "ray_traced",
+    "set_memory_limit",
+    "set_num_threads",
+    "shadow_map",
+    "stsv",
+    "stsv_volumes",
+    "vwss",
+]
 
+_F32 = npt.NDArray[np.float32]
+
+@final
 class NativeScene:
-    def __init__(
-        self,
-        meshes: list[tuple[F32, npt.NDArray[np.uint32], F32 | None, F32 | None, bool]],
-    ) -> None: ...
+    def __new__(
+        cls,
+        meshes: list[tuple[_F32, npt.NDArray[np.uint32], _F32 | None, _F32 | None, bool]],
+    ) -> Self: ...
     @property
     def num_faces(self) -> int: ...
     def gbuffer(
         self, camera: NativeCamera, msaa: int
-    ) -> tuple[F32, F32, npt.NDArray[np.bool_], npt.NDArray[np.int64], F32]: ...
+    ) -> tuple[_F32, _F32, npt.NDArray[np.bool_], npt.NDArray[np.int64], _F32]: ...
 
+@final
 class NativeLight:
-    def __init__(
-        self,
+    def __new__(
+        cls,
         kind: str,
-        center: F32,
-        a: F32 | None,
-        b: F32 | None,
+        center: _F32,
+        a: _F32 | None,
+        b: _F32 | None,
         radius: float,
-        emission: F32 | None,
-        c: F32 | None = None,
-    ) -> None: ...
+        emission: _F32 | None,
+        c: _F32 | None = None,
+    ) -> Self: ...
     @property
     def extent(self) -> float: ...
-    def samples(self, n: int, pattern: str, seed: int, frame: int) -> F32: ...
-    def weights(self, points: F32) -> F32: ...
+    def samples(self, n: int, pattern: str, seed: int, frame: int) -> _F32: ...
+    def weights(self, points: _F32) -> _F32: ...
 
+@final
 class NativeCamera:
-    def __init__(self, eye: F32, target: F32, up: F32, fov_y: float, width: int, height: int) -> None: ...
+    def __new__(cls, eye: _F32, target: _F32, up: _F32, fov_y: float, width: int, height: int) -> Self: ...
 
+@final
 class NativeReceivers:
-    def __init__(self, points: F32, normals: F32, mask: npt.NDArray[np.bool_], width: int, height: int) -> None: ...
+    def __new__(cls, points: _F32, normals: _F32, mask: npt.NDArray[np.bool_], width: int, height: int) -> Self: ...
 
+@final
 class NativeSamples:
     @staticmethod
     def generate(
         light: NativeLight, n: int, pattern: str, seed: int, interleave: int, rotate: bool, frame: int
     ) -> NativeSamples: ...
     @staticmethod
-    def explicit(samples: F32, rotate_seed: int | None = None) -> NativeSamples: ...
+    def explicit(samples: _F32, rotate_seed: int | None = None) -> NativeSamples: ...
     @property
     def count(self) -> int: ...
 
@@ -55,10 +89,10 @@ def set_memory_limit(bytes: int) -> None: ...
 def memory_limit() -> int: ...
 def ray_traced(
     scene: NativeScene, light: NativeLight, receivers: NativeReceivers, samples: NativeSamples, epsilon: float
-) -> tuple[F32, dict[str, float]]: ...
+) -> tuple[_F32, dict[str, float]]: ...
 def shadow_map(
     scene: NativeScene, light: NativeLight, receivers: NativeReceivers, resolution: int, bias: float | None, pcf: int
-) -> tuple[F32, dict[str, float]]: ...
+) -> tuple[_F32, dict[str, float]]: ...
 def mvr(
     scene: NativeScene,
     light: NativeLight,
@@ -67,7 +101,7 @@ def mvr(
     resolution: int,
     pcf: int,
     bias: float | None,
-) -> tuple[F32, dict[str, float]]: ...
+) -> tuple[_F32, dict[str, float]]: ...
 def vwss(
     scene: NativeScene,
     light: NativeLight,
@@ -84,7 +118,7 @@ def vwss(
     precision: str,
     point_density: float,
     source_resolution: int | None,
-) -> tuple[F32, dict[str, float]]: ...
+) -> tuple[_F32, dict[str, float]]: ...
 def pcss(
     scene: NativeScene,
     light: NativeLight,
@@ -95,7 +129,7 @@ def pcss(
     bias: float | None,
     near: float | None,
     seed: int,
-) -> tuple[F32, dict[str, float]]: ...
+) -> tuple[_F32, dict[str, float]]: ...
 def cssm(
     scene: NativeScene,
     light: NativeLight,
@@ -108,9 +142,9 @@ def cssm(
     scale: float,
     sharpen_a: float,
     sharpen_b: float,
-) -> tuple[F32, dict[str, float]]: ...
+) -> tuple[_F32, dict[str, float]]: ...
 def fit_area_lights(
-    cube: F32, n: int, threshold: float, max_lights: int, square: bool
+    cube: _F32, n: int, threshold: float, max_lights: int, square: bool
 ) -> list[tuple[int, int, int, int, int, tuple[float, float, float]]]: ...
 def cube_solid_angles(n: int) -> npt.NDArray[np.float64]: ...
 def dcs(
@@ -121,7 +155,7 @@ def dcs(
     epsilon: float,
     resolution: int,
     hull_degree: int,
-) -> tuple[F32, dict[str, float]]: ...
+) -> tuple[_F32, dict[str, float]]: ...
 def penumbra_wedge(
     scene: NativeScene,
     light: NativeLight,
@@ -130,7 +164,7 @@ def penumbra_wedge(
     epsilon: float,
     resolution: int,
     hull_degree: int,
-) -> tuple[F32, dict[str, float]]: ...
+) -> tuple[_F32, dict[str, float]]: ...
 def stsv(
     scene: NativeScene,
     light: NativeLight,
@@ -141,10 +175,10 @@ def stsv(
     hull_degree: int,
     opaque: str,
     two_sided: bool,
-) -> tuple[F32, dict[str, float]]: ...
+) -> tuple[_F32, dict[str, float]]: ...
 def stsv_volumes(
     scene: NativeScene, light: NativeLight, receivers: NativeReceivers, hull_degree: int, two_sided: bool
-) -> tuple[npt.NDArray[np.uint32], F32]: ...
+) -> tuple[npt.NDArray[np.uint32], _F32]: ...
 def backprojection(
     scene: NativeScene,
     light: NativeLight,
@@ -161,7 +195,7 @@ def backprojection(
     blend: bool,
     smoothing: int,
     bias: float | None,
-) -> tuple[F32, F32, dict[str, float]]: ...
+) -> tuple[_F32, _F32, dict[str, float]]: ...
 def alias_free(
     scene: NativeScene,
     light: NativeLight,
@@ -173,4 +207,4 @@ def alias_free(
     lut: int | None,
     hull_degree: int,
     restrict_to_penumbra: bool,
-) -> tuple[F32, dict[str, float]]: ...
+) -> tuple[_F32, dict[str, float]]: ...
