@@ -2,8 +2,6 @@
 process; every call either refuses with a ValueError naming an argument or returns visibility in
 [0, 1] without NaN, and the exact methods keep the oracle's bits on well-conditioned soups."""
 
-import re
-
 import numpy as np
 import pytest
 
@@ -12,33 +10,10 @@ from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 import softshadows as ss  # noqa: E402
+# Shared with tests/test_properties_api.py: the same adversarial inputs for every public function.
+from strategies import COORD, check_visibility, ground_receivers, meshes, refusal_names_an_argument  # noqa: E402
 
 SETTINGS = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-# Coordinates from ordinary to extreme, with NaN and infinities.
-COORD = st.one_of(st.floats(-3, 3), st.sampled_from([0.0, 1e-30, -1e-30, 1e30, -1e30, np.nan, np.inf, -np.inf]))
-ARGUMENT = re.compile(r"^\w+:")
-
-
-def refusal_names_an_argument(error: ValueError):
-    assert ARGUMENT.match(str(error)), f"a ValueError must start with the argument's name: {error}"
-
-
-@st.composite
-def meshes(draw):
-    n = draw(st.integers(0, 7))
-    vertices = draw(st.lists(st.tuples(COORD, COORD, COORD), min_size=n, max_size=n))
-    faces = draw(st.lists(st.tuples(*[st.integers(0, max(n, 1) + 1)] * 3), min_size=0, max_size=6))
-    return np.array(vertices, np.float32).reshape(-1, 3), np.array(faces, np.int64).reshape(-1, 3)
-
-
-def ground_receivers(k=16):
-    xs = np.linspace(-1.5, 1.5, k, dtype=np.float32)
-    points = np.stack([xs, np.zeros_like(xs), np.zeros_like(xs)], axis=1)
-    return ss.Receivers(points, np.tile(np.float32([0, 1, 0]), (k, 1)))
-
-
-def check_visibility(vis):
-    assert np.all(np.isfinite(vis)) and np.all((vis >= 0) & (vis <= 1))
 
 
 @SETTINGS

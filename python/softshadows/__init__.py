@@ -17,6 +17,7 @@ from . import _core, _validate, envmap, evaluation, io, metrics, plot, reference
 from .camera import Camera, GBuffer, Receivers, gbuffer
 from .envmap import environment
 from .evaluation import evaluate, sweep
+from .gpu import gpu_info
 from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight
 from .methods import METHODS, alias_free, backprojection, cssm, dcs, mvr, pcss, penumbra_wedge, ray_traced, resolve_msaa, shadow_map, stsv, vwss
 from .scene import Mesh, Scene
@@ -28,9 +29,15 @@ def set_memory_limit(bytes: int | None) -> None:
     """Caps the working memory a call may plan to allocate (``None`` restores 75% of RAM).
 
     A call whose estimate exceeds it raises ``MemoryError`` before allocating. ``bytes`` must be
-    > 0 (the core reads 0 as "restore the default").
+    in [1, 2**64 - 1] (the core reads 0 as "restore the default", so 0.5 must not round to it).
     """
-    _core.set_memory_limit(0 if bytes is None else int(_validate.positive("bytes", bytes)))
+    if bytes is None:
+        _core.set_memory_limit(0)
+        return
+    value = _validate.positive("bytes", bytes)
+    if not 1 <= value < 2.0**64:
+        raise ValueError(f"bytes: must be in [1, 2**64 - 1], got {bytes!r}")
+    _core.set_memory_limit(int(value))
 
 
 def memory_limit() -> int:
@@ -38,12 +45,18 @@ def memory_limit() -> int:
     return int(_core.memory_limit())
 
 
+#: The most worker threads ``set_num_threads`` takes: a pool of 10^5 threads takes minutes to
+#: start and can exhaust the system's thread limit, which then fails other processes too.
+MAX_THREADS = 1024
+
+
 def set_num_threads(threads: int | None) -> None:
     """Sets the worker threads of every heavy call (``None`` or 0: one per core).
 
     Results do not depend on it: every method's output is the same bits for any thread count.
+    ``threads`` is at most :data:`MAX_THREADS` (1024).
     """
-    _core.set_num_threads(0 if threads is None else _validate.nonneg_int("threads", threads))
+    _core.set_num_threads(0 if threads is None else _validate.nonneg_int("threads", threads, maximum=MAX_THREADS))
 
 
 def num_threads() -> int:
@@ -78,6 +91,7 @@ __all__ = [
     "SphereLight",
     "EllipsoidLight",
     "gbuffer",
+    "gpu_info",
     "io",
     "envmap",
     "evaluation",

@@ -18,6 +18,7 @@ __all__ = [
     "cube_solid_angles",
     "dcs",
     "fit_area_lights",
+    "gpu_info",
     "memory_limit",
     "mvr",
     "num_threads",
@@ -87,11 +88,18 @@ def num_threads() -> int: ...
 def after_fork_in_child() -> None: ...
 def set_memory_limit(bytes: int) -> None: ...
 def memory_limit() -> int: ...
+def gpu_info() -> list[tuple[str, str]]: ...
 def ray_traced(
     scene: NativeScene, light: NativeLight, receivers: NativeReceivers, samples: NativeSamples, epsilon: float
 ) -> tuple[_F32, dict[str, float]]: ...
 def shadow_map(
-    scene: NativeScene, light: NativeLight, receivers: NativeReceivers, resolution: int, bias: float | None, pcf: int
+    scene: NativeScene,
+    light: NativeLight,
+    receivers: NativeReceivers,
+    resolution: int,
+    bias: float | None,
+    pcf: int,
+    backend: str,
 ) -> tuple[_F32, dict[str, float]]: ...
 def mvr(
     scene: NativeScene,
@@ -101,6 +109,7 @@ def mvr(
     resolution: int,
     pcf: int,
     bias: float | None,
+    backend: str,
 ) -> tuple[_F32, dict[str, float]]: ...
 def vwss(
     scene: NativeScene,
@@ -118,6 +127,7 @@ def vwss(
     precision: str,
     point_density: float,
     source_resolution: int | None,
+    backend: str,
 ) -> tuple[_F32, dict[str, float]]: ...
 def pcss(
     scene: NativeScene,
@@ -129,6 +139,7 @@ def pcss(
     bias: float | None,
     near: float | None,
     seed: int,
+    backend: str,
 ) -> tuple[_F32, dict[str, float]]: ...
 def cssm(
     scene: NativeScene,
@@ -142,6 +153,7 @@ def cssm(
     scale: float,
     sharpen_a: float,
     sharpen_b: float,
+    backend: str,
 ) -> tuple[_F32, dict[str, float]]: ...
 def fit_area_lights(
     cube: _F32, n: int, threshold: float, max_lights: int, square: bool

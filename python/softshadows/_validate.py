@@ -40,9 +40,12 @@ def array(name: str, value, dtype, shape: tuple, *, finite: bool = True) -> np.n
         raise ValueError(f"{name}: indices must be >= 0, got {a.min()}")
     if np.dtype(dtype).kind in "ui" and a.dtype.kind in "iuf" and a.size:
         info = np.iinfo(dtype)  # the cast below would wrap (int64 2**32 -> uint32 0) silently
-        if a.max() > info.max or a.min() < info.min:
+        with np.errstate(over="ignore"):  # float16 against 2**32 - 1: inf, which compares right
+            out_of_range = a.max() > info.max or a.min() < info.min
+        if out_of_range:
             raise ValueError(f"{name}: values must be in [{info.min}, {info.max}] for {np.dtype(dtype)}, got [{a.min()}, {a.max()}]")
-    out = np.ascontiguousarray(a, dtype=dtype)
+    with np.errstate(over="ignore", invalid="ignore"):  # 1e300 -> inf in float32: refused just below
+        out = np.ascontiguousarray(a, dtype=dtype)
     if finite and out.dtype.kind == "f" and not np.all(np.isfinite(out)):
         raise ValueError(f"{name}: contains NaN or Inf")
     return out
@@ -53,21 +56,41 @@ def vec3(name: str, value) -> np.ndarray:
     return array(name, value, np.float32, (3,))
 
 
-def positive(name: str, value, *, allow_zero: bool = False) -> float:
-    """A finite positive float."""
+def number(name: str, value) -> float:
+    """A finite float (an int beyond the float range, a string or None is refused by name)."""
     try:
         v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a number, got {value!r}") from None
-    if not np.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
-        raise ValueError(f"{name}: must be finite and {'>=' if allow_zero else '>'} 0, got {v}")
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{name}: expected a finite number, got {value!r}") from None
+    if not np.isfinite(v):
+        raise ValueError(f"{name}: expected a finite number, got {v}")
     return v
 
 
-def nonneg_int(name: str, value) -> int:
-    """A non-negative int such as a seed (bools refused)."""
+def positive(name: str, value, *, allow_zero: bool = False, maximum: float | None = None) -> float:
+    """A finite positive float, at most ``maximum`` when given."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError, OverflowError):  # OverflowError: float(10**400)
+        raise ValueError(f"{name}: expected a number, got {value!r}") from None
+    if not np.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
+        raise ValueError(f"{name}: must be finite and {'>=' if allow_zero else '>'} 0, got {v}")
+    if maximum is not None and v > maximum:
+        raise ValueError(f"{name}: must be at most {maximum:g}, got {v:g}")
+    return v
+
+
+#: The largest integer the core takes (u64 seeds, usize counts): a larger Python int would
+#: escape as an OverflowError from the binding instead of a ValueError naming the argument.
+MAX_INT = 2**64 - 1
+
+
+def nonneg_int(name: str, value, *, maximum: int = MAX_INT) -> int:
+    """A non-negative int such as a seed (bools refused), at most ``maximum``."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
         raise ValueError(f"{name}: expected a non-negative integer, got {value!r}")
+    if value > maximum:
+        raise ValueError(f"{name}: must be at most {maximum}, got {value}")
     return int(value)
 
 
@@ -75,7 +98,7 @@ def fov_y(value) -> float:
     """A vertical field of view in degrees, in (0, 180)."""
     try:
         v = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise ValueError(f"fov_y: expected a number of degrees, got {value!r}") from None
     if not 0 < v < 180:
         raise ValueError(f"fov_y: must be in (0, 180) degrees, got {v}")
@@ -97,11 +120,27 @@ def instance(name: str, value, cls, what: str):
     return value
 
 
-def positive_int(name: str, value) -> int:
-    """A positive int (bools refused)."""
+def positive_int(name: str, value, *, maximum: int = MAX_INT) -> int:
+    """A positive int (bools refused), at most ``maximum``."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
         raise ValueError(f"{name}: expected a positive integer, got {value!r}")
+    if value > maximum:
+        raise ValueError(f"{name}: must be at most {maximum}, got {value}")
     return int(value)
+
+
+def memory(what: str, nbytes: float) -> None:
+    """Raises the core's ``MemoryError`` when ``nbytes`` (an estimate, computed before any
+    allocation, as a float so that astronomically large requests do not overflow) exceeds
+    :func:`softshadows.memory_limit`."""
+    from . import _core
+
+    limit = _core.memory_limit()
+    if not nbytes <= limit:
+        raise MemoryError(
+            f"{what} needs about {nbytes / 2**30:.2f} GiB, above the memory limit of {limit / 2**30:.2f} GiB "
+            "(lower the size, or raise softshadows.set_memory_limit)"
+        )
 
 
 def _fmt(shape: tuple) -> str:

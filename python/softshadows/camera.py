@@ -75,8 +75,12 @@ class Receivers:
     def __init__(self, points, normals):
         self.points = v.array("points", points, np.float32, (None, 3))
         self.normals = v.array("normals", normals, np.float32, (len(self.points), 3))
-        if len(self.normals) and not np.all(np.linalg.norm(self.normals, axis=1) > 0):
-            raise ValueError("normals: every normal must be non-zero")
+        # The length in float32, as the core computes it: |n|^2 under- or overflows there for
+        # |n| < 1e-19 or > 1.8e19, and the core would then refuse the normal at the first method.
+        with np.errstate(over="ignore", under="ignore"):
+            lengths = np.linalg.norm(self.normals, axis=1)
+        if len(self.normals) and not np.all(np.isfinite(lengths) & (lengths > 0)):
+            raise ValueError("normals: every normal must be non-zero, with a length that squares within float32 (1e-19 to 1.8e19)")
         self.mask = np.ones(len(self.points), dtype=bool)
 
     @property

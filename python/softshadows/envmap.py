@@ -67,13 +67,28 @@ def sky(height: int = 128, *, sun_direction=(0.4, 0.8, -0.3), sun_radiance: floa
         hemisphere.
     """
     height = v.positive_int("height", height)
-    d = latlong_directions(height, 2 * height)
+    # About 100 bytes of float64 temporaries per pixel (directions, blends, the sun mask).
+    v.memory("sky", 100.0 * height * 2 * height)
     s = v.vec3("sun_direction", sun_direction).astype(np.float64)
+    if not np.any(s):
+        raise ValueError("sun_direction: must be non-zero")
     s /= np.linalg.norm(s)
+    zenith, horizon, ground = (_radiance(name, c) for name, c in (("zenith", zenith), ("horizon", horizon), ("ground", ground)))
+    sun_radiance = v.positive("sun_radiance", sun_radiance, maximum=float(np.finfo(np.float32).max) / 2)
+    sun_radius = v.positive("sun_radius", sun_radius)
+    d = latlong_directions(height, 2 * height)
     up = np.clip(d[..., 1:2], 0.0, 1.0)
-    env = np.where(d[..., 1:2] > 0, np.asarray(horizon) * (1 - up) + np.asarray(zenith) * up, np.asarray(ground))
-    env = env + v.positive("sun_radiance", sun_radiance) * (d @ s > np.cos(np.radians(v.positive("sun_radius", sun_radius))))[..., None]
+    env = np.where(d[..., 1:2] > 0, horizon * (1 - up) + zenith * up, ground)
+    env = env + sun_radiance * (d @ s > np.cos(np.radians(sun_radius)))[..., None]
     return env.astype(np.float32)
+
+
+def _radiance(name: str, value) -> np.ndarray:
+    """An RGB radiance: three finite values >= 0 that stay finite in float32."""
+    rgb = v.array(name, value, np.float64, (3,))
+    if rgb.min() < 0 or rgb.max() > np.finfo(np.float32).max / 2:
+        raise ValueError(f"{name}: expected RGB radiance in [0, 1.7e38], got {rgb.tolist()}")
+    return rgb
 
 
 def _latlong_lookup(latlong: np.ndarray, d: np.ndarray) -> np.ndarray:
@@ -96,7 +111,11 @@ def cube_from_latlong(latlong, n: int = 64, *, supersample: int = 3) -> np.ndarr
     """Resamples a lat-long map (H, W, 3) into a cube map (6, n, n, 3), averaging
     ``supersample ** 2`` bilinear lookups per texel."""
     latlong = v.array("env", latlong, np.float32, (None, None, 3)).astype(np.float64)
+    if latlong.size == 0:
+        raise ValueError(f"env: expected a non-empty lat-long map, got shape {latlong.shape}")
     n, k = v.positive_int("n", n), v.positive_int("supersample", supersample)
+    # One face's sub-texel directions and lookups at a time: about 400 bytes per sub-texel.
+    v.memory("cube_from_latlong", 400.0 * (float(n) * k) ** 2)
     t = (np.arange(n * k) + 0.5) / (n * k) * 2 - 1  # face coordinates of the sub-texels
     uu, vv = np.meshgrid(t, t)  # rows are v, columns u
     faces = []
@@ -143,6 +162,8 @@ class EnvironmentLight:
         ``center``."""
         from .lights import RectLight
 
+        center = v.vec3("center", center).astype(np.float64)
+        distance = v.positive("distance", distance)
         axis, du, dv = _FACES[self.face]
         n = self._n
         i0, i1, j0, j1 = self.rect
@@ -151,7 +172,10 @@ class EnvironmentLight:
         a, b = 0.5 * (u1 - u0) * du * distance, 0.5 * (v1 - v0) * dv * distance
         if np.dot(np.cross(a, b), mid) > 0:  # the light must face the scene
             a, b = b, a
-        return RectLight(np.asarray(center, np.float64) + distance * mid, a, b)
+        try:
+            return RectLight(center + distance * mid, a, b)
+        except ValueError as exc:  # the rectangle is degenerate or overflows in float32
+            raise ValueError(f"distance: the light at distance {distance:g} from {center.tolist()} is degenerate in float32 ({exc})") from None
 
     _n: int = field(default=0, repr=False)
 
@@ -220,18 +244,32 @@ def fit_area_lights(env, *, threshold: float = 0.025, max_lights: int = 45, reso
     if isinstance(env, (str, bytes)) or hasattr(env, "__fspath__"):
         from .io import read_environment
 
-        env = read_environment(env, layout=layout)
-    arr = np.asarray(env, dtype=np.float32)
+        try:
+            env = read_environment(env, layout=layout)
+        except OSError as exc:  # the file is this function's ``env``, not read_environment's ``path``
+            raise type(exc)(exc.errno, (exc.strerror or "").replace("path:", "env:"), exc.filename) from None
+        except ValueError as exc:
+            raise ValueError(str(exc).replace("path:", "env:", 1)) from None
+    # Checked before the (possibly large) resampling; the core checks the ranges again.
+    threshold = v.number("threshold", threshold)
+    if not 0 < threshold < 1:
+        raise ValueError(f"threshold: must be in (0, 1), got {threshold}")
+    max_lights = v.positive_int("max_lights", max_lights, maximum=2**32 - 1)
+    try:
+        with np.errstate(over="ignore", invalid="ignore"):  # beyond float32: refused below as not finite
+            arr = np.asarray(env, dtype=np.float32)
+    except (TypeError, ValueError) as exc:  # ragged nested lists, strings in arrays
+        raise ValueError(f"env: expected an array of radiance, got {type(env).__name__} ({exc})") from None
     if arr.ndim == 4:
         cube = v.array("env", arr, np.float32, (6, None, None, 3))
-        if cube.shape[1] != cube.shape[2]:
-            raise ValueError(f"env: cube faces must be square, got {cube.shape[1]}x{cube.shape[2]}")
+        if cube.shape[1] != cube.shape[2] or cube.shape[1] == 0:
+            raise ValueError(f"env: cube faces must be square and non-empty, got {cube.shape[1]}x{cube.shape[2]}")
     else:
-        cube = cube_from_latlong(arr, resolution)
+        cube = cube_from_latlong(arr, v.positive_int("resolution", resolution))
     if not np.all(np.isfinite(cube)) or cube.min() < 0:
         raise ValueError("env: radiance must be finite and >= 0")
     n = cube.shape[1]
-    fitted = _core.fit_area_lights(np.ascontiguousarray(cube), n, float(threshold), int(max_lights), bool(square))
+    fitted = _core.fit_area_lights(np.ascontiguousarray(cube), n, threshold, max_lights, bool(square))
     solid = _core.cube_solid_angles(n)
     lights = []
     for face, i0, i1, j0, j1, energy in fitted:
@@ -279,16 +317,27 @@ def environment(scene, lights, receivers, *, method: str = "cssm", albedo=0.8, d
     """
     from .camera import as_receivers
     from .methods import METHODS
-    if method not in METHODS:
+    from .scene import Scene
+
+    if not isinstance(method, str) or method not in METHODS:
         raise ValueError(f"method: expected one of {list(METHODS)}, got {method!r}")
-    lights = list(lights.lights if isinstance(lights, EnvironmentFit) else lights)
-    if not lights or not all(isinstance(l, EnvironmentLight) for l in lights):
+    if isinstance(lights, EnvironmentFit):
+        lights = list(lights.lights)
+    elif isinstance(lights, (list, tuple)):
+        lights = list(lights)
+    if not isinstance(lights, list) or not lights or not all(isinstance(l, EnvironmentLight) for l in lights):
         raise ValueError("lights: expected an EnvironmentFit or a non-empty list of EnvironmentLight")
+    v.instance("scene", scene, Scene, "a softshadows.Scene")
     rx = as_receivers(receivers)
     lo, hi = scene.bounds.astype(np.float64)
     center, radius = (lo + hi) / 2, max(float(np.linalg.norm(hi - lo)) / 2, 1e-6)
     distance = 20 * radius if distance is None else v.positive("distance", distance)
-    albedo = np.broadcast_to(np.asarray(albedo, np.float64), (3,))
+    try:
+        albedo = np.broadcast_to(np.asarray(albedo, np.float64), (3,))
+    except (TypeError, ValueError):
+        raise ValueError(f"albedo: expected a number or an RGB triple in [0, 1], got {albedo!r}") from None
+    if not np.all(np.isfinite(albedo)) or albedo.min() < 0 or albedo.max() > 1:
+        raise ValueError(f"albedo: expected a number or an RGB triple in [0, 1], got {albedo.tolist()}")
     points, normals, mask, *_ = rx._flat()
     out = np.zeros((len(points), 3))
     if progress:
@@ -299,7 +348,12 @@ def environment(scene, lights, receivers, *, method: str = "cssm", albedo=0.8, d
         irradiance = light.solid_angle * np.maximum(normals.astype(np.float64) @ light.direction, 0.0)
         if not np.any(irradiance[mask] > 0):
             continue
-        vis = METHODS[method](scene, light.area_light(center, distance), rx, **options).reshape(-1)
+        try:
+            vis = METHODS[method](scene, light.area_light(center, distance), rx, **options).reshape(-1)
+        except ValueError as exc:
+            if str(exc).startswith("light:"):  # the light is this function's doing: its distance
+                raise ValueError(f"distance: {method} refuses a fitted light placed {distance:g} from the scene's center ({exc})") from None
+            raise
         out += light.radiance[None] * (irradiance * vis)[:, None]
     out *= albedo / np.pi
     out[~mask] = 0

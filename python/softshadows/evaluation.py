@@ -17,6 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
+from . import _validate as v
+
 __all__ = ["evaluate", "sweep", "report", "pareto_front", "results_table", "update_readme"]
 
 
@@ -85,11 +87,14 @@ def evaluate(
     from .camera import gbuffer
     from .methods import METHODS, SAMPLE_KEYWORDS
 
-    names = list(METHODS) if methods is None else list(methods)
-    unknown = [m for m in names if m not in METHODS]
-    if unknown:
-        raise ValueError(f"methods: unknown {unknown}; expected names from {list(METHODS)}")
-    options = dict(options or {})
+    names = list(METHODS) if methods is None else _names("methods", methods, METHODS)
+    # Everything is checked before the first Mitsuba reference, which can take minutes.
+    scenes = _names("scenes", scenes, scene_library.SCENES)
+    lights = _names("lights", lights, scene_library.LIGHT_KINDS)
+    size, samples = v.positive_int("size", size), v.positive_int("samples", samples)
+    reference_samples = v.positive_int("reference_samples", reference_samples)
+    repeat, render_spp = v.positive_int("repeat", repeat), v.positive_int("render_spp", render_spp)
+    options = _options(options, METHODS)
     rows, images = [], {}
     setups = [(s, k) for s in scenes for k in lights]
     with tqdm(total=len(setups) * (len(names) + 1), desc="evaluate", unit="run", disable=not progress) as bar:
@@ -176,8 +181,22 @@ def sweep(method: str, parameters: dict, *, scenes=("columns",), lights=("rect",
 
     from .methods import METHODS
 
-    if method not in METHODS:
+    from . import scenes as scene_library
+
+    if not isinstance(method, str) or method not in METHODS:
         raise ValueError(f"method: expected a name from {list(METHODS)}, got {method!r}")
+    # Checked here: a bad value would otherwise surface from a worker process, after the spawn.
+    if not isinstance(parameters, dict) or not all(isinstance(k, str) for k in parameters):
+        raise ValueError(f"parameters: expected a dict of option name to a sequence of values, got {parameters!r}")
+    for key, values in parameters.items():
+        if isinstance(values, (str, bytes, dict)) or not hasattr(values, "__iter__"):
+            raise ValueError(f"parameters: {key!r} needs a sequence of values, got {values!r}")
+    scenes = _names("scenes", scenes, scene_library.SCENES)
+    lights = _names("lights", lights, scene_library.LIGHT_KINDS)
+    size, samples = v.positive_int("size", size), v.positive_int("samples", samples)
+    reference_samples = v.positive_int("reference_samples", reference_samples)
+    if executor is not None and not callable(getattr(executor, "map", None)):
+        raise ValueError(f"executor: expected a concurrent.futures.Executor, got {type(executor).__name__}")
     keys = list(parameters)
     grid = list(itertools.product(*(list(parameters[k]) for k in keys)))
     tasks = [(scene, light, method, dict(zip(keys, values)), size, samples, reference_samples)
@@ -225,7 +244,11 @@ def pareto_front(frame, x: str = "seconds", y: str = "rmse"):
     """Whether each row is on the Pareto front of ``(x, y)`` among its rows: no other row is at
     least as low in both and lower in one (faster and as accurate, or as fast and more accurate).
     Rows with NaN are not. Returns a boolean Series; :func:`report` applies it per scene and light."""
-    values = frame[[x, y]].to_numpy(dtype=float)
+    _columns(frame, (x, y))
+    try:
+        values = frame[[x, y]].to_numpy(dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"frame: columns {x!r} and {y!r} must hold numbers") from None
     ok = np.isfinite(values).all(axis=1)
     front = []
     for i, (a, b) in enumerate(values):
@@ -233,7 +256,7 @@ def pareto_front(frame, x: str = "seconds", y: str = "rmse"):
         front.append(bool(ok[i] and not dominated.any()))
     import pandas as pd
 
-    return pd.Series(front, index=frame.index, name="pareto")
+    return pd.Series(front, index=frame.index, name="pareto", dtype=bool)  # bool even with no rows
 
 
 def report(frame, out) -> Path:
@@ -258,7 +281,11 @@ def report(frame, out) -> Path:
 
     from . import plot
 
-    out = Path(out)
+    _columns(frame, ("scene", "light", "method", "rmse", "ssim", "flip", "seconds", "error"))
+    try:
+        out = Path(out)
+    except TypeError:
+        raise TypeError(f"out: expected a str or os.PathLike, got {type(out).__name__}") from None
     out.mkdir(parents=True, exist_ok=True)
     fronts = [pareto_front(group) for _, group in frame.groupby(["scene", "light"], sort=False)]
     frame = frame.assign(pareto=pd.concat(fronts).reindex(frame.index))
@@ -316,6 +343,7 @@ README_MARKERS = ("<!-- evaluation:start -->", "<!-- evaluation:end -->")
 def results_table(frame) -> str:
     """A Markdown table of each method's RMSE, SSIM and seconds, one column group per scene and
     light (refusals as a dash)."""
+    _columns(frame, ("scene", "light", "method", "rmse", "ssim", "seconds"))
     groups = list(frame.groupby(["scene", "light"], sort=False))
     head = "| method | " + " | ".join(f"{s} / {k}: RMSE, SSIM, s" for (s, k), _ in groups) + " |"
     lines = [head, "|---|" + "---|" * len(groups)]
@@ -332,7 +360,11 @@ def results_table(frame) -> str:
 def update_readme(frame, path) -> None:
     """Replaces the block between :data:`README_MARKERS` in the file ``path`` with
     :func:`results_table` and the setup it was measured on."""
-    path = Path(path)
+    _columns(frame, ("scene", "light", "method", "rmse", "ssim", "seconds"))
+    try:
+        path = Path(path)
+    except TypeError:
+        raise TypeError(f"path: expected a str or os.PathLike, got {type(path).__name__}") from None
     text = path.read_text()
     start, end = README_MARKERS
     if start not in text or end not in text:
@@ -343,3 +375,38 @@ def update_readme(frame, path) -> None:
     block = f"{start}\n{results_table(frame)}\n\n{note}\n{end}"
     head, rest = text.split(start, 1)
     path.write_text(head + block + rest.split(end, 1)[1])
+
+
+def _names(name: str, values, allowed) -> list:
+    """A list of names from ``allowed``; a bare string is refused (it would iterate as letters)."""
+    if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
+        raise ValueError(f"{name}: expected a sequence of names from {list(allowed)}, got {values!r}")
+    values = list(values)
+    unknown = [x for x in values if not isinstance(x, str) or x not in allowed]
+    if unknown:
+        raise ValueError(f"{name}: unknown {unknown}; expected names from {list(allowed)}")
+    return values
+
+
+def _options(options, methods) -> dict:
+    """``{method name: {keyword: value}}``, checked for its shape (the methods check the values)."""
+    if options is None:
+        return {}
+    if not isinstance(options, dict):
+        raise ValueError(f"options: expected a dict of method name to a dict of keyword options, got {options!r}")
+    _names("options", list(options), methods)
+    bad = {k: o for k, o in options.items() if not isinstance(o, dict) or not all(isinstance(key, str) for key in o)}
+    if bad:
+        raise ValueError(f"options: each method's options must be a dict of keyword to value, got {bad!r}")
+    return dict(options)
+
+
+def _columns(frame, columns) -> None:
+    """A pandas DataFrame with ``columns``, or a ValueError naming the missing ones."""
+    import pandas as pd
+
+    if not isinstance(frame, pd.DataFrame):
+        raise ValueError(f"frame: expected a pandas.DataFrame from evaluate() or sweep(), got {type(frame).__name__}")
+    missing = [c for c in columns if c not in frame.columns]
+    if missing:
+        raise ValueError(f"frame: missing columns {missing}; expected the columns of evaluate()")

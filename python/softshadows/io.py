@@ -11,9 +11,12 @@
 
 from __future__ import annotations
 
+import errno
 import os
 
 import numpy as np
+
+from . import _validate as _v
 
 __all__ = ["write_exr", "read_exr", "read_environment", "write_png"]
 
@@ -29,18 +32,20 @@ def write_exr(path, image) -> None:
     """
     import OpenEXR
 
-    a = np.asarray(image)
-    if a.dtype.kind not in "biuf":
-        raise ValueError(f"image: expected a numeric array, got dtype {a.dtype}")
-    if not (a.ndim == 2 or (a.ndim == 3 and a.shape[2] in (3, 4))) or a.size == 0:
-        raise ValueError(f"image: expected a non-empty array of shape (H, W), (H, W, 3) or (H, W, 4), got {a.shape}")
-    a = np.ascontiguousarray(a, np.float32)
+    path = _path(path)
+    a = _image(image)
+    with np.errstate(over="ignore", invalid="ignore"):  # beyond float32: refused just below
+        a = np.ascontiguousarray(a, np.float32)
     if not np.all(np.isfinite(a)):
-        raise ValueError("image: contains NaN or Inf")
+        raise ValueError("image: contains NaN or Inf (or values beyond float32)")
     name = "Y" if a.ndim == 2 else ("RGB" if a.shape[2] == 3 else "RGBA")
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    _writable(path)
     with OpenEXR.File(header, {name: a}) as f:
-        f.write(os.fspath(path))
+        try:
+            f.write(path)
+        except RuntimeError as exc:  # OpenEXR reports I/O failures as RuntimeError
+            raise OSError(f"path: cannot write {path} ({exc})") from None
 
 
 def read_exr(path) -> np.ndarray:
@@ -58,11 +63,16 @@ def read_exr(path) -> np.ndarray:
     """
     import OpenEXR
 
-    path = os.fspath(path)
+    path = _path(path)
     if not os.path.exists(path):
-        raise FileNotFoundError(path)
-    with OpenEXR.File(path) as f:
-        channels = {k: np.asarray(c.pixels) for k, c in f.channels().items()}
+        raise FileNotFoundError(errno.ENOENT, "path: no such file", path)
+    if os.path.isdir(path):
+        raise IsADirectoryError(errno.EISDIR, "path: is a directory, not an OpenEXR file", path)
+    try:
+        with OpenEXR.File(path) as f:
+            channels = {k: np.asarray(c.pixels) for k, c in f.channels().items()}
+    except RuntimeError as exc:  # not an EXR file, truncated, or unreadable
+        raise ValueError(f"path: {path} is not a readable OpenEXR file ({exc})") from None
     for name in ("RGB", "RGBA", "Y"):
         if name in channels:
             return np.ascontiguousarray(channels[name], np.float32)
@@ -121,16 +131,20 @@ def write_png(path, image, *, vmin: float = 0.0, vmax: float = 1.0, cmap: str | 
     cmap : str, optional
         Matplotlib colour map for (H, W) images; default gray. Not allowed with RGB.
     """
+    import matplotlib
     import matplotlib.image
 
-    a = np.asarray(image)
-    if a.dtype.kind not in "biuf":
-        raise ValueError(f"image: expected a numeric array, got dtype {a.dtype}")
-    if not (a.ndim == 2 or (a.ndim == 3 and a.shape[2] in (3, 4))) or a.size == 0:
-        raise ValueError(f"image: expected a non-empty array of shape (H, W), (H, W, 3) or (H, W, 4), got {a.shape}")
+    path = _path(path)
+    a = _image(image)
     if a.ndim == 3 and cmap is not None:
         raise ValueError("cmap: only single-channel (H, W) images take a colour map")
-    if not (np.isfinite(vmin) and np.isfinite(vmax) and vmin < vmax):
+    if cmap is not None:
+        try:
+            matplotlib.colormaps[cmap]
+        except (KeyError, TypeError):
+            raise ValueError(f"cmap: expected a matplotlib colour map name, got {cmap!r}") from None
+    vmin, vmax = _v.number("vmin", vmin), _v.number("vmax", vmax)
+    if not vmin < vmax or not np.isfinite(vmax - vmin):  # vmax - vmin = inf would map all to 0
         raise ValueError(f"vmax: expected finite vmin < vmax, got vmin={vmin}, vmax={vmax}")
     if a.dtype != np.uint8:
         a = a.astype(np.float64)
@@ -142,3 +156,31 @@ def write_png(path, image, *, vmin: float = 0.0, vmax: float = 1.0, cmap: str | 
         matplotlib.image.imsave(os.fspath(path), a, cmap=cmap or "gray", vmin=0, vmax=top, format="png")
     else:
         matplotlib.image.imsave(os.fspath(path), a, format="png")
+
+
+def _path(path) -> str:
+    """``path`` as a str, or a TypeError naming the argument."""
+    try:
+        return os.fspath(path)
+    except TypeError:
+        raise TypeError(f"path: expected a str or os.PathLike, got {type(path).__name__}") from None
+
+
+def _image(image) -> np.ndarray:
+    """A non-empty numeric (H, W), (H, W, 3) or (H, W, 4) array."""
+    try:
+        a = np.asarray(image)
+    except (TypeError, ValueError) as exc:  # ragged nested lists
+        raise ValueError(f"image: expected an array, got {type(image).__name__} ({exc})") from None
+    if a.dtype.kind not in "biuf":
+        raise ValueError(f"image: expected a numeric array, got dtype {a.dtype}")
+    if not (a.ndim == 2 or (a.ndim == 3 and a.shape[2] in (3, 4))) or a.size == 0:
+        raise ValueError(f"image: expected a non-empty array of shape (H, W), (H, W, 3) or (H, W, 4), got {a.shape}")
+    return a
+
+
+def _writable(path: str) -> None:
+    """A missing folder as FileNotFoundError (OpenEXR would raise a bare RuntimeError)."""
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise FileNotFoundError(errno.ENOENT, "path: no such directory", folder)

@@ -45,8 +45,17 @@ class _Light(abc.ABC):
 
     @property
     def extent(self) -> float:
-        """Largest distance from the center to a point of the light, in world units."""
-        return float(self.native().extent)
+        """Largest distance from the center to a point of the light, in world units.
+
+        Computed in float64: the core's float32 value overflows to inf for a rectangle whose
+        sides reach 1e19 (|u + v|^2 > 3.4e38) although the extent itself is representable.
+        """
+        if isinstance(self, RectLight):
+            u, w = self.u.astype(np.float64), self.v.astype(np.float64)
+            return float(max(np.linalg.norm(u + w), np.linalg.norm(u - w)))
+        if isinstance(self, EllipsoidLight):
+            return float(np.linalg.norm(self.axes.astype(np.float64), axis=1).max())
+        return float(getattr(self, "radius", 0.0))
 
     def samples(self, n: int, *, pattern: str = "poisson", seed: int = 0, frame: int = 0) -> np.ndarray:
         """World-space light samples.
@@ -148,10 +157,11 @@ class RectLight(_Light):
         if np.linalg.norm(np.cross(self.u.astype(np.float64), self.v.astype(np.float64))) == 0:
             raise ValueError(f"u: u = {self.u.tolist()} and v = {self.v.tolist()} span zero area")
         self.emission = _emission(emission)
+        self.native()  # the core works in float32: it refuses an area that underflows there
 
     @property
     def normal(self) -> np.ndarray:
-        n = np.cross(self.u, self.v)
+        n = np.cross(self.u.astype(np.float64), self.v.astype(np.float64))  # float32 u x v overflows for sides ~1e19
         return (n / np.linalg.norm(n)).astype(np.float32)
 
     @property
@@ -186,12 +196,13 @@ class DiskLight(_Light):
 
     def __init__(self, center, normal, radius, *, emission=None):
         self.center = v.vec3("center", center)
-        n = v.vec3("normal", normal)
+        n = v.vec3("normal", normal).astype(np.float64)  # float32 |n|^2 underflows for |n| ~ 1e-23
         if not np.any(n):
             raise ValueError("normal: must be non-zero")
         self.normal = (n / np.linalg.norm(n)).astype(np.float32)
         self.radius = v.positive("radius", radius)
         self.emission = _emission(emission)
+        self.native()  # the core works in float32: it refuses a radius that is 0 or inf there
 
     @property
     def area(self) -> float:
@@ -219,6 +230,7 @@ class SphereLight(_Light):
     def __init__(self, center, radius):
         self.center = v.vec3("center", center)
         self.radius = v.positive("radius", radius)
+        self.native()  # the core works in float32: it refuses a radius that is 0 or inf there
 
     def _args(self):
         return (self.center, None, None, self.radius, None)

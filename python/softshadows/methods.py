@@ -19,7 +19,8 @@ import numpy as np
 
 from . import _core
 from . import _validate as v
-from .camera import as_receivers
+from .camera import GBuffer, as_receivers
+from .gpu import resolve_backend
 from .lights import _Light, _pattern
 from .scene import Scene
 
@@ -155,6 +156,7 @@ def shadow_map(
     bias: float | None = None,
     pcf: int = 1,
     casters=None,
+    backend: str = "cpu",
     return_stats: bool = False,
 ):
     """Hard shadows from one shadow map rendered at the light's center: the aliasing baseline.
@@ -176,6 +178,11 @@ def shadow_map(
     pcf : int
         Percentage-closer filtering taps per side, odd, at most 63 (1 = a single tap, 3 = 3x3, ...).
     {casters}
+    backend : {"cpu", "gpu", "auto"}
+        Where the lookups run: the CPU, or the GPU (wgpu; the lighting pass of ``mvr`` and
+        ``vwss`` in ``rust/core/src/gpu/multiview.wgsl``, with one view), equal to the CPU's.
+        The map is rasterized on the CPU either way. ``"auto"``: the GPU when an adapter exists,
+        else the CPU with a warning.
     return_stats : bool
 
     Returns
@@ -186,7 +193,7 @@ def shadow_map(
     resolution = v.positive_int("resolution", resolution)
     pcf = v.positive_int("pcf", pcf)
     bias = None if bias is None else v.positive("bias", bias, allow_zero=True)
-    out = _core.shadow_map(*inputs, resolution, bias, pcf)
+    out = _core.shadow_map(*inputs, resolution, bias, pcf, resolve_backend(backend, "shadow_map"))
     return _finish(receivers, out, return_stats)
 
 
@@ -241,6 +248,7 @@ def mvr(
     seed: int = 0,
     frame: int = 0,
     casters=None,
+    backend: str = "cpu",
     return_stats: bool = False,
 ):
     """Multi-view rasterization: one rasterized depth map per light sample (seed 004's reference).
@@ -257,6 +265,12 @@ def mvr(
     receivers : GBuffer or Receivers
     {params}
     {casters}
+    backend : {"cpu", "gpu", "auto"}
+        Where the maps are rasterized and lit: the CPU, or the GPU (wgpu: one thread per triangle
+        and view runs the CPU rasterizer's rules in f64, ``rust/core/src/gpu/mvr.wgsl``, so the
+        maps equal the CPU's texel for texel; the lighting is ``multiview.wgsl``). Perforated
+        meshes need the CPU (no alpha test on the GPU). ``"auto"``: the GPU when an adapter
+        exists, else the CPU with a warning.
     return_stats : bool
         Also return ``{"depth_maps_seconds", "lighting_seconds", "views", "fragments", ...}``.
 
@@ -266,9 +280,7 @@ def mvr(
     """
     receivers, inputs = _inputs(scene, light, receivers, casters)
     samples = _view_samples(light, views, pattern=pattern, seed=seed, frame=frame)
-    out = _core.mvr(
-        *inputs, samples, *_multiview_options(resolution, pcf, bias)
-    )
+    out = _core.mvr(*inputs, samples, *_multiview_options(resolution, pcf, bias), resolve_backend(backend, "mvr"))
     return _finish(receivers, out, return_stats)
 
 
@@ -293,6 +305,7 @@ def vwss(
     seed: int = 0,
     frame: int = 0,
     casters=None,
+    backend: str = "cpu",
     return_stats: bool = False,
 ):
     """View-warped soft shadows (Marrs, Watson and Healey 2018): ``mvr``'s depth maps made by
@@ -334,6 +347,11 @@ def vwss(
     source_resolution : int, optional
         Side of the source view in texels, overriding ``point_density``.
     {casters}
+    backend : {"cpu", "gpu", "auto"}
+        Where the points are warped into the depth maps and lit: the CPU, or the GPU (wgpu; the
+        paper's Listing 2 in ``rust/core/src/gpu/vwss.wgsl``, buffered mode only, maps identical
+        texel for texel; the lighting is ``multiview.wgsl``). The points are generated on the CPU
+        either way. ``"auto"`` takes the GPU when an adapter exists, else the CPU with a warning.
     return_stats : bool
         Also return the columns of the paper's Tables 1-2: ``point_generation_seconds``,
         ``depth_maps_seconds``, ``lighting_seconds``, ``points``, ``maps_per_traversal``,
@@ -358,6 +376,7 @@ def vwss(
         str(precision),
         v.positive("point_density", point_density),
         source,
+        resolve_backend(backend, "vwss"),
     )
     return _finish(receivers, out, return_stats)
 
@@ -374,6 +393,7 @@ def pcss(
     near: float | None = None,
     seed: int = 0,
     casters=None,
+    backend: str = "cpu",
     return_stats: bool = False,
 ):
     """Percentage-closer soft shadows (Fernando 2005) from one depth map at the light's center.
@@ -401,6 +421,10 @@ def pcss(
     seed : int
         Seed of the two tap patterns.
     {casters}
+    backend : {"cpu", "gpu", "auto"}
+        Where the blocker search and the filter run: the CPU, or the GPU (wgpu,
+        ``rust/core/src/gpu/pcss.wgsl``), equal to the CPU's. The depth map is rasterized on the
+        CPU either way. ``"auto"``: the GPU when an adapter exists, else the CPU with a warning.
     return_stats : bool
         Also return ``{"depth_map_seconds", "lighting_seconds", "search_near", "no_blocker", ...}``.
 
@@ -417,6 +441,7 @@ def pcss(
         None if bias is None else v.positive("bias", bias, allow_zero=True),
         None if near is None else v.positive("near", near),
         v.nonneg_int("seed", seed),
+        resolve_backend(backend, "pcss"),
     )
     return _finish(receivers, out, return_stats)
 
@@ -566,11 +591,13 @@ def resolve_msaa(visibility, gbuffer, *, tau: float = 0.01) -> np.ndarray:
     -------
     ndarray, shape (H, W), float32: the resolved visibility (0 where no sample hits).
     """
+    v.instance("gbuffer", gbuffer, GBuffer, "a softshadows.GBuffer")
     if gbuffer.sample_depths is None:
         raise ValueError("gbuffer: resolve_msaa needs a G-buffer made with msaa > 1")
-    vis = np.asarray(visibility, dtype=np.float32)
-    if vis.shape != gbuffer.shape:
-        raise ValueError(f"visibility: expected shape {gbuffer.shape}, got {vis.shape}")
+    # NaN or values outside [0, 1] would pass straight through to the resolved image.
+    vis = v.array("visibility", visibility, np.float32, gbuffer.shape)
+    if vis.size and (vis.min() < 0 or vis.max() > 1):
+        raise ValueError(f"visibility: expected values in [0, 1], got [{vis.min()}, {vis.max()}]")
     tau = v.positive("tau", tau, allow_zero=True)
     h, w = gbuffer.shape
     center = np.where(gbuffer.mask, np.linalg.norm(gbuffer.positions - gbuffer.camera.eye, axis=-1), np.inf)
@@ -605,6 +632,7 @@ def cssm(
     sharpen_a: float = 0.0,
     sharpen_b: float = 10.0,
     casters=None,
+    backend: str = "cpu",
     return_stats: bool = False,
 ):
     """Convolution soft shadow maps (Annen et al. 2008): constant-time soft shadows from one
@@ -647,6 +675,11 @@ def cssm(
         ``sharpen_a=0`` is off: on our scenes A = 30 darkened self-shadowed and penumbra regions
         as much as contact shadows and raised the RMSE (see ``rust/core/src/methods/cssm.rs``).
     {casters}
+    backend : {"cpu", "gpu", "auto"}
+        Where the basis images, their summed-area table and the lookups run: the CPU, or the GPU
+        (wgpu, ``rust/core/src/gpu/cssm.wgsl``; ``prefilter="sat"`` only; within 1e-3 of the CPU:
+        f32 trigonometry, f64 tables). The shadow map is rasterized on the CPU either way.
+        ``"auto"`` takes the GPU when an adapter exists, else the CPU with a warning.
     return_stats : bool
         Also return ``{"shadow_map_seconds", "basis_seconds", "prefilter_seconds",
         "lookup_seconds", "basis_images", ...}``.
@@ -666,6 +699,7 @@ def cssm(
         float(scale),
         float(sharpen_a),
         float(sharpen_b),
+        resolve_backend(backend, "cssm"),
     )
     return _finish(receivers, out, return_stats)
 
@@ -976,7 +1010,12 @@ def stsv_volumes(scene, light, receivers, *, two_sided: bool = False, hull_degre
         within each cap), as :data:`STSV_FACES` lists them.
     """
     receivers, inputs = _inputs(scene, light, receivers)
-    faces, corners = _core.stsv_volumes(*inputs, v.positive_int("hull_degree", hull_degree), bool(two_sided))
+    # The core's stsv_volumes lacks stsv's range check: a huge degree panicked (capacity
+    # overflow) or ran out of memory building a disk light's hull polygon.
+    hull_degree = v.positive_int("hull_degree", hull_degree)
+    if not 3 <= hull_degree <= 64:
+        raise ValueError(f"hull_degree: must be in 3..=64, got {hull_degree}")
+    faces, corners = _core.stsv_volumes(*inputs, hull_degree, bool(two_sided))
     return faces, corners.reshape(-1, 6, 3)
 
 

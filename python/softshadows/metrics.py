@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import _validate as v
+
 __all__ = ["rmse", "ssim", "flip", "error_heatmap", "summary"]
 
 #: Colour of masked-out pixels in heatmaps.
@@ -41,7 +43,12 @@ def rmse(test, ref, mask=None) -> float:
     float
     """
     t, r, m = _inputs(test, ref, mask, images_only=False)
-    return float(np.sqrt(np.mean((t[m] - r[m]) ** 2)))
+    # Scaled by the largest difference, so that errors near 1e200 do not square to inf.
+    d = t[m] / 2 - r[m] / 2  # halved: the difference of two values near 1e308 stays finite
+    scale = float(np.max(np.abs(d)))
+    if scale == 0:
+        return 0.0
+    return float(2 * scale * np.sqrt(np.mean((d / scale) ** 2)))
 
 
 def ssim(test, ref, mask=None) -> float:
@@ -50,7 +57,8 @@ def ssim(test, ref, mask=None) -> float:
     Parameters
     ----------
     test, ref : array_like, shape (H, W) or (H, W, 3)
-        Same shape, values nominally in [0, 1] (``data_range=1``); H and W >= 7.
+        Same shape, values nominally in [0, 1] (``data_range=1``) and at most 1e3 in magnitude;
+        H and W >= 7.
     mask : array_like of bool, shape (H, W), optional
 
     Returns
@@ -62,10 +70,21 @@ def ssim(test, ref, mask=None) -> float:
     t, r, m = _inputs(test, ref, mask)
     if min(t.shape[:2]) < 7:
         raise ValueError(f"test: SSIM needs images of at least 7x7 pixels, got shape {t.shape}")
+    for name, a in (("test", t), ("ref", r)):
+        # Its variances are E[x^2] - E[x]^2: their cancellation error grows with x^2 against
+        # data_range=1's constant C2 = 9e-4, and the "SSIM" of two flat 1e30 images was 3e6.
+        if np.abs(a).max() > _SSIM_MAX:
+            raise ValueError(f"{name}: SSIM takes values nominally in [0, 1] (data_range=1) and at most {_SSIM_MAX:g} in magnitude, "
+                             f"got {np.abs(a).max():g}")
     _, smap = structural_similarity(t, r, data_range=1.0, full=True, channel_axis=-1 if t.ndim == 3 else None)
     if smap.ndim == 3:
         smap = smap.mean(axis=-1)
-    return float(smap[m].mean())
+    # |SSIM| <= 1; near 1e3 rounding leaves up to 1 + 3e-7.
+    return float(np.clip(smap[m].mean(), -1.0, 1.0))
+
+
+#: The largest magnitude :func:`ssim` takes (see there).
+_SSIM_MAX = 1e3
 
 
 def flip(test, ref, mask=None, *, dynamic_range: str = "LDR") -> float:
@@ -91,12 +110,35 @@ def flip(test, ref, mask=None, *, dynamic_range: str = "LDR") -> float:
     t, r = _rgb(t), _rgb(r)
     if dynamic_range == "LDR":
         t, r = np.clip(t, 0, 1), np.clip(r, 0, 1)
-    elif min(t.min(), r.min()) < 0:
-        raise ValueError("test: HDR FLIP needs non-negative values")
+    else:
+        _check_hdr(t, r)
     error_map, _, _ = flip_evaluator.evaluate(
         np.ascontiguousarray(r, np.float32), np.ascontiguousarray(t, np.float32), dynamic_range, applyMagma=False
     )
     return float(np.asarray(error_map).reshape(m.shape)[m].mean())
+
+
+#: FLIP's HDR mode derives its exposure range from the reference's luminance: it clamps the
+#: median to 2^-23 and calls ``exit(-1)`` (killing the Python process) when the brightest pixel
+#: is darker than that. A reference must be at least twice as bright to leave float32 rounding
+#: of the luminance a margin.
+_HDR_MIN_LUMINANCE = 2.0**-22
+
+
+def _check_hdr(t: np.ndarray, r: np.ndarray) -> None:
+    """Refuses what HDR FLIP cannot take: negative values, values beyond float32 (they would
+    turn into inf), and a reference too dark for FLIP to choose exposures (it exits instead)."""
+    for name, a in (("test", t), ("ref", r)):
+        if a.min() < 0:
+            raise ValueError(f"{name}: HDR FLIP needs non-negative values")
+        if a.max() > np.finfo(np.float32).max:
+            raise ValueError(f"{name}: HDR FLIP computes in float32; values must be <= 3.4e38, got {a.max():g}")
+    luminance = r.astype(np.float32) @ np.float32([0.2126, 0.7152, 0.0722])
+    if not luminance.max() >= _HDR_MIN_LUMINANCE:
+        raise ValueError(
+            f"ref: HDR FLIP needs a reference whose brightest pixel has luminance >= 2^-22 (it derives its "
+            f"exposure range from it), got {float(luminance.max()):g}"
+        )
 
 
 def error_heatmap(test, ref, mask=None, *, vmax: float | None = None, signed: bool = True, cmap: str | None = None) -> np.ndarray:
@@ -131,11 +173,14 @@ def error_heatmap(test, ref, mask=None, *, vmax: float | None = None, signed: bo
         err = np.abs(err)
     if vmax is None:
         vmax = float(np.abs(err[m]).max())
-    elif not (np.isfinite(vmax) and vmax > 0):
-        raise ValueError(f"vmax: must be finite and > 0, got {vmax}")
+    else:
+        vmax = v.positive("vmax", vmax)
     vmax = vmax if vmax > 0 else 1.0  # identical images: any scale shows zero error
     lo = -vmax if signed else 0.0
-    colors = matplotlib.colormaps[cmap or ("RdBu_r" if signed else "magma")]
+    try:
+        colors = matplotlib.colormaps[cmap or ("RdBu_r" if signed else "magma")]
+    except (KeyError, TypeError):
+        raise ValueError(f"cmap: expected a matplotlib colour map name, got {cmap!r}") from None
     rgb = colors(np.clip((err - lo) / (vmax - lo), 0, 1))[..., :3].astype(np.float32)
     rgb[~m] = MASKED_GRAY
     return rgb
@@ -171,7 +216,10 @@ def _inputs(test, ref, mask, *, images_only: bool = True):
     if mask is None:
         m = np.ones(pixels, bool)
     else:
-        m = np.asarray(mask)
+        try:
+            m = np.asarray(mask)
+        except (TypeError, ValueError):  # ragged nested lists
+            raise ValueError(f"mask: expected a boolean array of shape {pixels}, got {type(mask).__name__}") from None
         if m.shape != pixels:
             raise ValueError(f"mask: expected shape {pixels}, got {m.shape}")
         if m.dtype != bool:
@@ -184,7 +232,10 @@ def _inputs(test, ref, mask, *, images_only: bool = True):
 
 
 def _finite(name: str, value) -> np.ndarray:
-    a = np.asarray(value)
+    try:
+        a = np.asarray(value)
+    except (TypeError, ValueError) as exc:  # ragged nested lists
+        raise ValueError(f"{name}: expected an array, got {type(value).__name__} ({exc})") from None
     if a.dtype.kind not in "biuf":
         raise ValueError(f"{name}: expected a numeric array, got dtype {a.dtype}")
     a = a.astype(np.float64)

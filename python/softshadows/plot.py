@@ -42,8 +42,20 @@ def comparison_grid(reference, results: dict, mask=None, *, path=None, titles: d
     -------
     matplotlib.figure.Figure
     """
-    from .metrics import error_heatmap
+    from .metrics import _inputs, error_heatmap
 
+    from . import _validate as v
+
+    # Checked here, so that a refusal names this function's arguments, not error_heatmap's.
+    reference = v.array("reference", reference, np.float64, (None, None))
+    if reference.size == 0:
+        raise ValueError(f"reference: expected a non-empty (H, W) image, got shape {reference.shape}")
+    if not isinstance(results, dict) or not all(isinstance(k, str) for k in results):
+        raise ValueError(f"results: expected a dict of method name to visibility, got {type(results).__name__}")
+    results = {k: v.array("results", r, np.float64, reference.shape) for k, r in results.items()}
+    if mask is not None:
+        mask = _inputs(reference, reference, mask)[2]  # as the metrics take it: bool or 0/1, (H, W), not empty
+    vmax = v.positive("vmax", vmax)
     plt = _pyplot()
     cols = {"reference": reference, **results}
     cmap = plt.get_cmap("gray").with_extremes(bad=NO_HIT)
@@ -72,8 +84,13 @@ def show_samples(light, samples, *, ax=None, title: str | None = None):
     light : a light
     samples : ndarray, shape (S, 3)
     """
+    from . import _validate as v
+
+    center = getattr(light, "center", getattr(light, "position", None))
+    if center is None:
+        raise ValueError(f"light: expected a softshadows light, got {type(light).__name__}")
+    pts = v.array("samples", samples, np.float64, (None, 3)) - np.asarray(center, dtype=np.float64)
     plt = _pyplot()
-    pts = np.asarray(samples, dtype=np.float64) - np.asarray(light.center, dtype=np.float64)
     _, _, vt = np.linalg.svd(pts if len(pts) > 1 else np.eye(3), full_matrices=False)
     xy = pts @ vt[:2].T
     if ax is None:

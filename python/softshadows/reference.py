@@ -342,6 +342,7 @@ def mitsuba_visibility(scene: Scene, light, receivers, samples, *, epsilon: floa
         In [0, 1]; 0 where the G-buffer mask is False.
     """
     _check_scene(scene)
+    _check_light(light)
     rx = as_receivers(receivers)
     pts = _light_samples(light, samples)
     eps = scene.epsilon if epsilon is None else v.positive("epsilon", epsilon, allow_zero=True)
@@ -606,8 +607,9 @@ def mitsuba_render(scene: Scene, light, camera: Camera, *, spp: int = 64, integr
     spp = v.positive_int("spp", spp)
     if integrator not in _INTEGRATORS:
         raise ValueError(f"integrator: expected one of {_INTEGRATORS}, got {integrator!r}")
-    seed = v.nonneg_int("seed", seed)
+    seed = v.nonneg_int("seed", seed, maximum=2**32 - 1)  # Mitsuba's sampler seed is a uint32
     albedo, intensity = _albedo(albedo), v.positive("intensity", intensity)
+    _check_light(light)
     if integrator == "auto":
         integrator = "volpath" if any(m.alpha is not None for m in scene.meshes) else "path"
     key = None
@@ -653,9 +655,11 @@ def mitsuba_environment_render(scene: Scene, env, camera: Camera, *, spp: int = 
     _check_scene(scene)
     camera = _check_camera(camera)
     env = v.array("env", env, np.float32, (None, None, 3))
+    if env.size == 0:
+        raise ValueError(f"env: expected a non-empty lat-long map, got shape {env.shape}")
     if env.min() < 0:
         raise ValueError("env: radiance must be >= 0")
-    spp, seed, albedo = v.positive_int("spp", spp), v.nonneg_int("seed", seed), _albedo(albedo)
+    spp, seed, albedo = v.positive_int("spp", spp), v.nonneg_int("seed", seed, maximum=2**32 - 1), _albedo(albedo)
     integrator = "volpath" if any(m.alpha is not None for m in scene.meshes) else "path"
     key = None
     if cache:
@@ -737,6 +741,12 @@ def _cache_write(key: str, value: np.ndarray) -> None:
 
 def _check_scene(scene) -> None:
     v.instance("scene", scene, Scene, "a softshadows.Scene")
+
+
+def _check_light(light) -> None:
+    from .lights import _Light
+
+    v.instance("light", light, _Light, "a PointLight, RectLight, DiskLight, SphereLight or EllipsoidLight")
 
 
 def _check_camera(camera) -> Camera:

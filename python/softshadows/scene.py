@@ -69,7 +69,11 @@ class Scene:
     """
 
     def __init__(self, meshes):
-        meshes = list(meshes) if not isinstance(meshes, Mesh) else [meshes]
+        if isinstance(meshes, Mesh):
+            meshes = [meshes]
+        elif isinstance(meshes, (str, bytes)) or not hasattr(meshes, "__iter__"):  # list(None) would raise a bare TypeError
+            raise ValueError(f"meshes: expected a non-empty list of softshadows.Mesh, got {meshes!r}")
+        meshes = list(meshes)
         if not meshes or not all(isinstance(m, Mesh) for m in meshes):
             raise ValueError(f"meshes: expected a non-empty list of softshadows.Mesh, got {meshes!r}")
         if sum(len(m.faces) for m in meshes) == 0:
@@ -126,6 +130,8 @@ class Scene:
         """
         picked = set()
         names = [m.name for m in self.meshes]
+        if isinstance(meshes, (str, int, np.integer)) or not hasattr(meshes, "__iter__"):
+            raise ValueError(f"meshes: expected a sequence of mesh names or indices, got {meshes!r}")
         for key in meshes:
             if isinstance(key, str):
                 if key not in names:

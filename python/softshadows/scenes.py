@@ -51,6 +51,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import importlib.util
+import math
 import os
 from dataclasses import dataclass
 
@@ -134,6 +135,9 @@ class Setup:
 
     def with_light(self, light) -> "Setup":
         """The same scene and camera under another light."""
+        from .lights import _Light
+
+        _v.instance("light", light, _Light, "a PointLight, RectLight, DiskLight, SphereLight or EllipsoidLight")
         return dataclasses.replace(self, light=light)
 
     def __repr__(self) -> str:
@@ -183,9 +187,10 @@ def ground_sphere(
     Setup
         Meshes ``ground`` (2 triangles) and ``sphere`` (closed).
     """
-    radius = _v.positive("radius", radius)
-    elevation = _v.positive("elevation", elevation, allow_zero=True)
+    radius = _length("radius", radius)
+    elevation = _length("elevation", elevation, allow_zero=True)
     subdivisions = _v.nonneg_int("subdivisions", subdivisions)
+    _mesh_budget("subdivisions", "ground_sphere", 20.0 * 4.0 ** min(subdivisions, 64), 10.0 * 4.0 ** min(subdivisions, 64) + 2)
     verts, faces = _icosphere(subdivisions)
     verts = verts * radius + np.array([0.0, elevation + radius, 0.0])
     sphere = Mesh(verts, faces, closed=True, name="sphere")
@@ -252,9 +257,11 @@ def columns(
     segments = _v.positive_int("segments", segments)
     if segments < 3:
         raise ValueError(f"segments: expected an integer >= 3, got {segments}")
-    radius = _v.positive("radius", radius)
-    column_height = _v.positive("column_height", column_height)
-    spacing = _v.positive("spacing", spacing)
+    radius = _length("radius", radius)
+    column_height = _length("column_height", column_height)
+    spacing = _length("spacing", spacing)
+    per_column = (4 * segments, 2 * segments + 2) if kind == "cylinder" else (12, 8)
+    _mesh_budget("n", "columns", float(n) * per_column[0], float(n) * per_column[1])
     parts = []
     for i in range(n):
         x = (i - (n - 1) / 2) * spacing
@@ -324,13 +331,14 @@ def torus_knot(
         Meshes ``ground`` and ``torus_knot`` (closed).
     """
     p, q = _v.positive_int("p", p), _v.positive_int("q", q)
-    if np.gcd(p, q) != 1:
+    if math.gcd(p, q) != 1:  # np.gcd overflows for p or q >= 2**63
         raise ValueError(f"p: p and q must be coprime for a knot, got p={p}, q={q}")
     tube_segments = _at_least("tube_segments", tube_segments, 3)
     radial_segments = _at_least("radial_segments", radial_segments, 3)
-    radius = _v.positive("radius", radius)
-    tube_radius = _v.positive("tube_radius", tube_radius)
-    elevation = _v.positive("elevation", elevation, allow_zero=True)
+    radius = _length("radius", radius)
+    tube_radius = _length("tube_radius", tube_radius)
+    elevation = _length("elevation", elevation, allow_zero=True)
+    _mesh_budget("tube_segments", "torus_knot", 2.0 * tube_segments * radial_segments, float(tube_segments) * radial_segments)
 
     t = np.arange(tube_segments) * (2 * np.pi / tube_segments)
     s = radius / 3.0  # the curve's largest distance from the axis is 3 in curve units
@@ -463,6 +471,9 @@ def fence_mesh(
         124 triangles per panel for the default slats, 1640 for the default grid).
     """
     panels_, tile, reps = _fence_layout(pattern, panels, panel_width, panel_height, repeats, gap, elevation)
+    texels = float(tile.size) * reps[0] * reps[1]
+    # The opaque-texel mask, its padded rows and up to one rectangle (2 triangles) per texel.
+    _mesh_budget("repeats", "fence_mesh", 2.0 * texels * len(panels_), 4.0 * texels * len(panels_), extra=80.0 * texels)
     full = np.tile(tile >= 0.5, (reps[1], reps[0]))  # rows: v texels, columns: u texels
     rects = _merge_rectangles(full)
     th, tw = tile.shape
@@ -539,12 +550,14 @@ def leaves(
     """
     n = _v.positive_int("n", n)
     rng = np.random.default_rng(_v.nonneg_int("seed", seed))
-    leaf_size = _v.positive("leaf_size", leaf_size)
-    crown_radius = _v.positive("crown_radius", crown_radius)
-    crown_height = _v.positive("crown_height", crown_height)
-    trunk_radius = _v.positive("trunk_radius", trunk_radius)
+    leaf_size = _length("leaf_size", leaf_size)
+    crown_radius = _length("crown_radius", crown_radius)
+    crown_height = _length("crown_height", crown_height)
+    trunk_radius = _length("trunk_radius", trunk_radius)
     trunk_segments = _at_least("trunk_segments", trunk_segments, 3)
     texture_size = _at_least("texture_size", texture_size, 4)
+    _mesh_budget("n", "leaves", 2.0 * n + 4.0 * trunk_segments, 4.0 * n + 2.0 * trunk_segments + 2,
+                 extra=600.0 * n + 40.0 * float(texture_size) ** 2)  # float64 leaf frames; the mask
     if crown_height <= 0.75 * crown_radius:
         raise ValueError(
             f"crown_height: must exceed the crown's vertical radius 0.75 * crown_radius = {0.75 * crown_radius:g}, "
@@ -642,10 +655,19 @@ def hairball(
     segments = _v.positive_int("segments", segments)
     sides = _at_least("sides", sides, 3)
     rng = np.random.default_rng(_v.nonneg_int("seed", seed))
-    radius = _v.positive("radius", radius)
-    strand_radius = _v.positive("strand_radius", strand_radius)
-    strand_length = _v.positive("strand_length", strand_length)
-    elevation = _v.positive("elevation", elevation, allow_zero=True)
+    radius = _length("radius", radius)
+    strand_radius = _length("strand_radius", strand_radius)
+    strand_length = _length("strand_length", strand_length)
+    elevation = _length("elevation", elevation, allow_zero=True)
+    if strand_radius >= radius:
+        raise ValueError(f"strand_radius: must be below radius = {radius:g} (the strands stay inside the ball), got {strand_radius:g}")
+    if strand_length / segments < 1e-9 * radius:
+        # Consecutive points would coincide in float64: the tube frames would divide by zero.
+        raise ValueError(
+            f"strand_length: each of the {segments} segments must be at least 1e-9 x radius long, got {strand_length:g} in all"
+        )
+    _mesh_budget("strands", "hairball", float(strands) * (2 * sides * segments + 2 * (sides - 2)),
+                 float(strands) * (segments + 1) * sides)
 
     inner = radius - strand_radius
     pos = _unit_ball(rng, strands) * (0.8 * inner)
@@ -721,11 +743,11 @@ def sword(
     Setup
         Meshes ``ground`` and ``sword`` (closed: the blade, a crossguard and a grip; 36 triangles).
     """
-    length = _v.positive("blade_length", blade_length)
-    w = _v.positive("blade_width", blade_width)
-    t = _v.positive("blade_thickness", blade_thickness)
-    tip = _v.positive("tip_height", tip_height)
-    tilt = float(tilt)
+    length = _length("blade_length", blade_length)
+    w = _length("blade_width", blade_width)
+    t = _length("blade_thickness", blade_thickness)
+    tip = _length("tip_height", tip_height)
+    tilt = _v.number("tilt", tilt)
     if not 0.0 <= tilt <= 80.0:
         raise ValueError(f"tilt: expected degrees in [0, 80], got {tilt}")
     guard = 4 * w
@@ -801,11 +823,11 @@ def load_model(
     ModuleNotFoundError
         When pymeshlab is not installed (``pip install "softshadows[models]"``).
     """
-    if name not in MODELS:
+    if not isinstance(name, str) or name not in MODELS:
         raise ValueError(f"name: expected one of {sorted(MODELS)}, got {name!r}")
-    size = _v.positive("size", size)
-    elevation = _MODEL_ELEVATION[name] if elevation is None else _v.positive("elevation", elevation, allow_zero=True)
-    yaw = float(yaw)
+    size = _length("size", size)
+    elevation = _MODEL_ELEVATION[name] if elevation is None else _length("elevation", elevation, allow_zero=True)
+    yaw = _v.number("yaw", yaw)
     verts, faces, closed = _load_model_arrays(name)
     c, s = np.cos(np.radians(yaw)), np.sin(np.radians(yaw))
     verts = verts @ np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])
@@ -908,6 +930,7 @@ def leaf_texture(size: int = 32) -> np.ndarray:
     the blade (u' in [0, 1] over u in [0.12, 1]) and a thin stem over u in [0, 0.12].
     """
     size = _at_least("size", size, 4)
+    _v.memory("leaf_texture", 40.0 * float(size) ** 2)  # float64 coordinates and bool masks per texel
     c = (np.arange(size) + 0.5) / size
     u, v = c[None, :], c[:, None]
     blade_u = np.clip((u - 0.12) / 0.88, 0.0, 1.0)
@@ -934,10 +957,14 @@ def _assemble(
     framed = meshes if frame_by is None else list(frame_by)
     if light not in LIGHT_KINDS:
         raise ValueError(f"light: expected one of {LIGHT_KINDS}, got {light!r}")
-    light_size = _v.positive("light_size", light_size)
-    light_distance = _v.positive("light_distance", light_distance)
+    light_size = _length("light_size", light_size)
+    light_distance = _length("light_distance", light_distance)
     width, height = _v.positive_int("width", width), _v.positive_int("height", height)
     fov_y = _v.fov_y(fov_y)
+    if fov_y < MIN_FOV:
+        # The camera backs away as 1 / tan(fov): at 1e-6 degrees it sits 1e8 units out, where
+        # float32 rays can no longer tell the scene's pixels apart and every pixel misses.
+        raise ValueError(f"fov_y: the scenes are framed in float32 and need at least {MIN_FOV:g} degrees, got {fov_y:g}")
 
     lo, hi = _bounds(framed).astype(np.float64)
     target = (lo + hi) / 2
@@ -945,12 +972,17 @@ def _assemble(
         center = target + light_distance * _direction(*light_dir)
     else:
         center = _v.vec3("light_position", light_position).astype(np.float64)
+        if np.abs(center).max() > MAX_LENGTH:
+            raise ValueError(f"light_position: coordinates must be within +-{MAX_LENGTH:g} world units, got {center.tolist()}")
     if center[1] <= hi[1]:
         raise ValueError(
             f"light_position: the light must be above the occluders (y > {hi[1]:.4g}) to cast a shadow on the "
             f"ground, got y = {center[1]:.4g}"
         )
-    lamp, extremes = _make_light(light, center, target, light_size)
+    try:
+        lamp, extremes = _make_light(light, center, target, light_size)
+    except ValueError as exc:  # e.g. a rect light whose float32 sides span no area
+        raise ValueError(f"light_size: a {light} light of size {light_size:g} is degenerate ({exc})") from None
 
     # Points to frame: the occluders and their shadow on y = 0 cast from the light's extreme
     # points (which bounds the penumbra); a deterministic subsample of at most 4096 vertices.
@@ -970,7 +1002,7 @@ def _assemble(
         half = 1.25 * float(np.max(np.abs(poi[:, [0, 2]]))) + 0.5
         half = float(np.ceil(half * 2) / 2)
     else:
-        half = _v.positive("ground_size", ground_size)
+        half = _length("ground_size", ground_size)
     ground = Mesh(
         np.array([[-half, 0, -half], [half, 0, -half], [half, 0, half], [-half, 0, half]], dtype=np.float32),
         np.array([[0, 2, 1], [0, 3, 2]], dtype=np.uint32),
@@ -1030,9 +1062,15 @@ def _frame(points, to_eye, fov_y, width, height, margin=0.9) -> Camera:
 
     def smallest(c, t):
         lo = 1e-3 - float(z.min())
-        hi = lo + 1.0
+        # The first step scales with the points: lo + 1.0 == lo once lo > 2**53, and doubling a
+        # zero step would loop forever.
+        step = max(1.0, abs(lo) * 2.0**-40)  # 1.0 for any ordinary scene, as before
+        hi = lo + step
         while interval(c, t, hi)[0] > interval(c, t, hi)[1]:
-            hi = lo + 2 * (hi - lo)
+            step *= 2
+            hi = lo + step
+            if not np.isfinite(hi):
+                raise ValueError(f"fov_y: cannot frame the scene with a field of view of {fov_y:g} degrees")
         for _ in range(60):
             mid = (lo + hi) / 2
             a0, a1 = interval(c, t, mid)
@@ -1044,7 +1082,10 @@ def _frame(points, to_eye, fov_y, width, height, margin=0.9) -> Camera:
     b = sum(interval(y, ty, d)) / 2
     eye = points.mean(axis=0) - d * f + a * r + b * u
     # Look at the point straight ahead at the depth of the points' mean (d > 0 as min(z) <= 0).
-    return Camera.look_at(eye, eye + d * f, (0.0, 1.0, 0.0), fov_y, width, height)
+    try:
+        return Camera.look_at(eye, eye + d * f, (0.0, 1.0, 0.0), fov_y, width, height)
+    except ValueError as exc:  # a tiny field of view puts the eye so far that eye == target in float32
+        raise ValueError(f"fov_y: cannot frame the scene with a field of view of {fov_y:g} degrees ({exc})") from None
 
 
 # ----------------------------------------------------------------------------------------------
@@ -1206,15 +1247,17 @@ def _fence_layout(pattern, panels, panel_width, panel_height, repeats, gap, elev
     """Panel frames (origin, u axis, v axis) in world units, the alpha tile and the repeats."""
     tile = fence_texture(pattern)
     panels = _v.positive_int("panels", panels)
-    panel_width = _v.positive("panel_width", panel_width)
-    panel_height = _v.positive("panel_height", panel_height)
-    gap = _v.positive("gap", gap, allow_zero=True)
-    elevation = _v.positive("elevation", elevation, allow_zero=True)
+    panel_width = _length("panel_width", panel_width)
+    panel_height = _length("panel_height", panel_height)
+    gap = _length("gap", gap, allow_zero=True)
+    elevation = _length("elevation", elevation, allow_zero=True)
     if repeats is None:
         repeats = (10, 1) if pattern == "slats" else (40, 20)
     if not (isinstance(repeats, (tuple, list)) and len(repeats) == 2):
         raise ValueError(f"repeats: expected two positive integers (ku, kv), got {repeats!r}")
     reps = (_v.positive_int("repeats", repeats[0]), _v.positive_int("repeats", repeats[1]))
+    # One Mesh (a few KB of Python objects and arrays) per panel.
+    _v.memory("fence panels", 4096.0 * panels)
     frames = []
     for i in range(panels):
         c = i - (panels - 1) / 2
@@ -1312,6 +1355,36 @@ def _load_model_arrays(name: str):
 # ----------------------------------------------------------------------------------------------
 # Option checks
 # ----------------------------------------------------------------------------------------------
+
+
+#: The range of lengths (and the largest light coordinate) the factories take, in world units.
+#: The occluders are about 1 unit across; beyond 1e6 float32 coordinates lose the unit's
+#: precision (and near 1e38 overflow), below 1e-6 a shape's own differences vanish next to its
+#: position (tangents of zero length, NaN frames).
+MIN_LENGTH, MAX_LENGTH = 1e-6, 1e6
+#: The smallest field of view (degrees) the factories frame a scene with.
+MIN_FOV = 0.01
+#: Peak bytes per triangle while building a mesh: float64 vertices and int64 faces, their
+#: float32/uint32 copies in the Mesh, and the temporaries of the vectorized builders.
+_BYTES_PER_TRIANGLE = 128.0
+
+
+def _length(name, value, *, allow_zero: bool = False) -> float:
+    """A length in world units in [MIN_LENGTH, MAX_LENGTH] (or 0 with ``allow_zero``)."""
+    length = _v.positive(name, value, allow_zero=allow_zero, maximum=MAX_LENGTH)
+    if 0 < length < MIN_LENGTH:
+        raise ValueError(f"{name}: must be at least {MIN_LENGTH:g} world units{' (or 0)' if allow_zero else ''}, got {length:g}")
+    return length
+
+
+def _mesh_budget(name: str, what: str, triangles: float, vertices: float, *, extra: float = 0.0) -> None:
+    """Refuses a mesh before building it: a ValueError naming the option that sizes it when its
+    vertices would not fit uint32 indices, a MemoryError (as the core's) when its estimated peak
+    memory exceeds ``softshadows.memory_limit()``. Counts are floats so that 4**(2**70) never
+    has to be computed."""
+    if vertices > 2**32 - 1:
+        raise ValueError(f"{name}: the {what} mesh would have {vertices:.3g} vertices, more than uint32 indices address")
+    _v.memory(f"{what} mesh", _BYTES_PER_TRIANGLE * triangles + extra)
 
 
 def _at_least(name, value, low) -> int:

@@ -93,7 +93,10 @@ def direct(gbuffer, light, visibility, albedo=0.8, *, intensity: float = 1.0, be
     vis = v.array("visibility", visibility, np.float64, rx.shape)
     if vis.size and (vis.min() < 0 or vis.max() > 1):
         raise ValueError(f"visibility: expected values in [0, 1], got [{vis.min()}, {vis.max()}]")
-    alb = np.asarray(albedo, np.float64)
+    try:
+        alb = np.asarray(albedo, np.float64)
+    except (TypeError, ValueError):
+        alb = np.full(2, np.nan)  # refused below with the argument's name
     if alb.shape not in ((), (3,)) or not np.all(np.isfinite(alb)) or alb.min() < 0 or alb.max() > 1:
         raise ValueError(f"albedo: expected a number or an RGB triple in [0, 1], got {albedo!r}")
     points, normals, mask = _flat(rx)
@@ -102,7 +105,15 @@ def direct(gbuffer, light, visibility, albedo=0.8, *, intensity: float = 1.0, be
     if bent_normals:
         e *= _bent_ratio(gbuffer, scene, light, points, normals, mask)
     radiance = (e.reshape(rx.shape) * vis / np.pi)[..., None] * alb if alb.ndim else e.reshape(rx.shape) * vis * alb / np.pi
-    return radiance.astype(np.float32)
+    with np.errstate(over="ignore"):
+        out = radiance.astype(np.float32)
+    if not np.all(np.isfinite(out)):
+        # A huge intensity, or a point light almost touching a receiver (E = I / r^2).
+        raise ValueError(
+            f"intensity: the radiance of {int(np.sum(~np.isfinite(out)))} receivers overflows float32 "
+            f"(max {np.nanmax(radiance):.3g}); lower the intensity or move the light away from the receivers"
+        )
+    return out
 
 
 def _bent_ratio(gbuffer, scene, light, points, normals, mask) -> np.ndarray:
@@ -117,6 +128,11 @@ def _bent_ratio(gbuffer, scene, light, points, normals, mask) -> np.ndarray:
     verts = np.concatenate([m.vertices for m in scene.meshes]).astype(np.float64)
     offsets = np.cumsum([0] + [len(m.vertices) for m in scene.meshes[:-1]])
     faces = np.concatenate([m.faces.astype(np.int64) + o for m, o in zip(scene.meshes, offsets)])
+    if gbuffer.face_ids.size and int(gbuffer.face_ids.max()) >= len(faces):
+        raise ValueError(
+            f"scene: the G-buffer hits face {int(gbuffer.face_ids.max())} but the scene has {len(faces)} faces; "
+            "pass the scene the G-buffer was made from"
+        )
     center = np.asarray(light.center if hasattr(light, "center") else light.position, np.float64)
     tri = verts[faces]
     face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
@@ -163,10 +179,10 @@ def unshadowed_irradiance(points, normals, light, *, intensity: float = 1.0) -> 
     ndarray, shape (...), float64
         Irradiance in W m^-2 (>= 0).
     """
-    p = np.asarray(points, np.float64)
+    p = _float_array("points", points)
     if p.ndim < 1 or p.shape[-1] != 3:
         raise ValueError(f"points: expected shape (..., 3), got {p.shape}")
-    n = np.asarray(normals, np.float64)
+    n = _float_array("normals", normals)
     if n.shape != p.shape:
         raise ValueError(f"normals: expected shape {p.shape} like points, got {n.shape}")
     if not (np.all(np.isfinite(p)) and np.all(np.isfinite(n))):
@@ -181,6 +197,14 @@ def unshadowed_irradiance(points, normals, light, *, intensity: float = 1.0) -> 
     for k in range(0, len(p), _BATCH):
         e[k:k + _BATCH] = _irradiance(p[k:k + _BATCH], n[k:k + _BATCH], light)
     return (intensity * e).reshape(shape)
+
+
+def _float_array(name: str, value) -> np.ndarray:
+    """A float64 array, or a ValueError naming the argument (strings, ragged lists)."""
+    try:
+        return np.asarray(value, np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: expected an array of numbers, got {type(value).__name__} ({exc})") from None
 
 
 def _irradiance(p, n, light) -> np.ndarray:

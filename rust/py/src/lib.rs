@@ -271,6 +271,12 @@ fn memory_limit() -> u64 {
     softshadows_core::limits::memory_limit()
 }
 
+/// The GPU adapter as `(name, value)` pairs (creates the device on first use).
+#[pyfunction]
+fn gpu_info(py: Python<'_>) -> PyResult<Vec<(String, String)>> {
+    threads::detached(py, softshadows_core::gpu::info).or_raise()
+}
+
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<NativeScene>()?;
@@ -280,6 +286,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<NativeSamples>()?;
     m.add_function(wrap_pyfunction!(set_memory_limit, m)?)?;
     m.add_function(wrap_pyfunction!(memory_limit, m)?)?;
+    m.add_function(wrap_pyfunction!(gpu_info, m)?)?;
     m.add_function(wrap_pyfunction!(threads::set_num_threads, m)?)?;
     m.add_function(wrap_pyfunction!(threads::num_threads, m)?)?;
     m.add_function(wrap_pyfunction!(threads::after_fork_in_child, m)?)?;

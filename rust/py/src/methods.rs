@@ -22,6 +22,7 @@ use softshadows_core::methods::stsv::{stsv as stsv_core, stsv_volumes as stsv_vo
 use softshadows_core::raster::influence::ObjectOptions;
 use softshadows_core::methods::vwss::{vwss as vwss_core, Mode, Parallel, Precision, VwssOptions};
 use softshadows_core::geometry::bvh::Bvh;
+use softshadows_core::gpu::Backend;
 use softshadows_core::geometry::mesh::Scene;
 use softshadows_core::geometry::receivers::Receivers;
 use softshadows_core::light::lights::Light;
@@ -38,6 +39,11 @@ fn output<'py>(py: Python<'py>, (vis, stats): (Vec<f32>, Stats)) -> PyResult<Out
         dict.set_item(name, value)?;
     }
     Ok((vis.into_pyarray(py), dict))
+}
+
+/// `"cpu"` or `"gpu"` (Python resolves `"auto"`).
+fn parse_backend(backend: &str) -> CoreResult<Backend> {
+    choice("backend", backend, &[("cpu", Backend::Cpu), ("gpu", Backend::Gpu)])
 }
 
 /// Exact sampled visibility by BVH shadow rays (the oracle).
@@ -59,6 +65,7 @@ fn ray_traced<'py>(
 
 /// Hard shadows from one depth map with bias and PCF.
 #[pyfunction]
+#[allow(clippy::too_many_arguments)]
 fn shadow_map<'py>(
     py: Python<'py>,
     scene: &NativeScene,
@@ -67,8 +74,9 @@ fn shadow_map<'py>(
     resolution: usize,
     bias: Option<f32>,
     pcf: usize,
+    backend: &str,
 ) -> PyResult<Output<'py>> {
-    let opts = ShadowMapOptions { resolution, bias, pcf, frustum: None };
+    let opts = ShadowMapOptions { resolution, bias, pcf, frustum: None, backend: parse_backend(backend).or_raise()? };
     let out = crate::threads::detached(py, || shadow_map_core(&scene.scene, &light.light, &receivers.receivers, &opts)).or_raise()?;
     output(py, out)
 }
@@ -85,8 +93,9 @@ fn mvr<'py>(
     resolution: usize,
     pcf: usize,
     bias: Option<f32>,
+    backend: &str,
 ) -> PyResult<Output<'py>> {
-    let opts = MultiViewOptions { resolution, pcf, bias };
+    let opts = MultiViewOptions { resolution, pcf, bias, backend: parse_backend(backend).or_raise()? };
     let out = crate::threads::detached(py, || mvr_core(&scene.scene, &light.light, &receivers.receivers, &samples.samples, &opts))
         .or_raise()?;
     output(py, out)
@@ -119,9 +128,10 @@ fn vwss<'py>(
     precision: &str,
     point_density: f32,
     source_resolution: Option<usize>,
+    backend: &str,
 ) -> PyResult<Output<'py>> {
     let opts = VwssOptions {
-        multiview: MultiViewOptions { resolution, pcf, bias },
+        multiview: MultiViewOptions { resolution, pcf, bias, backend: parse_backend(backend).or_raise()? },
         mode: choice("mode", mode, &[("buffered", Mode::Buffered), ("unbuffered", Mode::Unbuffered)]).or_raise()?,
         parallel: choice(
             "parallel",
@@ -156,8 +166,9 @@ fn pcss<'py>(
     bias: Option<f32>,
     near: Option<f32>,
     seed: u64,
+    backend: &str,
 ) -> PyResult<Output<'py>> {
-    let opts = PcssOptions { resolution, blocker_samples, filter_samples, bias, near, seed };
+    let opts = PcssOptions { resolution, blocker_samples, filter_samples, bias, near, seed, backend: parse_backend(backend).or_raise()? };
     let out = crate::threads::detached(py, || pcss_core(&scene.scene, &light.light, &receivers.receivers, &opts)).or_raise()?;
     output(py, out)
 }
@@ -178,9 +189,11 @@ fn cssm<'py>(
     scale: f32,
     sharpen_a: f32,
     sharpen_b: f32,
+    backend: &str,
 ) -> PyResult<Output<'py>> {
     let prefilter = choice("prefilter", prefilter, &[("sat", Prefilter::Sat), ("mipmap", Prefilter::Mipmap)]).or_raise()?;
-    let opts = CssmOptions { resolution, order, prefilter, near, offset, scale, sharpen_a, sharpen_b };
+    let backend = parse_backend(backend).or_raise()?;
+    let opts = CssmOptions { resolution, order, prefilter, near, offset, scale, sharpen_a, sharpen_b, backend };
     let out = crate::threads::detached(py, || cssm_core(&scene.scene, &light.light, &receivers.receivers, &opts)).or_raise()?;
     output(py, out)
 }

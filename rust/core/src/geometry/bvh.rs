@@ -517,3 +517,50 @@ fn push_far_children(node: &Node4, mask: u32, tnear: Vec4, stack: &mut [(u32, f3
     }
     items[n - 1].1
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::mesh::Mesh;
+
+    /// Fuzzing regression: a NaN or infinite origin or direction (a receiver or sample near
+    /// f32::MAX overflowing `p + epsilon n` or `y - p`) made the slab test accept the empty child
+    /// slots of a node, and traversal indexed past the blocks. Such segments now hit nothing.
+    #[test]
+    fn non_finite_rays_hit_nothing() {
+        // Twelve triangles in a row: the 4-wide root has empty child slots.
+        let mut positions = Vec::new();
+        let mut faces = Vec::new();
+        for i in 0..12u32 {
+            let x = i as f32 * 2.0;
+            positions.extend([Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1.0, 0.0, 0.0), Vec3::new(x, 1.0, 0.0)]);
+            faces.push([3 * i, 3 * i + 1, 3 * i + 2]);
+        }
+        let scene = Scene::new(vec![Mesh::new(positions, faces, None, None, false).unwrap()]).unwrap();
+        let bvh = Bvh::build(&scene).unwrap();
+        let big = Vec3::new(f32::MAX, 0.5, 1.0);
+        let inside = Vec3::new(0.2, 0.2, 1.0);
+        let rays = [
+            (Vec3::NAN, Vec3::new(-0.125, 0.0, 1e-30)),
+            (big + big, -Vec3::Z),
+            (inside, Vec3::new(f32::NEG_INFINITY, 0.0, -1.0)),
+            (inside, Vec3::new(f32::NAN, 0.0, -1.0)),
+        ];
+        for (o, d) in rays {
+            assert_eq!(bvh.intersect(&scene, o, d, 2.0), None, "{o} {d}");
+            assert!(!bvh.occluded(&scene, o, d, 2.0), "{o} {d}");
+            assert_eq!(bvh.count_hits(o, d, 2.0, |_| true), 0, "{o} {d}");
+            let mut out = Vec::new();
+            bvh.occluded_many(&scene, o, &[o + d; 5], &mut out);
+            assert_eq!(out, [false; 5], "{o} {d}");
+        }
+        // Fuzzing regression: a zero direction component at an origin coordinate of ±f32::MAX
+        // nudged the slab origin to ±inf, and `-inf - -inf` (NaN) let empty slots pass.
+        for o in [Vec3::new(-10.0, f32::MIN, f32::MIN), Vec3::new(-10.0, f32::MAX, f32::MAX)] {
+            assert_eq!(bvh.intersect(&scene, o, Vec3::X, f32::INFINITY), None, "{o}");
+            assert!(!bvh.occluded(&scene, o, Vec3::X, f32::INFINITY), "{o}");
+        }
+        // A finite ray through the first triangle still hits it.
+        assert_eq!(bvh.intersect(&scene, inside, -Vec3::Z, 2.0).map(|h| h.face), Some(0));
+    }
+}

@@ -135,14 +135,19 @@ impl Light {
         Ok(Self { shape: Shape::Point { position }, emission: None })
     }
 
-    /// A rectangle with half-extent vectors `u`, `v`; refuses zero area.
+    /// A rectangle with half-extent vectors `u`, `v`; refuses zero area, and `u`, `v` parallel to
+    /// within 1e-6 rad, whose Gram determinant (which maps light points to the rectangle's
+    /// parameters) cancels to nothing.
     pub fn rect(center: Vec3, u: Vec3, v: Vec3) -> Result<Self> {
         finite_vec("center", center)?;
         finite_vec("u", u)?;
         finite_vec("v", v)?;
-        // Compare the cross product itself: its squared length underflows for tiny lights.
-        if u.cross(v).abs().max_element() == 0.0 {
-            return Err(Error::invalid("u", format!("u = {u} and v = {v} span zero area")));
+        // In f64, where the squared lengths of tiny and huge f32 vectors neither underflow nor
+        // overflow: sin² of the angle between u and v is det / (|u|² |v|²).
+        let (du, dv) = (u.as_dvec3(), v.as_dvec3());
+        let (uu, vv, uv) = (du.dot(du), dv.dot(dv), du.dot(dv));
+        if uu * vv - uv * uv <= 1e-12 * uu * vv {
+            return Err(Error::invalid("u", format!("u = {u} and v = {v} span (almost) zero area: parallel to within 1e-6 rad")));
         }
         Ok(Self { shape: Shape::Rect { center, u, v }, emission: None })
     }
@@ -274,13 +279,15 @@ impl Light {
     fn params(&self, y: Vec3) -> Vec2 {
         match self.shape {
             Shape::Rect { center, u, v } => {
-                // Solve d = a u + b v through the Gram matrix: u and v need not be orthogonal.
-                let d = y - center;
+                // Solve d = a u + b v through the Gram matrix: u and v need not be orthogonal. In
+                // f64: in f32 the determinant underflows for half extents below ~1e-10, overflows
+                // above ~1e9 and cancels for nearly parallel u, v (found by fuzzing).
+                let (d, u, v) = ((y - center).as_dvec3(), u.as_dvec3(), v.as_dvec3());
                 let (uu, uv, vv) = (u.dot(u), u.dot(v), v.dot(v));
                 let (du, dv) = (d.dot(u), d.dot(v));
                 let det = uu * vv - uv * uv;
                 let (a, b) = ((du * vv - dv * uv) / det, (dv * uu - du * uv) / det);
-                Vec2::new((a + 1.0) * 0.5, (b + 1.0) * 0.5)
+                Vec2::new(((a + 1.0) * 0.5) as f32, ((b + 1.0) * 0.5) as f32)
             }
             Shape::Disk { center, normal, radius } => {
                 let (t, b) = tangent_frame(normal);
@@ -310,7 +317,15 @@ impl Light {
             }
             Shape::Disk { center, normal, .. } => center + glam::Quat::from_axis_angle(normal, 2.0 * PI * r[0]) * (y - center),
             Shape::Sphere { center, .. } => center + random_rotation(r) * (y - center),
-            Shape::Ellipsoid { center, axes } => center + axes * (random_rotation(r) * (axes.inverse() * (y - center))),
+            // In f64, and back into the unit ball: for a very skinny ellipsoid, the f32 rounding of
+            // `y` across its thin axis grows by the inverse's huge scale, and rotated into the
+            // long axes it put samples far off the light (found by fuzzing).
+            Shape::Ellipsoid { center, axes } => {
+                let a = axes.as_dmat3();
+                let unit = a.inverse() * (y - center).as_dvec3();
+                let unit = if unit.length() > 1.0 { unit.normalize() } else { unit };
+                center + (a * (random_rotation(r).as_dmat3() * unit)).as_vec3()
+            }
         }
     }
 }
@@ -353,6 +368,24 @@ fn random_rotation(r: RotationSeed) -> Mat3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Fuzzing regressions: rotated samples of tiny or huge rectangles and of a very skinny
+    /// ellipsoid stay finite and on the light (their parameters were solved in f32).
+    #[test]
+    fn rotated_samples_of_extreme_lights_stay_on_the_light() {
+        for h in [1e-12f32, 1e-3, 1e12] {
+            let light = Light::rect(Vec3::new(1.0, 2.0, 3.0), Vec3::new(h, 0.0, 0.0), Vec3::new(0.0, 0.0, h)).unwrap();
+            let y = light.map([0.3, 0.6, 0.0]);
+            let z = light.rotate(y, [0.4, 0.7, 0.0]);
+            let d = z - light.center();
+            assert!(z.is_finite() && d.x.abs() <= h * 1.001 && d.z.abs() <= h * 1.001 && d.y == 0.0, "half extent {h}: {z}");
+        }
+        let axes = [Vec3::new(1e8, 0.0, 0.0), Vec3::new(0.0, 1e-9, 0.0), Vec3::new(0.0, 0.0, 1.0)];
+        let light = Light::ellipsoid(Vec3::ZERO, axes).unwrap();
+        let z = light.rotate(light.map([0.2, 0.5, 0.7]), [0.3, 0.1, 0.9]);
+        let unit = Vec3::new(z.x / 1e8, z.y / 1e-9, z.z);
+        assert!(unit.length() <= 1.0 + 1e-3, "{z} lies off the ellipsoid ({unit})");
+    }
 
     #[test]
     fn concentric_map_round_trips() {

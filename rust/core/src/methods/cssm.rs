@@ -50,6 +50,7 @@
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
+use crate::gpu::{self, Backend};
 use crate::light::lights::Light;
 use crate::limits::{self, Peak};
 use crate::raster::depth::{raster_peak, rasterize_depth, DepthMap, LightFrustum, RasterOptions, MAX_RESOLUTION};
@@ -93,6 +94,9 @@ pub struct CssmOptions {
     pub sharpen_a: f32,
     /// Sharpening falloff `B` of eq. 9, per unit of normalized depth (default 10, Figure 4).
     pub sharpen_b: f32,
+    /// Where the basis images, their table and the lookups run (the shadow map is the CPU's):
+    /// the CPU, or the GPU (`gpu/cssm.wgsl`; summed-area tables only, f32 trigonometry).
+    pub backend: Backend,
 }
 
 impl Default for CssmOptions {
@@ -106,6 +110,7 @@ impl Default for CssmOptions {
             scale: 1.0,
             sharpen_a: 0.0,
             sharpen_b: 10.0,
+            backend: Backend::Cpu,
         }
     }
 }
@@ -122,6 +127,9 @@ impl CssmOptions {
         }
         if !(1..=MAX_ORDER).contains(&self.order) {
             return Err(Error::invalid("order", format!("must be in 1..={MAX_ORDER}, got {}", self.order)));
+        }
+        if self.backend == Backend::Gpu && self.prefilter != Prefilter::Sat {
+            return Err(Error::invalid("prefilter", "the GPU prefilters by summed-area tables: use prefilter='sat' with backend='gpu'"));
         }
         if let Some(z) = self.near {
             if !(z.is_finite() && z > 0.0) {
@@ -237,9 +245,30 @@ fn reconstruct(b: &[f64], order: usize, d: f64) -> (f64, f64) {
     (test, z_part)
 }
 
-/// What every receiver's lookup shares.
-struct Lookup<'a> {
-    filtered: &'a Filtered,
+/// What every receiver's lookup shares, as `Params` in `cssm.wgsl` needs it.
+#[derive(Debug, Clone, Copy)]
+pub struct Shared {
+    pub order: usize,
+    pub depth_lo: f32,
+    pub depth_span: f32,
+    pub near: f32,
+    pub scale: f32,
+    pub sharpen_a: f32,
+    pub sharpen_b: f32,
+    /// [`crate::raster::footprint::LightFootprint`]'s half extents per unit `(z_r − z) / (z_r z)`.
+    pub footprint: Vec2,
+}
+
+/// A receiver's lookup start: done (its visibility), or the filters' center and initial half
+/// extents (texels), its linear depth and its normalized test depth.
+#[derive(Debug, Clone, Copy)]
+pub enum Start {
+    Done(f32),
+    Look { center: Vec2, half: Vec2, depth: f32, d: f64 },
+}
+
+/// What every receiver's lookup shares but the filtered maps.
+struct Projection<'a> {
     frustum: &'a LightFrustum,
     range: DepthRange,
     footprint: LightFootprint,
@@ -247,34 +276,66 @@ struct Lookup<'a> {
     opts: &'a CssmOptions,
 }
 
-impl Lookup<'_> {
-    fn receiver(&self, p: Vec3, n: Vec3) -> f32 {
+impl Projection<'_> {
+    /// The receiver's visibility when no filter is needed (facing away from the light's center:
+    /// 0; outside the map or nearer than the search plane: 1), else where the filters read.
+    fn start(&self, p: Vec3, n: Vec3) -> Start {
         if n.dot(self.frustum.eye - p) <= 0.0 {
-            return 0.0;
+            return Start::Done(0.0);
         }
-        let Some(s) = self.frustum.project(p) else { return 1.0 };
+        let Some(s) = self.frustum.project(p) else { return Start::Done(1.0) };
         let map = Vec2::new(self.frustum.width as f32, self.frustum.height as f32);
         if !(s.x >= 0.0 && s.y >= 0.0 && s.x < map.x && s.y < map.y) || s.z <= self.near {
-            return 1.0;
+            return Start::Done(1.0);
         }
-        let channels = 4 * self.opts.order + 1;
-        let (mut means, mut scratch) = (vec![0.0f64; channels], vec![0.0f32; channels]);
-        let center = Vec2::new(s.x, s.y);
         let d = (self.range.normalize(s.z) - f64::from(self.opts.offset())).max(0.0);
+        Start::Look { center: Vec2::new(s.x, s.y), half: self.footprint.through(s.z, self.near), depth: s.z, d }
+    }
+
+    /// `Params` of the GPU lookup.
+    fn shared(&self) -> Shared {
+        Shared {
+            order: self.opts.order,
+            depth_lo: self.range.lo,
+            depth_span: self.range.span,
+            near: self.near,
+            scale: self.opts.scale,
+            sharpen_a: self.opts.sharpen_a,
+            sharpen_b: self.opts.sharpen_b,
+            footprint: self.footprint.texels(),
+        }
+    }
+}
+
+/// What every receiver's CPU lookup shares.
+struct Lookup<'a> {
+    filtered: &'a Filtered,
+    projection: Projection<'a>,
+}
+
+impl Lookup<'_> {
+    fn receiver(&self, p: Vec3, n: Vec3) -> f32 {
+        let (center, half, depth, d) = match self.projection.start(p, n) {
+            Start::Done(v) => return v,
+            Start::Look { center, half, depth, d } => (center, half, depth, d),
+        };
+        let Projection { range, footprint, near, opts, .. } = &self.projection;
+        let channels = 4 * opts.order + 1;
+        let (mut means, mut scratch) = (vec![0.0f64; channels], vec![0.0f32; channels]);
         // Stage 1: the blockers' average depth over the initial filter (Figure 2a-b).
-        self.filtered.box_mean(center, self.footprint.through(s.z, self.near), &mut means, &mut scratch);
-        let (test, z_part) = reconstruct(&means, self.opts.order, d);
+        self.filtered.box_mean(center, half, &mut means, &mut scratch);
+        let (test, z_part) = reconstruct(&means, opts.order, d);
         let blocked = 1.0 - test;
         if blocked < 1e-4 {
             return 1.0;
         }
         let z_avg_n = (z_part / blocked).clamp(0.0, d);
-        let z_avg = (self.range.lo as f64 + z_avg_n * self.range.span as f64).max(f64::from(self.near)) as f32;
+        let z_avg = (range.lo as f64 + z_avg_n * range.span as f64).max(f64::from(*near)) as f32;
         // Stage 2: the filtered shadow test over the penumbra (Figure 2c-d).
-        self.filtered.box_mean(center, self.footprint.through(s.z, z_avg), &mut means, &mut scratch);
-        let (test, _) = reconstruct(&means, self.opts.order, d);
-        let v = (f64::from(self.opts.scale) * (test - 0.5) + 0.5).clamp(0.0, 1.0);
-        let p = 1.0 + f64::from(self.opts.sharpen_a) * (-f64::from(self.opts.sharpen_b) * (d - z_avg_n).max(0.0)).exp();
+        self.filtered.box_mean(center, footprint.through(depth, z_avg), &mut means, &mut scratch);
+        let (test, _) = reconstruct(&means, opts.order, d);
+        let v = (f64::from(opts.scale) * (test - 0.5) + 0.5).clamp(0.0, 1.0);
+        let p = 1.0 + f64::from(opts.sharpen_a) * (-f64::from(opts.sharpen_b) * (d - z_avg_n).max(0.0)).exp();
         v.powf(p) as f32
     }
 }
@@ -306,6 +367,18 @@ pub fn cssm(scene: &Scene, light: &Light, receivers: &Receivers, opts: &CssmOpti
     stats.set("search_near", f64::from(near));
     stats.set("depth_min", f64::from(range.lo));
     stats.set("depth_span", f64::from(range.span));
+    let projection = Projection { frustum: &frustum, range, footprint: LightFootprint::new(&frustum, light), near, opts };
+    if opts.backend == Backend::Gpu {
+        let starts: Vec<Start> = (0..receivers.len())
+            .into_par_iter()
+            .map(|i| if receivers.valid[i] { projection.start(receivers.points[i], receivers.normals[i]) } else { Start::Done(0.0) })
+            .collect();
+        let (vis, [basis, prefilter, lookup]) = gpu::cssm::cssm(&map, &projection.shared(), &starts)?;
+        for (name, seconds) in [("basis_seconds", basis), ("prefilter_seconds", prefilter), ("lookup_seconds", lookup)] {
+            stats.set(name, seconds);
+        }
+        return Ok((vis, stats));
+    }
     let basis = stats.time("basis", || basis_images(&map, range, opts.order))?;
     let channels = 4 * opts.order + 1;
     let filtered = stats.time("prefilter", || -> Result<Filtered> {
@@ -315,7 +388,7 @@ pub fn cssm(scene: &Scene, light: &Light, receivers: &Receivers, opts: &CssmOpti
         })
     })?;
     drop(basis);
-    let lookup = Lookup { filtered: &filtered, frustum: &frustum, range, footprint: LightFootprint::new(&frustum, light), near, opts };
+    let lookup = Lookup { filtered: &filtered, projection };
     let vis = stats.time("lookup", || {
         (0..receivers.len())
             .into_par_iter()

@@ -11,6 +11,9 @@ use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
+use crate::gpu::multiview::Lighting;
+use crate::gpu::mvr::Rasterizer;
+use crate::gpu::Backend;
 use crate::light::sampling::SampleSet;
 use crate::limits::Peak;
 use crate::raster::depth::{raster_peak, rasterize_depth, RasterOptions};
@@ -27,11 +30,14 @@ pub struct MultiViewOptions {
     pub pcf: usize,
     /// Constant depth bias in world units, or `None` for the receiver plane per tap (default).
     pub bias: Option<f32>,
+    /// Where the depth maps are made and lit: the CPU, or the GPU (`gpu/mvr.wgsl` rasterizes,
+    /// `gpu/vwss.wgsl` warps, `gpu/multiview.wgsl` lights), with maps equal texel for texel.
+    pub backend: Backend,
 }
 
 impl Default for MultiViewOptions {
     fn default() -> Self {
-        Self { resolution: 1024, pcf: 5, bias: None }
+        Self { resolution: 1024, pcf: 5, bias: None, backend: Backend::Cpu }
     }
 }
 
@@ -90,6 +96,16 @@ pub fn mvr(
         .buffer(&[receivers.len() as u64, 4 + 4])
         .and(raster_peak(scene, opts.resolution, opts.resolution))
         .check("mvr", &mut stats)?;
+    if opts.backend == Backend::Gpu {
+        let rasterizer = stats.time_add("depth_maps", || Rasterizer::new(scene))?;
+        let lighting = stats.time_add("lighting", || Lighting::new(receivers, &kernel, bias))?;
+        let (draw, light, fragments) = rasterizer.draw_and_light(&views.views, &views.weights, &lighting)?;
+        stats.add("depth_maps_seconds", draw);
+        stats.add("lighting_seconds", light);
+        stats.set("fragments", fragments as f64);
+        let sums = stats.time_add("lighting", || lighting.sums())?;
+        return Ok((resolve(&sums, &views, receivers), stats));
+    }
     let mut sums = vec![0.0f32; receivers.len()];
     for (s, view) in views.views.iter().enumerate() {
         let map = stats.time_add("depth_maps", || rasterize_depth(scene, view, &RasterOptions::default()))?;

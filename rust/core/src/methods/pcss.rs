@@ -28,6 +28,7 @@
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
+use crate::gpu::{self, Backend};
 use crate::light::lights::Light;
 use crate::light::sampling::{unit_disk_pattern, Pattern};
 use crate::limits::Peak;
@@ -57,11 +58,14 @@ pub struct PcssOptions {
     pub near: Option<f32>,
     /// Seed of the two Poisson-disk tap patterns.
     pub seed: u64,
+    /// Where the blocker search and filter run (the map is rasterized on the CPU either way):
+    /// the CPU, or the GPU (`gpu/pcss.wgsl`), with equal results.
+    pub backend: Backend,
 }
 
 impl Default for PcssOptions {
     fn default() -> Self {
-        Self { resolution: 1024, blocker_samples: 64, filter_samples: 96, bias: None, near: None, seed: 0 }
+        Self { resolution: 1024, blocker_samples: 64, filter_samples: 96, bias: None, near: None, seed: 0, backend: Backend::Cpu }
     }
 }
 
@@ -173,6 +177,20 @@ pub fn pcss(scene: &Scene, light: &Light, receivers: &Receivers, opts: &PcssOpti
         filter_taps: unit_disk_pattern(Pattern::Poisson, opts.filter_samples, opts.seed ^ 0x5EED_F117),
         bias: DepthBias::new(opts.bias, RASTERIZED_SLACK)?,
     };
+    if opts.backend == Backend::Gpu {
+        let gpu_lookup = gpu::pcss::Lookup {
+            map: &map,
+            frustum: &frustum,
+            footprint: lookup.footprint.texels(),
+            near,
+            blocker_taps: &lookup.blocker_taps,
+            filter_taps: &lookup.filter_taps,
+            bias: lookup.bias,
+        };
+        let (vis, no_blocker) = stats.time("lighting", || gpu::pcss::pcss(&gpu_lookup, receivers))?;
+        stats.set("no_blocker", no_blocker);
+        return Ok((vis, stats));
+    }
     let outcomes: Vec<Option<Outcome>> = stats.time("lighting", || {
         (0..receivers.len())
             .into_par_iter()

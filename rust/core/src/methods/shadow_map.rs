@@ -25,6 +25,8 @@ use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
+use crate::gpu::multiview::Lighting;
+use crate::gpu::Backend;
 use crate::limits::Peak;
 use crate::raster::depth::{raster_peak, rasterize_depth, DepthMap, LightFrustum, RasterOptions};
 use crate::raster::pcf::{DepthBias, PcfKernel, RASTERIZED_SLACK};
@@ -42,11 +44,14 @@ pub struct ShadowMapOptions {
     pub pcf: usize,
     /// An explicit light frustum; its eye is the shadow-casting point. `None`: fitted.
     pub frustum: Option<LightFrustum>,
+    /// Where the lookups run (the map is rasterized on the CPU either way): the CPU, or the GPU
+    /// (`gpu/multiview.wgsl`, the lighting pass `mvr` and `vwss` share, with one view).
+    pub backend: Backend,
 }
 
 impl Default for ShadowMapOptions {
     fn default() -> Self {
-        Self { resolution: 1024, bias: None, pcf: 1, frustum: None }
+        Self { resolution: 1024, bias: None, pcf: 1, frustum: None, backend: Backend::Cpu }
     }
 }
 
@@ -104,6 +109,12 @@ pub fn shadow_map(scene: &Scene, light: &Light, receivers: &Receivers, opts: &Sh
 fn lookup_all(map: &DepthMap, frustum: &LightFrustum, rx: &Receivers, opts: &ShadowMapOptions) -> Result<Vec<f32>> {
     let kernel = PcfKernel::square(opts.pcf)?;
     let bias = DepthBias::new(opts.bias, RASTERIZED_SLACK)?;
+    if opts.backend == Backend::Gpu {
+        // The lighting pass with one view of weight 1: sums are the lit fractions themselves.
+        let lighting = Lighting::new(rx, &kernel, bias)?;
+        lighting.accumulate_maps(&[map], std::slice::from_ref(frustum), &[1.0])?;
+        return lighting.sums();
+    }
     Ok((0..rx.len())
         .into_par_iter()
         .map(|i| if rx.valid[i] { kernel.visibility(map, frustum, rx.points[i], rx.normals[i], bias) } else { 0.0 })

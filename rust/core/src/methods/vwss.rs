@@ -51,6 +51,9 @@ use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, Peak};
+use crate::gpu::multiview::Lighting;
+use crate::gpu::vwss::Warper;
+use crate::gpu::Backend;
 use crate::methods::mvr::{shared_eyes, MultiViewOptions};
 use crate::raster::depth::{
     casters, raster_peak, rasterize_depth, Caster, DepthMap, FaceFilter, LightFrustum, RasterMode, RasterOptions, Rasterizer,
@@ -148,6 +151,9 @@ impl VwssOptions {
         if self.mode == Mode::Unbuffered && !self.layered {
             return Err(Error::invalid("layered", "single-layer warping needs the source depth test: use mode='buffered'"));
         }
+        if self.mode == Mode::Unbuffered && self.multiview.backend == Backend::Gpu {
+            return Err(Error::invalid("mode", "the GPU warps a point buffer: use mode='buffered' with backend='gpu'"));
+        }
         if self.mode == Mode::Unbuffered && self.precision == Precision::Float16 {
             return Err(Error::invalid("precision", "unbuffered mode stores no points: float16 applies to mode='buffered'"));
         }
@@ -237,6 +243,14 @@ impl Points {
     /// Whether there are no points.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
+    }
+
+    /// Every point's world position, in order.
+    pub fn iter(&self) -> Box<dyn ExactSizeIterator<Item = Vec3> + '_> {
+        match self {
+            Points::Float32(p) => Box::new(p.iter().copied()),
+            Points::Float16(p) => Box::new(p.iter().map(|q| Vec3::new(q[0].to_f32(), q[1].to_f32(), q[2].to_f32()))),
+        }
     }
 
     /// Visits every point's world position, in parallel chunks.
@@ -457,20 +471,37 @@ pub fn vwss(scene: &Scene, light: &Light, receivers: &Receivers, samples: &Sampl
         Some(p) => PointSource::Buffer(p),
         None => PointSource::Raster { scene, source: &source, opts },
     };
-    let atomic = AtomicMaps::new(per_pass, side * side)?;
-    let mut maps: Vec<DepthMap> = (0..per_pass).map(|_| DepthMap::empty(side, side)).collect::<Result<_>>()?;
-    let mut sums = vec![0.0f32; receivers.len()];
-    for (pass, targets) in views.views.chunks(per_pass).enumerate() {
-        let count = stats.time_add("depth_maps", || {
-            atomic.clear(targets.len());
-            let count = point_source.warp(&atomic, targets)?;
-            atomic.copy_into(&mut maps[..targets.len()]);
-            Ok::<_, Error>(count)
-        })?;
-        stats.set("points", count as f64);
-        stats.add("traversals", 1.0);
-        let indexed: Vec<(usize, &DepthMap)> = maps[..targets.len()].iter().enumerate().map(|(k, m)| (pass * per_pass + k, m)).collect();
-        stats.time_add("lighting", || accumulate(&mut sums, &views, &indexed, receivers, &kernel, bias));
-    }
+    let sums = match (opts.multiview.backend, &points) {
+        (Backend::Gpu, Some(points)) => {
+            let warper = stats.time_add("depth_maps", || Warper::new(points.iter()))?;
+            let lighting = stats.time_add("lighting", || Lighting::new(receivers, &kernel, bias))?;
+            for (targets, weights) in views.views.chunks(per_pass).zip(views.weights.chunks(per_pass)) {
+                let (warp, light) = warper.warp_and_light(targets, weights, &lighting)?;
+                stats.add("depth_maps_seconds", warp);
+                stats.add("lighting_seconds", light);
+                stats.set("points", points.len() as f64);
+                stats.add("traversals", 1.0);
+            }
+            stats.time_add("lighting", || lighting.sums())?
+        }
+        _ => {
+            let atomic = AtomicMaps::new(per_pass, side * side)?;
+            let mut maps: Vec<DepthMap> = (0..per_pass).map(|_| DepthMap::empty(side, side)).collect::<Result<_>>()?;
+            let mut sums = vec![0.0f32; receivers.len()];
+            for (pass, targets) in views.views.chunks(per_pass).enumerate() {
+                let count = stats.time_add("depth_maps", || {
+                    atomic.clear(targets.len());
+                    let count = point_source.warp(&atomic, targets)?;
+                    atomic.copy_into(&mut maps[..targets.len()]);
+                    Ok::<_, Error>(count)
+                })?;
+                stats.set("points", count as f64);
+                stats.add("traversals", 1.0);
+                let indexed: Vec<(usize, &DepthMap)> = maps[..targets.len()].iter().enumerate().map(|(k, m)| (pass * per_pass + k, m)).collect();
+                stats.time_add("lighting", || accumulate(&mut sums, &views, &indexed, receivers, &kernel, bias));
+            }
+            sums
+        }
+    };
     Ok((resolve(&sums, &views, receivers), stats))
 }

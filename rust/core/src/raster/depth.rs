@@ -888,6 +888,16 @@ impl Rasterizer {
             z_min = z_min.min(p.z);
             z_max = z_max.max(p.z);
         }
+        // Why: clipping interpolates in f64, so when `near` is tiny next to the triangle (a light
+        // almost touching a receiver) a clipped vertex can round to z <= 0 and project to ±inf or
+        // NaN, which overflowed the fixed-point snapping (found by fuzzing). Every exact clipped
+        // vertex lies inside the guard band: clamp to it, and drop a polygon with a NaN vertex.
+        if pts[..poly.n].iter().any(|q| q.is_nan()) {
+            return None;
+        }
+        let band = DVec2::splat(GUARD_TEXELS + 1.0);
+        let size = DVec2::new(self.frustum.width as f64, self.frustum.height as f64);
+        pts[..poly.n].iter_mut().for_each(|q| *q = q.clamp(-band, size + band));
         let (g1, g2) = (e2.cross(n) / nn, n.cross(e1) / nn);
         Some(Setup {
             inv_z: self.screen.dot_ray(n / d),
@@ -1073,4 +1083,26 @@ fn draw_band(scene: &Scene, raster: &Rasterizer, casters: &[Caster], bin: &[u32]
         });
     }
     fragments
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Fuzzing regression: a point light 1.4e-30 from its only receiver gets `near = 1e-33`;
+    /// clipping a flat box (y = 0) seen edge-on rounded a vertex behind the eye, and its infinite
+    /// projection overflowed the fixed-point snapping ("attempt to subtract with overflow").
+    #[test]
+    fn clipping_at_a_tiny_near_plane_stays_in_the_guard_band() {
+        let eye = Vec3::new(-1e-30, -1e-30, 0.0);
+        let f = LightFrustum::fit(eye, Vec3::ZERO, Vec3::ZERO, 59).unwrap();
+        let corner = |i: usize| Vec3::new([-5.5, 6.5][i & 1], 0.0, [-6.0, 6.0][i >> 1 & 1]);
+        let quads = [[0, 1, 3], [0, 3, 2], [0, 2, 3], [0, 3, 1]];
+        for mode in [RasterMode::Standard, RasterMode::Conservative] {
+            for q in quads {
+                let tri = q.map(corner);
+                rasterize_triangle(&f, &tri, mode, TexelRect::full(59, 59), |frag| assert!(frag.x < 59 && frag.y < 59)).unwrap();
+            }
+        }
+    }
 }

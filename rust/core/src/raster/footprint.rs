@@ -29,6 +29,11 @@ impl LightFootprint {
         Self { texels: k * h, map: Vec2::new(frustum.width as f32, frustum.height as f32) }
     }
 
+    /// Half extents in texels per unit `(z_r − z) / (z_r z)`, before capping.
+    pub fn texels(&self) -> Vec2 {
+        self.texels
+    }
+
     /// Half extents in texels, per axis, of the light's projection through depth `z` seen from
     /// receiver depth `z_r` (capped at the map's size).
     pub fn through(&self, z_r: f32, z: f32) -> Vec2 {

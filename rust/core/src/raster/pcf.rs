@@ -147,6 +147,11 @@ impl PcfKernel {
         Self::square(side)
     }
 
+    /// The taps' texel offsets from the receiver's texel.
+    pub fn offsets(&self) -> &[(i64, i64)] {
+        &self.offsets
+    }
+
     /// The number of taps.
     pub fn taps(&self) -> usize {
         self.offsets.len()

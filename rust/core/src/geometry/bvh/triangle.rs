@@ -41,9 +41,17 @@ pub(super) struct RayData {
 }
 
 impl RayData {
-    /// Precomputes the ray; `None` when `dir` is zero (an empty segment hits nothing).
+    /// Precomputes the ray; `None` when `dir` is zero (an empty segment hits nothing) or `org`
+    /// or `dir` is not finite.
     #[inline(always)]
     pub fn new(org: Vec3, dir: Vec3) -> Option<Self> {
+        // Why: a non-finite origin or direction (e.g. `p + epsilon n` or `y - p` overflowing
+        // for coordinates near f32::MAX) makes slab distances NaN, and NaN lanes pass the
+        // min/max box test, so traversal descended into empty child slots and indexed past the
+        // blocks (found by fuzzing). Such a segment cannot be tested in f32: it hits nothing.
+        if !(org.is_finite() && dir.is_finite()) {
+            return None;
+        }
         let a = dir.abs();
         let kz = if a.x >= a.y && a.x >= a.z {
             0
@@ -78,10 +86,13 @@ impl RayData {
         let inv3 = [safe(dir.x), safe(dir.y), safe(dir.z)];
         let near = inv3.map(|i| i < 0.0);
         let o3 = org.to_array();
+        // Why `.min(MAX)` / `.max(MIN)`: one ulp beyond ±f32::MAX is ±inf, and `-inf - -inf` in
+        // an empty child slot's test is NaN, which passes it (found by fuzzing: an eye at
+        // y = f32::MIN looking along x indexed past the blocks). The origin stays put there.
         let nudge = |a: usize, up: bool| match (dir[a] == 0.0, up) {
             (false, _) => Vec4::splat(o3[a]),
-            (true, true) => Vec4::splat(o3[a].next_up()),
-            (true, false) => Vec4::splat(o3[a].next_down()),
+            (true, true) => Vec4::splat(o3[a].next_up().min(f32::MAX)),
+            (true, false) => Vec4::splat(o3[a].next_down().max(f32::MIN)),
         };
         Some(Self {
             org_near: [nudge(0, true), nudge(1, true), nudge(2, true)],

@@ -1,0 +1,195 @@
+//! The one wgpu device and queue, created on first use, and the buffer helpers every GPU method
+//! shares.
+
+use super::{forced_limits, DispatchLimits};
+use crate::error::{Error, Result};
+use std::sync::OnceLock;
+use wgpu::util::DeviceExt;
+
+/// The device, its queue and what the adapter is.
+pub struct Gpu {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    info: wgpu::AdapterInfo,
+    adapter_limits: DispatchLimits,
+}
+
+/// Threads per workgroup of every shader (`@workgroup_size(64)`).
+pub const WORKGROUP: u64 = 64;
+
+static GPU: OnceLock<std::result::Result<Gpu, String>> = OnceLock::new();
+
+/// The shared GPU context, created on the first call.
+///
+/// Errors: `Unavailable` when no adapter or device can be had, saying how to get one.
+pub fn context() -> Result<&'static Gpu> {
+    GPU.get_or_init(create).as_ref().map_err(|message| Error::Unavailable(message.clone()))
+}
+
+fn create() -> std::result::Result<Gpu, String> {
+    let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+    if wgpu::Backends::from_env().is_none() {
+        // Vulkan, Metal, DirectX 12: compute-capable backends, without OpenGL's display probing.
+        descriptor.backends = wgpu::Backends::PRIMARY;
+    }
+    let instance = wgpu::Instance::new(descriptor);
+    let options = wgpu::RequestAdapterOptions { power_preference: wgpu::PowerPreference::HighPerformance, ..Default::default() };
+    let adapter = pollster::block_on(instance.request_adapter(&options)).map_err(|e| {
+        format!(
+            "no GPU adapter ({e}): backend=\"gpu\" needs a Vulkan, Metal or DirectX 12 driver; \
+             on a machine without a GPU install Mesa's lavapipe (Debian: apt-get install mesa-vulkan-drivers)"
+        )
+    })?;
+    // The adapter's own limits, not WebGPU's defaults: large maps and point buffers need them;
+    // and 64-bit floats where the adapter has them (cssm's summed-area table).
+    let limits = adapter.limits();
+    let features = adapter.features() & wgpu::Features::SHADER_F64;
+    let descriptor = wgpu::DeviceDescriptor { label: Some("softshadows"), required_limits: limits.clone(), required_features: features, ..Default::default() };
+    let (device, queue) = pollster::block_on(adapter.request_device(&descriptor)).map_err(|e| format!("the GPU adapter refused a device: {e}"))?;
+    let adapter_limits = DispatchLimits {
+        workgroups: limits.max_compute_workgroups_per_dimension,
+        binding_bytes: limits.max_storage_buffer_binding_size.min(limits.max_buffer_size),
+    };
+    Ok(Gpu { device, queue, info: adapter.get_info(), adapter_limits })
+}
+
+impl Gpu {
+    /// The limits that split work: the adapter's, lowered by [`super::force_limits`].
+    pub fn limits(&self) -> DispatchLimits {
+        forced_limits().map_or(self.adapter_limits, |forced| forced.min(self.adapter_limits))
+    }
+
+    /// The adapter's name, backend, device type and driver, and the splitting limits.
+    pub fn describe(&self) -> Vec<(String, String)> {
+        let limits = self.limits();
+        [
+            ("name", self.info.name.clone()),
+            ("backend", format!("{:?}", self.info.backend).to_lowercase()),
+            ("device_type", format!("{:?}", self.info.device_type).to_lowercase()),
+            ("driver", format!("{} {}", self.info.driver, self.info.driver_info).trim().to_string()),
+            ("max_workgroups_per_dimension", limits.workgroups.to_string()),
+            ("max_storage_binding_bytes", limits.binding_bytes.to_string()),
+        ]
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v))
+        .collect()
+    }
+
+    /// Runs `work` with wgpu's validation and out-of-memory errors captured and returned as
+    /// `Unavailable` (wgpu's default handler would panic).
+    pub fn scoped<T>(&self, work: impl FnOnce() -> Result<T>) -> Result<T> {
+        let out_of_memory = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let out = work();
+        let errors = [pollster::block_on(validation.pop()), pollster::block_on(out_of_memory.pop())];
+        match errors.into_iter().flatten().next() {
+            Some(error) => Err(Error::Unavailable(format!("the GPU refused the work: {error}"))),
+            None => out,
+        }
+    }
+
+    /// The adapter's name.
+    pub fn name(&self) -> &str {
+        &self.info.name
+    }
+
+    /// A compute pipeline for `entry` of the WGSL `source`, its layout derived from the entry.
+    pub fn pipeline(&self, label: &str, source: &str, entry: &str) -> wgpu::ComputePipeline {
+        self.compute_pipeline(label, source, entry, None)
+    }
+
+    /// A compute pipeline for `entry` of the WGSL `source` whose group 0 is `layout` (for entries
+    /// that share bind groups while each uses only some of the bindings).
+    pub fn pipeline_with_layout(&self, label: &str, source: &str, entry: &str, layout: &wgpu::BindGroupLayout) -> wgpu::ComputePipeline {
+        let layout = self.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some(label), bind_group_layouts: &[Some(layout)], immediate_size: 0 });
+        self.compute_pipeline(label, source, entry, Some(&layout))
+    }
+
+    fn compute_pipeline(&self, label: &str, source: &str, entry: &str, layout: Option<&wgpu::PipelineLayout>) -> wgpu::ComputePipeline {
+        let module = self.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(label), source: wgpu::ShaderSource::Wgsl(source.into()) });
+        self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(label),
+            layout,
+            module: &module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            cache: None,
+        })
+    }
+
+    /// A buffer holding `contents` with `usage`.
+    pub fn buffer_init(&self, label: &str, contents: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
+        self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
+    }
+
+    /// A storage buffer of `size` bytes that can be cleared and copied from.
+    pub fn storage(&self, label: &str, size: u64) -> wgpu::Buffer {
+        self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+
+    /// Records `pipeline` over `items` threads (workgroups of [`WORKGROUP`]) in dispatches of at
+    /// most the workgroup limit; `bind(first, count)` makes each dispatch's bind group.
+    pub fn dispatch(&self, encoder: &mut wgpu::CommandEncoder, pipeline: &wgpu::ComputePipeline, items: u64, bind: impl Fn(u64, u64) -> wgpu::BindGroup) {
+        let per_dispatch = u64::from(self.limits().workgroups) * WORKGROUP;
+        let mut first = 0;
+        while first < items {
+            let count = per_dispatch.min(items - first);
+            let group = bind(first, count);
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: None, timestamp_writes: None });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &group, &[]);
+            pass.dispatch_workgroups(count.div_ceil(WORKGROUP) as u32, 1, 1);
+            drop(pass);
+            first += count;
+        }
+    }
+
+    /// A bind group of `layout` binding `buffers` to bindings 0, 1, ... in order.
+    pub fn bind(&self, layout: &wgpu::BindGroupLayout, buffers: &[&wgpu::Buffer]) -> wgpu::BindGroup {
+        let entries: Vec<wgpu::BindGroupEntry<'_>> =
+            buffers.iter().enumerate().map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() }).collect();
+        self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout, entries: &entries })
+    }
+
+    /// A uniform buffer holding the 32-bit words `params`.
+    pub fn uniform(&self, params: &[u32]) -> wgpu::Buffer {
+        self.buffer_init("params", bytemuck::cast_slice(params), wgpu::BufferUsages::UNIFORM)
+    }
+
+    /// Submits `encoder` and waits until the GPU has run it.
+    pub fn finish(&self, encoder: wgpu::CommandEncoder) -> Result<()> {
+        self.queue.submit([encoder.finish()]);
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(|e| Error::Unavailable(format!("GPU poll failed: {e}")))
+    }
+
+    /// Submits `encoder`, copies `source` into a staging buffer and waits for its 32-bit words.
+    pub fn finish_and_read(&self, mut encoder: wgpu::CommandEncoder, source: &wgpu::Buffer) -> Result<Vec<u32>> {
+        let size = source.size();
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        encoder.copy_buffer_to_buffer(source, 0, &staging, 0, size);
+        self.queue.submit([encoder.finish()]);
+        let slice = staging.slice(..);
+        let (sender, receiver) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |result| {
+            let _ = sender.send(result);
+        });
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| Error::Unavailable(format!("GPU poll failed: {e}")))?;
+        receiver
+            .recv()
+            .map_err(|e| Error::Unavailable(format!("GPU readback lost: {e}")))?
+            .map_err(|e| Error::Unavailable(format!("GPU readback failed: {e}")))?;
+        let words = bytemuck::pod_collect_to_vec(&slice.get_mapped_range().map_err(|e| Error::Unavailable(format!("GPU readback failed: {e}")))?);
+        staging.unmap();
+        Ok(words)
+    }
+}

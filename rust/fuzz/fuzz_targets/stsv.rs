@@ -1,0 +1,24 @@
+//! Fuzz target: `methods::stsv::stsv` and `stsv_volumes` on a decoded scene (see `rust/fuzz/src/lib.rs`).
+#![no_main]
+use libfuzzer_sys::fuzz_target;
+use softshadows_core::geometry::bvh::Bvh;
+use softshadows_core::methods::stsv::{stsv, stsv_volumes};
+use softshadows_fuzz::{check_visibility, init, FuzzStsvOptions, FuzzScene};
+
+fuzz_target!(|input: (FuzzScene, FuzzStsvOptions)| {
+    init();
+    let (fuzz, options) = input;
+    let Ok(x) = fuzz.build() else { return };
+    let opts = options.build(&x.scene);
+    // stsv_volumes as `rust/py` calls it: the valid receivers' points and a hull degree that
+    // Python only checks to be a positive integer.
+    let points: Vec<_> = x.receivers.points.iter().zip(&x.receivers.valid).filter(|(_, &v)| v).map(|(p, _)| *p).collect();
+    for (face, _) in stsv_volumes(&x.scene, &x.light, opts.object.hull_degree.max(1), opts.two_sided, &points) {
+        assert!((face as usize) < x.scene.num_faces(), "stsv_volumes: face {face} out of range");
+    }
+    let Ok(samples) = fuzz.sample_set(&x.light) else { return };
+    let Ok(bvh) = Bvh::build(&x.scene) else { return };
+    if let Ok((vis, _)) = stsv(&x.scene, &bvh, &x.light, &x.receivers, &samples, &opts) {
+        check_visibility("stsv", &vis, &x.receivers);
+    }
+});
