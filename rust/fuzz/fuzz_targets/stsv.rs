@@ -10,11 +10,13 @@ fuzz_target!(|input: (FuzzScene, FuzzStsvOptions)| {
     let (fuzz, options) = input;
     let Ok(x) = fuzz.build() else { return };
     let opts = options.build(&x.scene);
-    // stsv_volumes as `rust/py` calls it: the valid receivers' points and a hull degree that
-    // Python only checks to be a positive integer.
+    // stsv_volumes as `rust/py` calls it: the valid receivers' points and any hull degree.
     let points: Vec<_> = x.receivers.points.iter().zip(&x.receivers.valid).filter(|(_, &v)| v).map(|(p, _)| *p).collect();
-    for (face, _) in stsv_volumes(&x.scene, &x.light, opts.object.hull_degree.max(1), opts.two_sided, &points) {
-        assert!((face as usize) < x.scene.num_faces(), "stsv_volumes: face {face} out of range");
+    if let Ok(volumes) = stsv_volumes(&x.scene, &x.light, opts.object.hull_degree, opts.two_sided, &points) {
+        for (face, corners) in volumes {
+            assert!((face as usize) < x.scene.num_faces(), "stsv_volumes: face {face} out of range");
+            assert!(corners.iter().all(|c| c.is_finite()), "stsv_volumes: corners {corners:?}");
+        }
     }
     let Ok(samples) = fuzz.sample_set(&x.light) else { return };
     let Ok(bvh) = Bvh::build(&x.scene) else { return };

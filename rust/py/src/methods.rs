@@ -336,7 +336,7 @@ fn stsv_volumes<'py>(
 ) -> PyResult<Volumes<'py>> {
     let rx = &receivers.receivers;
     let points: Vec<_> = rx.points.iter().zip(&rx.valid).filter(|(_, &v)| v).map(|(p, _)| *p).collect();
-    let volumes = crate::threads::detached(py, || stsv_volumes_core(&scene.scene, &light.light, hull_degree, two_sided, &points));
+    let volumes = crate::threads::detached(py, || stsv_volumes_core(&scene.scene, &light.light, hull_degree, two_sided, &points)).or_raise()?;
     let ids: Vec<u32> = volumes.iter().map(|(id, _)| *id).collect();
     let corners: Vec<f32> = volumes.iter().flat_map(|(_, c)| c.iter().flat_map(|p| p.to_array())).collect();
     Ok((ids.into_pyarray(py), corners.into_pyarray(py).reshape([volumes.len() * 6, 3])?))

@@ -51,7 +51,7 @@ use crate::light::lights::{Light, Shape};
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, Peak};
 use crate::raster::depth::{band_rows, casters, Caster, FaceFilter, LightFrustum, RasterMode, RasterOptions};
-use crate::raster::influence::{influence_hull, ReceiverLists};
+use crate::raster::influence::{check_hull_degree, influence_hull, ReceiverLists};
 use crate::raster::region::conservative_rows;
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
@@ -108,10 +108,7 @@ impl AliasFreeOptions {
                 return Err(Error::invalid("lut", format!("must be in 4..=256 bins (or None for exact tests), got {k}")));
             }
         }
-        if !(3..=64).contains(&self.hull_degree) {
-            return Err(Error::invalid("hull_degree", format!("must be in 3..=64, got {}", self.hull_degree)));
-        }
-        Ok(())
+        check_hull_degree(self.hull_degree)
     }
 }
 

@@ -42,7 +42,7 @@ use crate::limits::{self, Peak};
 use crate::methods::alias_free::{masks_peak, sample_masks, AliasFreeOptions, Casters};
 use crate::methods::dcs::{depth_complexity, depth_complexity_peak, visible_fraction};
 use crate::methods::penumbra_wedge::{wedge_occlusion, wedge_occlusion_peak};
-use crate::raster::influence::{light_polytope, ObjectOptions, Origins};
+use crate::raster::influence::{check_hull_degree, light_polytope, ObjectOptions, Origins};
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -241,8 +241,17 @@ fn padded_bounds(scene: &Scene, points: &[Vec3]) -> (DVec3, DVec3) {
 /// Figure 3), each as its six corners: the front cap t', then the back cap at the bounds of the
 /// scene and of `points`; with the face id of each. The faces: the two caps and the quads
 /// between corners `k, k + 1` of the front and back caps.
-pub fn stsv_volumes(scene: &Scene, light: &Light, hull_degree: usize, two_sided: bool, points: &[Vec3]) -> Vec<(u32, [Vec3; 6])> {
-    volumes(scene, light, hull_degree, two_sided, padded_bounds(scene, points)).iter().map(|v| (v.face, v.corners.map(|c| c.as_vec3()))).collect()
+///
+/// Errors: `hull_degree` outside 3..=64; corners beyond f32's range (receivers so far from the
+/// light that the back caps overflow).
+pub fn stsv_volumes(scene: &Scene, light: &Light, hull_degree: usize, two_sided: bool, points: &[Vec3]) -> Result<Vec<(u32, [Vec3; 6])>> {
+    check_hull_degree(hull_degree)?;
+    let volumes: Vec<(u32, [Vec3; 6])> =
+        volumes(scene, light, hull_degree, two_sided, padded_bounds(scene, points)).iter().map(|v| (v.face, v.corners.map(|c| c.as_vec3()))).collect();
+    if volumes.iter().any(|(_, corners)| !corners.iter().all(|c| c.is_finite())) {
+        return Err(Error::invalid("receivers", "the volumes' back caps reach beyond float32's range: receivers too far from the light"));
+    }
+    Ok(volumes)
 }
 
 /// Per list entry of `origins`, the bitmask of the samples that the perforated triangles block

@@ -45,11 +45,16 @@ impl ObjectOptions {
         if !(1..=crate::raster::depth::MAX_RESOLUTION).contains(&self.resolution) {
             return Err(Error::invalid("resolution", format!("must be in 1..=65536, got {}", self.resolution)));
         }
-        if !(3..=64).contains(&self.hull_degree) {
-            return Err(Error::invalid("hull_degree", format!("must be in 3..=64, got {}", self.hull_degree)));
-        }
-        Ok(())
+        check_hull_degree(self.hull_degree)
     }
+}
+
+/// Refuses bounding polygons of fewer than 3 or more than 64 sides.
+pub fn check_hull_degree(degree: usize) -> Result<()> {
+    if !(3..=64).contains(&degree) {
+        return Err(Error::invalid("hull_degree", format!("must be in 3..=64, got {degree}")));
+    }
+    Ok(())
 }
 
 /// The receivers the object-based methods test: the valid ones facing some part of the light,
