@@ -83,21 +83,9 @@ pub mod pcss {
     //! Without the `gpu` feature: refuses.
     use crate::error::Result;
     use crate::geometry::receivers::Receivers;
-    use crate::raster::depth::{DepthMap, LightFrustum};
-    use crate::raster::pcf::DepthBias;
-    use glam::Vec2;
+    use crate::methods::pcss::GpuLookup;
 
-    pub struct Lookup<'a> {
-        pub map: &'a DepthMap,
-        pub frustum: &'a LightFrustum,
-        pub footprint: Vec2,
-        pub near: f32,
-        pub blocker_taps: &'a [Vec2],
-        pub filter_taps: &'a [Vec2],
-        pub bias: DepthBias,
-    }
-
-    pub fn pcss(_lookup: &Lookup<'_>, _rx: &Receivers) -> Result<(Vec<f32>, f64)> {
+    pub fn pcss(_lookup: &GpuLookup<'_>, _rx: &Receivers) -> Result<(Vec<f32>, f64)> {
         Err(super::unavailable())
     }
 }

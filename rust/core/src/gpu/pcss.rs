@@ -5,24 +5,11 @@ use super::context::{context, Gpu};
 use super::multiview::{receiver_chunks, upload_maps, upload_views, FRUSTUM};
 use crate::error::{Error, Result};
 use crate::geometry::receivers::Receivers;
-use crate::raster::depth::{DepthMap, LightFrustum};
+use crate::methods::pcss::GpuLookup as Lookup;
 use crate::raster::pcf::DepthBias;
-use glam::Vec2;
 use std::sync::OnceLock;
 
 const SHADER: &str = include_str!("pcss.wgsl");
-
-/// What every receiver's lookup shares.
-pub struct Lookup<'a> {
-    pub map: &'a DepthMap,
-    pub frustum: &'a LightFrustum,
-    /// [`crate::raster::footprint::LightFootprint::texels`].
-    pub footprint: Vec2,
-    pub near: f32,
-    pub blocker_taps: &'a [Vec2],
-    pub filter_taps: &'a [Vec2],
-    pub bias: DepthBias,
-}
 
 fn pipeline(gpu: &Gpu) -> &'static wgpu::ComputePipeline {
     static PIPELINE: OnceLock<wgpu::ComputePipeline> = OnceLock::new();

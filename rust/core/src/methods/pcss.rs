@@ -89,6 +89,18 @@ impl PcssOptions {
     }
 }
 
+/// What every receiver's GPU lookup shares (`gpu::pcss`).
+pub struct GpuLookup<'a> {
+    pub map: &'a DepthMap,
+    pub frustum: &'a LightFrustum,
+    /// [`LightFootprint::texels`].
+    pub footprint: Vec2,
+    pub near: f32,
+    pub blocker_taps: &'a [Vec2],
+    pub filter_taps: &'a [Vec2],
+    pub bias: DepthBias,
+}
+
 /// What every receiver's lookup shares.
 struct Lookup<'a> {
     map: &'a DepthMap,
@@ -178,7 +190,7 @@ pub fn pcss(scene: &Scene, light: &Light, receivers: &Receivers, opts: &PcssOpti
         bias: DepthBias::new(opts.bias, RASTERIZED_SLACK)?,
     };
     if opts.backend == Backend::Gpu {
-        let gpu_lookup = gpu::pcss::Lookup {
+        let gpu_lookup = GpuLookup {
             map: &map,
             frustum: &frustum,
             footprint: lookup.footprint.texels(),
