@@ -6,7 +6,9 @@ For each method with a GPU path it runs ``backend="cpu"`` and ``backend="gpu"`` 
 stages are the methods' own stats: ``vwss`` point generation (CPU either way), depth maps
 (warping) and lighting; ``cssm`` basis images, prefilter (summed-area table) and lookup;
 ``shadow_map`` render and lookup (5x5 PCF); ``pcss`` depth map and lookups (blocker search and
-filter); ``mvr`` depth maps (rasterized on the GPU) and lighting. The single shadow maps of
+filter); ``mvr`` depth maps (rasterized on the GPU) and lighting; ``alias_free`` list build,
+rasterization (the casters and their regions' polygons, on the CPU either way) and visibility
+(the per-texel tests), with the paper's 512x512 lists and 256 samples. The single shadow maps of
 ``cssm``, ``shadow_map`` and ``pcss`` are rasterized on the CPU either way.
 
 ``gpu_info()`` names the adapter: on a machine without a GPU that is Mesa's lavapipe, a Vulkan
@@ -31,6 +33,7 @@ STAGES = {
     "shadow_map": ["render_seconds", "lookup_seconds"],
     "pcss": ["depth_map_seconds", "lighting_seconds"],
     "mvr": ["depth_maps_seconds", "lighting_seconds"],
+    "alias_free": ["list_build_seconds", "rasterization_seconds", "visibility_seconds"],
 }
 
 
@@ -55,6 +58,7 @@ def main() -> None:
     parser.add_argument("--scene", default="bunny")
     parser.add_argument("--views", type=int, default=24, help="vwss light samples")
     parser.add_argument("--repeat", type=int, default=2)
+    parser.add_argument("--methods", nargs="*", default=list(STAGES), choices=list(STAGES))
     args = parser.parse_args()
     info = ss.gpu_info()
     print(f"GPU: {info['name']} ({info['backend']}, {info['device_type']}); CPU: {os.cpu_count()} threads")
@@ -67,10 +71,12 @@ def main() -> None:
         "shadow_map": lambda backend: ss.shadow_map(s.scene, s.light, gb, pcf=5, backend=backend, return_stats=True),
         "pcss": lambda backend: ss.pcss(s.scene, s.light, gb, backend=backend, return_stats=True),
         "mvr": lambda backend: ss.mvr(s.scene, s.light, gb, views=args.views, backend=backend, return_stats=True),
+        "alias_free": lambda backend: ss.alias_free(s.scene, s.light, gb, backend=backend, return_stats=True),
     }
     header = f"{'method':>10} {'backend':>7} " + " ".join(f"{'stage ' + str(k + 1) + ' ms':>11}" for k in range(3))
     print(header + f" {'total ms':>9} {'CPU/GPU':>8} {'max |diff|':>10}")
-    for method, call in calls.items():
+    for method in args.methods:
+        call = calls[method]
         call("gpu")  # warm up: device, pipelines, thread pool
         results = {}
         for _ in range(args.repeat):  # alternating, so both see the same machine load
@@ -86,7 +92,7 @@ def main() -> None:
             print(f"{method:>10} {backend:>7} {stages} {1e3 * seconds:>9.1f}{tail}")
     print("stages: vwss point generation, depth maps, lighting; cssm basis, prefilter, lookup;")
     print("shadow_map render (CPU either way), lookup (5x5 PCF); pcss depth map (CPU), lookups;")
-    print("mvr depth maps, lighting.")
+    print("mvr depth maps, lighting; alias_free list build, rasterization (CPU either way), visibility.")
 
 
 if __name__ == "__main__":

@@ -27,6 +27,7 @@ def adapter():
 def test_gpu_info_names_the_adapter_and_its_limits(adapter):
     assert adapter["name"] and adapter["backend"] in {"vulkan", "metal", "dx12"}
     assert adapter["max_workgroups_per_dimension"] >= 1 and adapter["max_storage_binding_bytes"] >= 1 << 20
+    assert isinstance(adapter["timestamp_queries"], bool)
 
 
 @pytest.mark.parametrize(
@@ -119,6 +120,31 @@ def test_mvr_refuses_perforated_meshes_on_the_gpu(adapter):
         ss.mvr(s.scene, s.light, ss.gbuffer(s.scene, s.camera), backend="gpu", resolution=64, views=4)
 
 
+@pytest.mark.parametrize(
+    ("scene", "light", "options"),
+    [
+        ("columns", "rect", {}),
+        ("columns", "disk", {"lut": None, "rotate": "per_receiver", "samples": 64}),
+        ("fence", "rect", {"samples": 100}),
+        ("torus_knot", "sphere", {"restrict_to_penumbra": False, "hull_degree": 8}),
+        ("leaves", "rect", {"lut": None, "samples": 64}),
+        ("columns", "point", {"casters": "all"}),
+    ],
+)
+def test_alias_free_on_the_gpu_equals_the_cpu_bit_for_bit(adapter, scene, light, options):
+    s = ss.scenes.get(scene, light=light).with_size(64, 64)
+    gb = ss.gbuffer(s.scene, s.camera)
+    options = {"resolution": 128, **options}
+    cpu, cpu_stats = ss.alias_free(s.scene, s.light, gb, backend="cpu", return_stats=True, **options)
+    gpu, gpu_stats = ss.alias_free(s.scene, s.light, gb, backend="gpu", return_stats=True, **options)
+    assert np.array_equal(gpu.view(np.uint32), cpu.view(np.uint32))
+    if light != "point":
+        assert ((cpu > 0) & (cpu < 1)).any(), "the scene must have penumbrae"
+    assert set(gpu_stats) == set(cpu_stats)
+    for key in ("view_samples", "casters", "average_list_length", "max_list_length", "occupied_texels_percent"):
+        assert gpu_stats[key] == cpu_stats[key], key
+
+
 def test_gpu_calls_from_8_threads_at_once_equal_serial_calls(adapter):
     s = ss.scenes.get("columns").with_size(32, 32)
     gb = ss.gbuffer(s.scene, s.camera)
@@ -127,6 +153,7 @@ def test_gpu_calls_from_8_threads_at_once_equal_serial_calls(adapter):
         lambda: ss.mvr(s.scene, s.light, gb, backend="gpu", resolution=128, views=6),
         lambda: ss.cssm(s.scene, s.light, gb, backend="gpu", resolution=128),
         lambda: ss.pcss(s.scene, s.light, gb, backend="gpu", resolution=128),
+        lambda: ss.alias_free(s.scene, s.light, gb, backend="gpu", resolution=64, samples=32),
     ] * 2
     serial = [call() for call in calls]
     with ThreadPoolExecutor(8) as pool:

@@ -219,4 +219,5 @@ def alias_free(
     lut: int | None,
     hull_degree: int,
     restrict_to_penumbra: bool,
+    backend: str,
 ) -> tuple[_F32, dict[str, float]]: ...

@@ -17,7 +17,9 @@ def gpu_info() -> dict:
         ``name``, ``backend`` (``"vulkan"``, ``"metal"``, ``"dx12"``), ``device_type`` (``"cpu"``
         for a software rasterizer such as Mesa's lavapipe), ``driver``, and the limits that split
         large inputs into dispatches: ``max_workgroups_per_dimension`` and
-        ``max_storage_binding_bytes`` (int).
+        ``max_storage_binding_bytes`` (int); ``timestamp_queries`` (bool): whether the methods'
+        stage seconds are the GPU's own execution times of their compute passes (timestamp
+        queries) rather than the wall clock around their submissions.
 
     Raises
     ------
@@ -28,6 +30,7 @@ def gpu_info() -> dict:
     info = dict(_core.gpu_info())
     for key in ("max_workgroups_per_dimension", "max_storage_binding_bytes"):
         info[key] = int(info[key])
+    info["timestamp_queries"] = info["timestamp_queries"] == "true"
     return info
 
 

@@ -720,6 +720,7 @@ def alias_free(
     seed: int = 0,
     rotate: str | None = None,
     frame: int = 0,
+    backend: str = "cpu",
     return_stats: bool = False,
 ):
     """Sample-based visibility by alias-free shadow maps (Sintorn, Eisemann and Assarsson 2008).
@@ -765,6 +766,13 @@ def alias_free(
         Decorrelate receivers by a random rotation of the samples about the light's center, as in
         ``ray_traced``: the lookups rotate the planes instead of the samples (seed 000 section
         4.2), so only symmetric, untextured lights (disk, sphere) take it.
+    backend : {"cpu", "gpu", "auto"}
+        Where the lists, the influence regions' coverage and the per-texel tests run: the CPU,
+        or the GPU (wgpu, ``rust/core/src/gpu/alias_free.wgsl``: lists by atomic counters and a
+        scan, one thread per row of each caster's region over each band of rows, masks OR-ed by
+        atomics), with the same bits as the CPU. The casters, their regions' polygons, the
+        penumbra texels and the lookup table are set up on the CPU either way. ``"auto"``: the
+        GPU when an adapter exists, else the CPU with a warning.
     return_stats : bool
         Also return ``{"list_build_seconds", "rasterization_seconds", "visibility_seconds",
         "average_list_length", "max_list_length", "occupied_texels_percent",
@@ -785,6 +793,7 @@ def alias_free(
         None if lut is None else v.positive_int("lut", lut),
         v.positive_int("hull_degree", hull_degree),
         bool(restrict_to_penumbra),
+        resolve_backend(backend, "alias_free"),
     )
     return _finish(receivers, out, return_stats)
 

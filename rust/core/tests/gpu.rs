@@ -250,3 +250,33 @@ fn gpu_mvr_visibility_equals_the_cpu_visibility() {
     assert_eq!(cpu_stats.get("fragments"), gpu_stats.get("fragments"));
     assert!(cpu.iter().any(|&v| v > 0.0 && v < 1.0), "the test scene must have penumbrae");
 }
+
+#[test]
+fn stage_times_are_the_gpus_own_passes_and_never_exceed_the_wall_clock() {
+    if !have_gpu() {
+        return;
+    }
+    let gpu = context().unwrap();
+    let (scene, light, rx) = (scene(), light(), receivers(64));
+    let opts = CssmOptions { resolution: 128, order: 8, backend: Backend::Gpu, ..Default::default() };
+    cssm(&scene, &light, &rx, &opts).unwrap();
+    let start = std::time::Instant::now();
+    let (_, stats) = cssm(&scene, &light, &rx, &opts).unwrap();
+    let wall = start.elapsed().as_secs_f64();
+    let stages: Vec<f64> = ["basis_seconds", "prefilter_seconds", "lookup_seconds"].iter().map(|k| stats.get(k).unwrap()).collect();
+    eprintln!("timestamp queries: {}; stages {stages:?}, wall {wall}", gpu.has_timestamps());
+    assert!(stages.iter().all(|&s| s > 0.0), "{stages:?}");
+    assert!(stages.iter().sum::<f64>() <= wall, "{stages:?} > {wall}");
+    // A scope that records no pass measures nothing on the GPU's clock, the wall clock elsewhere.
+    let mut idle = 0.0;
+    gpu.timed(&mut idle, || {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        Ok(())
+    })
+    .unwrap();
+    if gpu.has_timestamps() {
+        assert_eq!(idle, 0.0);
+    } else {
+        assert!(idle >= 0.02);
+    }
+}

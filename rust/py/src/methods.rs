@@ -239,9 +239,10 @@ fn alias_free<'py>(
     lut: Option<usize>,
     hull_degree: usize,
     restrict_to_penumbra: bool,
+    backend: &str,
 ) -> PyResult<Output<'py>> {
     let casters = choice("casters", casters, &[("backfacing", Casters::Backfacing), ("all", Casters::All)]).or_raise()?;
-    let opts = AliasFreeOptions { resolution, casters, bias, lut, hull_degree, restrict_to_penumbra };
+    let opts = AliasFreeOptions { resolution, casters, bias, lut, hull_degree, restrict_to_penumbra, backend: parse_backend(backend).or_raise()? };
     let out = crate::threads::detached(py, || alias_free_core(&scene.scene, &light.light, &receivers.receivers, &samples.samples, &opts))
         .or_raise()?;
     output(py, out)

@@ -30,6 +30,11 @@ impl AlphaTexture {
         Ok(Self { width, height, opaque: alpha.iter().map(|&a| a >= 0.5).collect() })
     }
 
+    /// Whether each texel is opaque, row-major.
+    pub fn texels(&self) -> &[bool] {
+        &self.opaque
+    }
+
     /// `(height, width)`.
     pub fn shape(&self) -> (usize, usize) {
         (self.height, self.width)

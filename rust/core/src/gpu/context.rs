@@ -1,9 +1,15 @@
-//! The one wgpu device and queue, created on first use, and the buffer helpers every GPU method
-//! shares.
+//! The one wgpu device and queue, created on first use, and the buffer, dispatch and timing
+//! helpers every GPU method shares.
+//!
+//! Stage times ([`Gpu::timed`]) are the GPU's own execution times of a stage's compute passes,
+//! by timestamp queries written at the start and end of each pass, where the adapter has them
+//! (`wgpu::Features::TIMESTAMP_QUERY`); elsewhere the wall clock around the stage's submissions.
 
 use super::{forced_limits, DispatchLimits};
 use crate::error::{Error, Result};
+use std::cell::RefCell;
 use std::sync::OnceLock;
+use std::time::Instant;
 use wgpu::util::DeviceExt;
 
 /// The device, its queue and what the adapter is.
@@ -18,6 +24,40 @@ pub struct Gpu {
 pub const WORKGROUP: u64 = 64;
 
 static GPU: OnceLock<std::result::Result<Gpu, String>> = OnceLock::new();
+
+thread_local! {
+    /// The clock of the [`Gpu::timed`] scope running on this thread, if the adapter has
+    /// timestamps (scopes on other threads have their own).
+    static CLOCK: RefCell<Option<Clock>> = const { RefCell::new(None) };
+}
+
+/// Timestamp queries of one [`Gpu::timed`] scope: two per compute pass recorded since the last
+/// submission, and the GPU seconds of the passes submitted so far.
+struct Clock {
+    set: wgpu::QuerySet,
+    written: u32,
+    seconds: f64,
+    /// More passes in one submission than the query set holds, or passes left unsubmitted: the
+    /// scope falls back to the wall clock.
+    incomplete: bool,
+}
+
+impl Clock {
+    fn new(gpu: &Gpu) -> Clock {
+        let set = gpu.device.create_query_set(&wgpu::QuerySetDescriptor { label: Some("stage clock"), ty: wgpu::QueryType::Timestamp, count: wgpu::QUERY_SET_MAX_QUERIES });
+        Clock { set, written: 0, seconds: 0.0, incomplete: false }
+    }
+
+    /// The timestamp writes of the next pass; `None` once the set is full.
+    fn next_pass(&mut self) -> Option<(wgpu::QuerySet, u32)> {
+        if self.written + 2 > wgpu::QUERY_SET_MAX_QUERIES {
+            self.incomplete = true;
+            return None;
+        }
+        self.written += 2;
+        Some((self.set.clone(), self.written - 2))
+    }
+}
 
 /// The shared GPU context, created on the first call.
 ///
@@ -43,7 +83,7 @@ fn create() -> std::result::Result<Gpu, String> {
     // The adapter's own limits, not WebGPU's defaults: large maps and point buffers need them;
     // and 64-bit floats where the adapter has them (cssm's summed-area table).
     let limits = adapter.limits();
-    let features = adapter.features() & wgpu::Features::SHADER_F64;
+    let features = adapter.features() & (wgpu::Features::SHADER_F64 | wgpu::Features::TIMESTAMP_QUERY);
     let descriptor = wgpu::DeviceDescriptor { label: Some("softshadows"), required_limits: limits.clone(), required_features: features, ..Default::default() };
     let (device, queue) = pollster::block_on(adapter.request_device(&descriptor)).map_err(|e| format!("the GPU adapter refused a device: {e}"))?;
     let adapter_limits = DispatchLimits {
@@ -69,6 +109,7 @@ impl Gpu {
             ("driver", format!("{} {}", self.info.driver, self.info.driver_info).trim().to_string()),
             ("max_workgroups_per_dimension", limits.workgroups.to_string()),
             ("max_storage_binding_bytes", limits.binding_bytes.to_string()),
+            ("timestamp_queries", self.has_timestamps().to_string()),
         ]
         .into_iter()
         .map(|(k, v)| (k.to_string(), v))
@@ -91,6 +132,33 @@ impl Gpu {
     /// The adapter's name.
     pub fn name(&self) -> &str {
         &self.info.name
+    }
+
+    /// Whether stage times come from the GPU's timestamp queries (see the module doc).
+    pub fn has_timestamps(&self) -> bool {
+        self.device.features().contains(wgpu::Features::TIMESTAMP_QUERY)
+    }
+
+    /// Runs `work` and adds its stage time to `*seconds`: the GPU's execution time of the compute
+    /// passes that `work` records ([`Gpu::begin_pass`], [`Gpu::dispatch`]) and submits
+    /// ([`Gpu::finish`], [`Gpu::finish_and_read`]), where the adapter has timestamps; else the
+    /// wall clock around `work`. Scopes do not nest: an inner scope times its own passes only.
+    pub fn timed<T>(&self, seconds: &mut f64, work: impl FnOnce() -> Result<T>) -> Result<T> {
+        let start = Instant::now();
+        let outer = CLOCK.with(|c| c.replace(self.has_timestamps().then(|| Clock::new(self))));
+        let out = work();
+        match CLOCK.with(|c| c.replace(outer)) {
+            Some(clock) if !clock.incomplete && clock.written == 0 => *seconds += clock.seconds,
+            _ => *seconds += start.elapsed().as_secs_f64(),
+        }
+        out
+    }
+
+    /// A compute pass on `encoder`, with timestamp writes inside a [`Gpu::timed`] scope.
+    pub fn begin_pass<'e>(&self, encoder: &'e mut wgpu::CommandEncoder, label: &str) -> wgpu::ComputePass<'e> {
+        let slot = CLOCK.with(|c| c.borrow_mut().as_mut().and_then(Clock::next_pass));
+        let writes = slot.as_ref().map(|(set, at)| wgpu::ComputePassTimestampWrites { query_set: set, beginning_of_pass_write_index: Some(*at), end_of_pass_write_index: Some(at + 1) });
+        encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: writes })
     }
 
     /// A compute pipeline for `entry` of the WGSL `source`, its layout derived from the entry.
@@ -140,7 +208,7 @@ impl Gpu {
         while first < items {
             let count = per_dispatch.min(items - first);
             let group = bind(first, count);
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: None, timestamp_writes: None });
+            let mut pass = self.begin_pass(encoder, "dispatch");
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &group, &[]);
             pass.dispatch_workgroups(count.div_ceil(WORKGROUP) as u32, 1, 1);
@@ -151,8 +219,13 @@ impl Gpu {
 
     /// A bind group of `layout` binding `buffers` to bindings 0, 1, ... in order.
     pub fn bind(&self, layout: &wgpu::BindGroupLayout, buffers: &[&wgpu::Buffer]) -> wgpu::BindGroup {
-        let entries: Vec<wgpu::BindGroupEntry<'_>> =
-            buffers.iter().enumerate().map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() }).collect();
+        let numbered: Vec<(u32, &wgpu::Buffer)> = buffers.iter().enumerate().map(|(k, &b)| (k as u32, b)).collect();
+        self.bind_numbered(layout, &numbered)
+    }
+
+    /// A bind group of `layout` binding each buffer to its binding number.
+    pub fn bind_numbered(&self, layout: &wgpu::BindGroupLayout, buffers: &[(u32, &wgpu::Buffer)]) -> wgpu::BindGroup {
+        let entries: Vec<wgpu::BindGroupEntry<'_>> = buffers.iter().map(|&(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }).collect();
         self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout, entries: &entries })
     }
 
@@ -163,27 +236,59 @@ impl Gpu {
 
     /// Submits `encoder` and waits until the GPU has run it.
     pub fn finish(&self, encoder: wgpu::CommandEncoder) -> Result<()> {
-        self.queue.submit([encoder.finish()]);
-        self.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(|e| Error::Unavailable(format!("GPU poll failed: {e}")))
+        self.submit(encoder)
     }
 
     /// Submits `encoder`, copies `source` into a staging buffer and waits for its 32-bit words.
     pub fn finish_and_read(&self, mut encoder: wgpu::CommandEncoder, source: &wgpu::Buffer) -> Result<Vec<u32>> {
-        let size = source.size();
-        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
+        let staging = self.staging(source.size());
+        encoder.copy_buffer_to_buffer(source, 0, &staging, 0, source.size());
+        self.submit(encoder)?;
+        self.read(&staging)
+    }
+
+    /// Submits `encoder` and waits; inside a [`Gpu::timed`] scope, first resolves the timestamps
+    /// of its passes, then adds their durations to the scope's seconds.
+    fn submit(&self, mut encoder: wgpu::CommandEncoder) -> Result<()> {
+        let pending = CLOCK.with(|c| {
+            let mut clock = c.borrow_mut();
+            let clock = clock.as_mut().filter(|clock| clock.written > 0)?;
+            let bytes = 8 * u64::from(clock.written);
+            let resolved = self.device.create_buffer(&wgpu::BufferDescriptor { label: Some("timestamps"), size: bytes, usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC, mapped_at_creation: false });
+            encoder.resolve_query_set(&clock.set, 0..clock.written, &resolved, 0);
+            let staging = self.staging(bytes);
+            encoder.copy_buffer_to_buffer(&resolved, 0, &staging, 0, bytes);
+            clock.written = 0;
+            Some(staging)
         });
-        encoder.copy_buffer_to_buffer(source, 0, &staging, 0, size);
         self.queue.submit([encoder.finish()]);
+        self.wait()?;
+        if let Some(staging) = pending {
+            let words = self.read(&staging)?;
+            let ticks: u64 = words.chunks(4).map(|q| (u64::from(q[2]) | u64::from(q[3]) << 32).saturating_sub(u64::from(q[0]) | u64::from(q[1]) << 32)).sum();
+            let seconds = ticks as f64 * f64::from(self.queue.get_timestamp_period()) * 1e-9;
+            CLOCK.with(|c| c.borrow_mut().as_mut().map(|clock| clock.seconds += seconds));
+        }
+        Ok(())
+    }
+
+    fn wait(&self) -> Result<()> {
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(|e| Error::Unavailable(format!("GPU poll failed: {e}")))
+    }
+
+    /// A buffer of `size` bytes to copy into and map for reading.
+    fn staging(&self, size: u64) -> wgpu::Buffer {
+        self.device.create_buffer(&wgpu::BufferDescriptor { label: Some("readback"), size, usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false })
+    }
+
+    /// The 32-bit words of `staging` (submitted and waited for).
+    fn read(&self, staging: &wgpu::Buffer) -> Result<Vec<u32>> {
         let slice = staging.slice(..);
         let (sender, receiver) = std::sync::mpsc::channel();
         slice.map_async(wgpu::MapMode::Read, move |result| {
             let _ = sender.send(result);
         });
-        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| Error::Unavailable(format!("GPU poll failed: {e}")))?;
+        self.wait()?;
         receiver
             .recv()
             .map_err(|e| Error::Unavailable(format!("GPU readback lost: {e}")))?

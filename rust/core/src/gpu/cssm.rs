@@ -9,7 +9,6 @@ use crate::error::{Error, Result};
 use crate::methods::cssm::{Shared, Start};
 use crate::raster::depth::DepthMap;
 use std::sync::OnceLock;
-use std::time::Instant;
 
 const SHADER: &str = include_str!("cssm.wgsl");
 /// Bytes of a `Receiver` in `cssm.wgsl`.
@@ -45,23 +44,21 @@ pub fn cssm(map: &DepthMap, shared: &Shared, starts: &[Start]) -> Result<(Vec<f3
             ("columns", &pipelines.columns, |m, g| (m.width * g.channels()) as u64),
         ];
         for (stage, (name, pipeline, items)) in stages.into_iter().enumerate() {
-            let start = Instant::now();
-            let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(name) });
-            for (group, table) in groups.iter().zip(&tables) {
-                run(gpu, &mut encoder, pipelines, pipeline, [&depth, table, &dummy], items(map, group), group, (map, shared));
-            }
-            gpu.finish(encoder)?;
-            seconds[usize::from(stage > 0)] += start.elapsed().as_secs_f64();
+            gpu.timed(&mut seconds[usize::from(stage > 0)], || {
+                let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(name) });
+                for (group, table) in groups.iter().zip(&tables) {
+                    run(gpu, &mut encoder, pipelines, pipeline, [&depth, table, &dummy], items(map, group), group, (map, shared));
+                }
+                gpu.finish(encoder)
+            })?;
         }
         Ok((depth, tables))
     })?;
-    let start = Instant::now();
     let per_chunk = (limits.binding_bytes / RECEIVER_BYTES).max(1) as usize;
     let mut vis = Vec::with_capacity(starts.len());
     for chunk in starts.chunks(per_chunk) {
-        vis.extend(gpu.scoped(|| lookup_chunk(gpu, pipelines, map, shared, &groups, &tables, chunk))?);
+        vis.extend(gpu.timed(&mut seconds[2], || gpu.scoped(|| lookup_chunk(gpu, pipelines, map, shared, &groups, &tables, chunk)))?);
     }
-    seconds[2] = start.elapsed().as_secs_f64();
     Ok((vis, seconds))
 }
 

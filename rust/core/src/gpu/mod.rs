@@ -12,6 +12,8 @@ use crate::error::{Error, Result};
 use std::sync::Mutex;
 
 #[cfg(feature = "gpu")]
+pub mod alias_free;
+#[cfg(feature = "gpu")]
 mod context;
 #[cfg(feature = "gpu")]
 pub mod cssm;
@@ -23,6 +25,17 @@ pub mod mvr;
 pub mod pcss;
 #[cfg(feature = "gpu")]
 pub mod vwss;
+#[cfg(not(feature = "gpu"))]
+pub mod alias_free {
+    //! Without the `gpu` feature: refuses.
+    use crate::error::Result;
+    use crate::methods::alias_free::Setup;
+    use crate::stats::Stats;
+
+    pub(crate) fn masks(_setup: &Setup<'_>, _stats: &mut Stats) -> Result<Vec<u64>> {
+        Err(super::unavailable())
+    }
+}
 #[cfg(not(feature = "gpu"))]
 pub mod cssm {
     //! Without the `gpu` feature: refuses.
@@ -156,6 +169,24 @@ fn forced_limits() -> Option<DispatchLimits> {
     *FORCED.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
 }
 
+/// Runs GPU `work` and adds its stage time to `{stage}_seconds` in `stats`: the GPU's execution
+/// time of its compute passes by timestamp queries where the adapter has them, else the wall
+/// clock ([`Gpu::timed`]).
+pub fn timed_stage<T>(stats: &mut crate::stats::Stats, stage: &str, work: impl FnOnce() -> Result<T>) -> Result<T> {
+    #[cfg(feature = "gpu")]
+    {
+        let mut seconds = 0.0;
+        let out = context()?.timed(&mut seconds, work);
+        stats.add(&format!("{stage}_seconds"), seconds);
+        out
+    }
+    #[cfg(not(feature = "gpu"))]
+    {
+        let _ = (stats, stage, work);
+        Err(unavailable())
+    }
+}
+
 /// The adapter the GPU backend uses, as `(name, value)` pairs: name, backend, device type,
 /// driver, and the limits that split the work.
 pub fn info() -> Result<Vec<(String, String)>> {
@@ -189,6 +220,7 @@ mod shader_tests {
             ("pcss.wgsl", format!("{frustum}\n{}", include_str!("pcss.wgsl")), Capabilities::FLOAT64),
             ("mvr.wgsl", format!("{frustum}\n{}", include_str!("mvr.wgsl")), Capabilities::FLOAT64),
             ("cssm.wgsl", include_str!("cssm.wgsl").to_string(), Capabilities::FLOAT64),
+            ("alias_free.wgsl", format!("{frustum}\n{}", include_str!("alias_free.wgsl")), Capabilities::FLOAT64),
         ] {
             let source = source.as_str();
             let module = naga::front::wgsl::parse_str(source).unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(source)));

@@ -10,7 +10,6 @@ use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::raster::depth::{DepthMap, LightFrustum};
 use std::sync::OnceLock;
-use std::time::Instant;
 
 const SHADER: &str = include_str!("mvr.wgsl");
 /// Bytes per triangle: nine f32.
@@ -105,13 +104,9 @@ impl Rasterizer {
         let (mut draw, mut light, mut fragments) = (0.0, 0.0, 0u64);
         let per_batch = views_per_batch(self.gpu, views, u64::from(self.gpu.limits().workgroups))?;
         for (batch, weights) in views.chunks(per_batch).zip(weights.chunks(per_batch)) {
-            let start = Instant::now();
-            let (maps, view_buffer, counts) = self.gpu.scoped(|| self.draw(batch, weights))?;
-            draw += start.elapsed().as_secs_f64();
+            let (maps, view_buffer, counts) = self.gpu.timed(&mut draw, || self.gpu.scoped(|| self.draw(batch, weights)))?;
             fragments += counts.iter().sum::<u64>();
-            let start = Instant::now();
-            lighting.accumulate(&maps, &view_buffer, batch.len(), size)?;
-            light += start.elapsed().as_secs_f64();
+            self.gpu.timed(&mut light, || lighting.accumulate(&maps, &view_buffer, batch.len(), size))?;
         }
         Ok((draw, light, fragments))
     }
@@ -152,7 +147,7 @@ impl Rasterizer {
             });
             let bind = gpu.bind(&p.layout, &[&params, &view_buffer, &fars, triangles, &maps, &counters, &large, &dispatch]);
             {
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("mvr raster"), timestamp_writes: None });
+                let mut pass = gpu.begin_pass(&mut encoder, "mvr raster");
                 pass.set_bind_group(0, &bind, &[]);
                 // A chunk is at most one dispatch's workgroups, a batch at most its second dimension.
                 pass.set_pipeline(&p.small);
@@ -161,7 +156,7 @@ impl Rasterizer {
                 pass.dispatch_workgroups(1, 1, 1);
             }
             encoder.copy_buffer_to_buffer(&dispatch, 0, &indirect, 0, 12);
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("mvr large"), timestamp_writes: None });
+            let mut pass = gpu.begin_pass(&mut encoder, "mvr large");
             pass.set_bind_group(0, &bind, &[]);
             pass.set_pipeline(&p.large);
             pass.dispatch_workgroups_indirect(&indirect, 0);

@@ -8,7 +8,6 @@ use super::multiview::{decode_maps, upload_views, views_per_batch, Lighting, FRU
 use crate::error::Result;
 use crate::raster::depth::{DepthMap, LightFrustum};
 use std::sync::OnceLock;
-use std::time::Instant;
 
 const SHADER: &str = include_str!("vwss.wgsl");
 /// Bytes per point: three f32.
@@ -71,12 +70,8 @@ impl Warper {
         let (mut warp, mut light) = (0.0, 0.0);
         let per_batch = views_per_batch(self.gpu, views, u64::MAX)?;
         for (batch, weights) in views.chunks(per_batch).zip(weights.chunks(per_batch)) {
-            let start = Instant::now();
-            let (maps, view_buffer) = self.gpu.scoped(|| self.warp_batch(batch, weights))?;
-            warp += start.elapsed().as_secs_f64();
-            let start = Instant::now();
-            lighting.accumulate(&maps, &view_buffer, batch.len(), size)?;
-            light += start.elapsed().as_secs_f64();
+            let (maps, view_buffer) = self.gpu.timed(&mut warp, || self.gpu.scoped(|| self.warp_batch(batch, weights)))?;
+            self.gpu.timed(&mut light, || lighting.accumulate(&maps, &view_buffer, batch.len(), size))?;
         }
         Ok((warp, light))
     }

@@ -47,6 +47,7 @@ use crate::error::{Error, Result};
 use crate::geometry::edges::{edges, edges_peak, Edge};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
+use crate::gpu::{self, Backend};
 use crate::light::lights::{Light, Shape};
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, Peak};
@@ -87,11 +88,23 @@ pub struct AliasFreeOptions {
     /// casters) see all of the light or none of it, so one test against the light's center
     /// decides their whole bitmask. Same result, less work.
     pub restrict_to_penumbra: bool,
+    /// Where the lists, influence regions and per-texel tests run (`gpu/alias_free.rs`); the
+    /// casters, their regions' polygons, the penumbra texels and the table are set up on the
+    /// CPU for both. Same bits either way.
+    pub backend: Backend,
 }
 
 impl Default for AliasFreeOptions {
     fn default() -> Self {
-        Self { resolution: 512, casters: Casters::Backfacing, bias: 0.0, lut: Some(64), hull_degree: 6, restrict_to_penumbra: true }
+        Self {
+            resolution: 512,
+            casters: Casters::Backfacing,
+            bias: 0.0,
+            lut: Some(64),
+            hull_degree: 6,
+            restrict_to_penumbra: true,
+            backend: Backend::Cpu,
+        }
     }
 }
 
@@ -114,20 +127,20 @@ impl AliasFreeOptions {
 
 /// One view sample: its receiver, position, position moved along the normal, and normal.
 #[derive(Debug, Clone, Copy)]
-struct ViewSample {
-    receiver: u32,
-    p: DVec3,
-    moved: DVec3,
-    n: DVec3,
+pub(crate) struct ViewSample {
+    pub receiver: u32,
+    pub p: DVec3,
+    pub moved: DVec3,
+    pub n: DVec3,
     /// The transpose of its samples' rotation about the light's center (`rotate="per_receiver"`).
-    rotation: Option<DMat3>,
+    pub rotation: Option<DMat3>,
 }
 
 /// The light samples as f64 points, their weights, and the bitmask word count.
-struct LightSamples {
-    points: Vec<DVec3>,
-    weights: Vec<f64>,
-    words: usize,
+pub(crate) struct LightSamples {
+    pub points: Vec<DVec3>,
+    pub weights: Vec<f64>,
+    pub words: usize,
 }
 
 impl LightSamples {
@@ -153,12 +166,21 @@ impl LightSamples {
 
 /// The plane-to-bitmask lookup table: for a unit normal (two angles) and a signed distance from
 /// the light's center (in units of the light's extent), the samples behind the plane.
-struct Lut {
-    bins: usize,
-    center: DVec3,
-    extent: f64,
-    words: usize,
-    masks: Vec<u64>,
+///
+/// A plane's bins are found without trigonometry, by binary searches over the bins' boundaries
+/// (`theta_bounds`, `phi_bounds`): the same bins as `acos` and `atan2` give up to rounding at a
+/// boundary, and the same arithmetic in `gpu/alias_free.wgsl`, which has no 64-bit `acos` or
+/// `atan2`, so both backends read the same entries.
+pub(crate) struct Lut {
+    pub bins: usize,
+    pub center: DVec3,
+    pub extent: f64,
+    pub words: usize,
+    pub masks: Vec<u64>,
+    /// `cos(k π / bins)` for k = 1..bins: the polar angle's inner bin boundaries, decreasing.
+    pub theta_bounds: Vec<f64>,
+    /// `(cos, sin)` of `2 k π / bins` for k = 1..bins: the azimuth's inner bin boundaries.
+    pub phi_bounds: Vec<[f64; 2]>,
 }
 
 impl Lut {
@@ -174,13 +196,41 @@ impl Lut {
                 samples.below(m, m.dot(center) + d, out);
             }
         });
-        Ok(Self { bins, center, extent, words, masks })
+        let angle = |k: usize, range: f64| k as f64 / bins as f64 * range;
+        let theta_bounds = (1..bins).map(|k| angle(k, std::f64::consts::PI).cos()).collect();
+        let phi_bounds = (1..bins).map(|k| angle(k, 2.0 * std::f64::consts::PI)).map(|a| [a.cos(), a.sin()]).collect();
+        Ok(Self { bins, center, extent, words, masks, theta_bounds, phi_bounds })
     }
 
     fn normal(bins: usize, i: usize, j: usize) -> DVec3 {
         let theta = (i as f64 + 0.5) / bins as f64 * std::f64::consts::PI;
         let phi = (j as f64 + 0.5) / bins as f64 * 2.0 * std::f64::consts::PI;
         DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos())
+    }
+
+    /// The polar bin of the unit normal `u`: the number of boundaries `k π / bins` that
+    /// `acos(u.z)` reaches, i.e. with `u.z <= cos(k π / bins)`.
+    fn theta_bin(&self, u: DVec3) -> usize {
+        leading_true(self.theta_bounds.len(), |k| u.z <= self.theta_bounds[k])
+    }
+
+    /// The azimuth bin of the unit normal `u`: the number of boundaries `2 k π / bins` that
+    /// `atan2(u.y, u.x)` (in [0, 2π)) reaches. Within one half-plane the angle grows with the
+    /// sign of the cross product against the boundary's direction; a boundary in the upper half
+    /// ([0, π)) is reached by every direction of the lower half.
+    fn phi_bin(&self, u: DVec3) -> usize {
+        if u.x == 0.0 && u.y == 0.0 {
+            return 0;
+        }
+        let upper = u.y > 0.0 || (u.y == 0.0 && u.x > 0.0);
+        leading_true(self.phi_bounds.len(), |k| {
+            let bound_upper = 2 * (k + 1) < self.bins;
+            if bound_upper != upper {
+                return bound_upper;
+            }
+            let [c, s] = self.phi_bounds[k];
+            c * u.y - s * u.x >= 0.0
+        })
     }
 
     /// The mask of samples with `m · y < k`, or `None` when the plane misses the light (all or
@@ -192,13 +242,26 @@ impl Lut {
             return None;
         }
         let b = self.bins as f64;
-        let i = ((u.z.clamp(-1.0, 1.0).acos() / std::f64::consts::PI * b) as usize).min(self.bins - 1);
-        let phi = u.y.atan2(u.x).rem_euclid(2.0 * std::f64::consts::PI);
-        let j = ((phi / (2.0 * std::f64::consts::PI) * b) as usize).min(self.bins - 1);
+        let (i, j) = (self.theta_bin(u), self.phi_bin(u));
         let k = (((d + 1.0) * 0.5 * b) as usize).min(self.bins - 1);
         let at = ((i * self.bins + j) * self.bins + k) * self.words;
         Some(&self.masks[at..at + self.words])
     }
+}
+
+/// How many of the first `n` indices satisfy `pred`, for a predicate true on a prefix, by binary
+/// search (the very steps of `leading_true` in `gpu/alias_free.wgsl`).
+fn leading_true(n: usize, pred: impl Fn(usize) -> bool) -> usize {
+    let (mut lo, mut hi) = (0, n);
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if pred(mid) {
+            lo = mid + 1;
+        } else {
+            hi = mid;
+        }
+    }
+    lo
 }
 
 /// Plane masks of the light samples, exactly or through the table, for one view sample whose
@@ -243,17 +306,17 @@ impl Planes<'_> {
 }
 
 /// A caster prepared for the tests: vertices in f64, plane, whether it tests moved receivers.
-struct Prepared {
-    id: u32,
-    v: [DVec3; 3],
-    normal: DVec3,
-    alpha: bool,
-    moved: bool,
+pub(crate) struct Prepared {
+    pub id: u32,
+    pub v: [DVec3; 3],
+    pub normal: DVec3,
+    pub alpha: bool,
+    pub moved: bool,
     /// A closed mesh's triangle under `Casters::Backfacing`: it blocks only samples it is back-facing
     /// to, from receivers in front of it (so never its own surface).
-    front_only: bool,
+    pub front_only: bool,
     /// Its nearest linear depth in the light's frustum.
-    near_depth: f64,
+    pub near_depth: f64,
 }
 
 /// The four planes `(m, k)` of the test of triangle `t` from view point `p` (section 3.3): a light
@@ -403,9 +466,10 @@ impl SampleMasks {
 }
 
 /// The memory of [`sample_masks`] for `receivers` receivers and `samples` light samples: per
-/// receiver its bitmask, its list entry's, its view sample and point, and the lists; per caster
-/// its set-up, influence region and band bins; the lookup table; the penumbra flags and the
-/// silhouettes. (The row spans of the penumbra regions, transient, are left out.)
+/// receiver its bitmask, its list entry's and its view sample's (or the GPU's, read back), its
+/// view sample and point, and the lists; per caster its set-up, influence region and band bins;
+/// the lookup table; the penumbra flags and the silhouettes. (The row spans of the penumbra
+/// regions, transient, are left out.)
 pub(crate) fn masks_peak(scene: &Scene, receivers: usize, samples: usize, opts: &AliasFreeOptions) -> Peak {
     let (n, words, res) = (receivers as u64, samples.div_ceil(64).max(1) as u64, opts.resolution as u64);
     let hull = 24 + 16 * 3 * opts.hull_degree.max(8) as u64;
@@ -414,7 +478,7 @@ pub(crate) fn masks_peak(scene: &Scene, receivers: usize, samples: usize, opts: 
     let lut = opts.lut.map_or(Peak::default(), |bins| Peak::default().buffer(&[bins as u64, bins as u64, bins as u64, words, 8]));
     let penumbra = if opts.restrict_to_penumbra { Peak::default().buffer(&[res, res]).and(edges_peak(scene)) } else { Peak::default() };
     Peak::default()
-        .buffer(&[n, words, 2 * 8])
+        .buffer(&[n, words, 3 * 8])
         .buffer(&[n, std::mem::size_of::<ViewSample>() as u64 + 12])
         .and(ReceiverLists::peak(receivers, opts.resolution))
         .buffer(&[scene.num_faces() as u64, per_caster])
@@ -448,15 +512,13 @@ pub(crate) fn sample_masks(
         return Ok(out);
     }
     let points: Vec<Vec3> = view.iter().map(|s| s.p.as_vec3()).collect();
-    let lists = stats.time("list_build", || ReceiverLists::build(light, &points, opts.resolution))?;
-    lists.record_stats(stats);
-    let frustum = lists.frustum;
+    let frustum = stats.time_add("list_build", || ReceiverLists::fit(light, &points, opts.resolution))?;
     let center = light.center().as_dvec3();
     let radius = light_samples.points.iter().map(|y| (*y - center).length()).fold(0.0f64, f64::max) * (1.0 + 1e-9) + 1e-12;
-    let casters = stats.time("rasterization", || CasterSet::prepare(scene, light, &lists, opts, opaque_only));
+    let casters = stats.time_add("rasterization", || CasterSet::prepare(scene, light, &frustum, opts, opaque_only));
     stats.set("casters", casters.prepared.len() as f64);
     let penumbra = if opts.restrict_to_penumbra && light_samples.points.len() > 1 {
-        let (flags, silhouettes) = stats.time("rasterization", || penumbra_texels(scene, light, &frustum, &casters, opts.hull_degree, (center, radius)));
+        let (flags, silhouettes) = stats.time_add("rasterization", || penumbra_texels(scene, light, &frustum, &casters, opts.hull_degree, (center, radius)));
         stats.set("silhouette_edges", silhouettes as f64);
         stats.set("penumbra_texels_percent", 100.0 * flags.iter().filter(|&&f| f).count() as f64 / flags.len() as f64);
         Some(flags)
@@ -469,25 +531,72 @@ pub(crate) fn sample_masks(
         Some(bins) if light_samples.points.len() > 1 && extent > 0.0 => Some(Lut::new(&light_samples, center, extent, bins)?),
         _ => None,
     };
-    let mut masks = initial_masks(&lists, &view, &light_samples, center);
-    let tester = Tester {
+    let setup = Setup {
         scene,
         light,
-        opts,
-        frustum: &frustum,
-        lists: &lists,
+        hull_degree: opts.hull_degree,
+        frustum,
+        points: &points,
         view: &view,
         casters: &casters,
         penumbra: penumbra.as_deref(),
-        planes: Planes { samples: &light_samples, lut: lut.as_ref(), center, radius, rotation: None },
+        samples: &light_samples,
+        lut: lut.as_ref(),
+        center,
+        radius,
         full: light_samples.full_mask(),
     };
-    stats.time("visibility", || tester.run(&mut masks));
-    for (e, &i) in lists.entries.iter().enumerate() {
-        let r = view[i as usize].receiver as usize;
-        out.masks[r * words..(r + 1) * words].copy_from_slice(&masks[e * words..(e + 1) * words]);
+    let masks = match opts.backend {
+        Backend::Cpu => cpu_masks(&setup, stats),
+        Backend::Gpu => gpu::alias_free::masks(&setup, stats)?,
+    };
+    for (k, s) in view.iter().enumerate() {
+        let r = s.receiver as usize;
+        out.masks[r * words..(r + 1) * words].copy_from_slice(&masks[k * words..(k + 1) * words]);
     }
     Ok(out)
+}
+
+/// Everything the per-texel tests read (sections 3.3 and 4.2), set up on the CPU for either
+/// backend: the view samples and their points, the lists' frustum, the casters with their
+/// influence regions on its far plane, the penumbra texels, the light samples and the table.
+pub(crate) struct Setup<'a> {
+    pub scene: &'a Scene,
+    pub light: &'a Light,
+    /// Sides of the light's bounding polygons.
+    pub hull_degree: usize,
+    pub frustum: LightFrustum,
+    pub points: &'a [Vec3],
+    pub view: &'a [ViewSample],
+    pub casters: &'a CasterSet,
+    /// Per texel, whether it may hold penumbra (`None`: every texel may).
+    pub penumbra: Option<&'a [bool]>,
+    pub samples: &'a LightSamples,
+    pub lut: Option<&'a Lut>,
+    /// The light's center and the radius of a sphere about it holding every sample (a hair more
+    /// than the light's extent, against round-off).
+    pub center: DVec3,
+    pub radius: f64,
+    /// The mask of every light sample.
+    pub full: Vec<u64>,
+}
+
+/// The bitmask of every view sample (view order) on the CPU: the lists, then bands of rows in
+/// parallel over the casters binned to them.
+fn cpu_masks(setup: &Setup<'_>, stats: &mut Stats) -> Vec<u64> {
+    let lists = stats.time_add("list_build", || ReceiverLists::with_frustum(setup.frustum, setup.points));
+    lists.record_stats(stats);
+    let bins = stats.time_add("rasterization", || lists.bin(&setup.casters.hulls));
+    let words = setup.full.len();
+    let mut masks = initial_masks(&lists, setup.view, setup.samples, setup.center);
+    let tester = Tester { setup, lists: &lists, bins: &bins };
+    stats.time("visibility", || tester.run(&mut masks));
+    let mut by_view = vec![0u64; masks.len()];
+    for (e, &i) in lists.entries.iter().enumerate() {
+        let i = i as usize;
+        by_view[i * words..(i + 1) * words].copy_from_slice(&masks[e * words..(e + 1) * words]);
+    }
+    by_view
 }
 
 /// The light samples of `samples` (one bit each; the light's center for a point light), after
@@ -542,19 +651,17 @@ fn initial_masks(lists: &ReceiverLists, view: &[ViewSample], samples: &LightSamp
     masks
 }
 
-/// The casting triangles, prepared, with their influence regions on the far plane and, per band
-/// of rows, the casters whose regions reach it.
-struct CasterSet {
-    raw: Vec<Caster>,
-    prepared: Vec<Prepared>,
-    hulls: Vec<Option<Vec<DVec2>>>,
-    bins: Vec<Vec<u32>>,
+/// The casting triangles, prepared, with their influence regions on the lists' far plane (`None`:
+/// the whole map).
+pub(crate) struct CasterSet {
+    pub raw: Vec<Caster>,
+    pub prepared: Vec<Prepared>,
+    pub hulls: Vec<Option<Vec<DVec2>>>,
 }
 impl CasterSet {
     /// The casters of `scene` for `light` (see the module documentation, step 4) and their
-    /// influence regions in the lists' frustum, binned by bands of rows.
-    fn prepare(scene: &Scene, light: &Light, lists: &ReceiverLists, opts: &AliasFreeOptions, opaque_only: bool) -> CasterSet {
-        let frustum = &lists.frustum;
+    /// influence regions in the lists' `frustum`.
+    fn prepare(scene: &Scene, light: &Light, frustum: &LightFrustum, opts: &AliasFreeOptions, opaque_only: bool) -> CasterSet {
         let point = matches!(light.shape, Shape::Point { .. });
         let filter = match opts.casters {
             Casters::Backfacing if point => FaceFilter::BackFacingIfClosed,
@@ -577,9 +684,8 @@ impl CasterSet {
                 Prepared { id: *id, v, normal: (v[1] - v[0]).cross(v[2] - v[0]), alpha: *alpha, moved, front_only: front_only(*id), near_depth }
             })
             .collect();
-        let hulls: Vec<Option<Vec<DVec2>>> = raw.par_iter().map(|(_, t, _)| influence_hull(&lists.frustum, light, t, opts.hull_degree)).collect();
-        let bins = lists.bin(&hulls);
-        CasterSet { raw, prepared, hulls, bins }
+        let hulls = raw.par_iter().map(|(_, t, _)| influence_hull(frustum, light, t, opts.hull_degree)).collect();
+        CasterSet { raw, prepared, hulls }
     }
 }
 
@@ -605,51 +711,44 @@ fn penumbra_texels(scene: &Scene, light: &Light, frustum: &LightFrustum, casters
     (flags, silhouettes.len())
 }
 
-/// Everything the per-texel tests read (section 3.3 and 4.2).
+/// The CPU's per-texel tests over the lists, with the casters binned by bands of rows.
 struct Tester<'a> {
-    scene: &'a Scene,
-    light: &'a Light,
-    opts: &'a AliasFreeOptions,
-    frustum: &'a LightFrustum,
+    setup: &'a Setup<'a>,
     lists: &'a ReceiverLists,
-    view: &'a [ViewSample],
-    casters: &'a CasterSet,
-    /// Per texel, whether it may hold penumbra (`None`: every texel may).
-    penumbra: Option<&'a [bool]>,
-    /// The planes' sample masks, without a rotation (set per view sample).
-    planes: Planes<'a>,
-    full: Vec<u64>,
+    bins: &'a [Vec<u32>],
 }
 
 impl Tester<'_> {
     /// Tests every band of rows in parallel, each over its own part of `masks` (the bitmasks of
     /// the list entries, in list order).
     fn run(&self, masks: &mut [u64]) {
-        let parts = self.lists.split_by_band(masks, self.full.len());
+        let parts = self.lists.split_by_band(masks, self.setup.full.len());
         parts.into_par_iter().for_each(|(b, rows, base, band_masks)| self.band(b, rows, base, band_masks));
     }
 
     /// Tests the casters binned to band `b` (rows `rows`, list entries from `base` on) against
     /// the view samples of its lists.
     fn band(&self, b: usize, rows: std::ops::Range<usize>, base: usize, band_masks: &mut [u64]) {
-        let (w, words) = (self.frustum.width, self.full.len());
-        let (lists, view) = (self.lists, self.view);
+        let setup = self.setup;
+        let (w, words, full) = (setup.frustum.width, setup.full.len(), &setup.full);
+        let (lists, view, casters) = (self.lists, setup.view, setup.casters);
         let mut blocked = vec![0u64; words];
         let mut scratch = vec![0u64; words];
         let Some(band_frustum) = lists.band_frustum(&rows) else { return };
-        let (center, radius) = (self.planes.center, self.planes.radius);
-        for &c in &self.casters.bins[b] {
-            let t = &self.casters.prepared[c as usize];
-            let region = match &self.casters.hulls[c as usize] {
-                Some(_) => influence_hull(&band_frustum, self.light, &self.casters.raw[c as usize].1, self.opts.hull_degree),
+        let (center, radius) = (setup.center, setup.radius);
+        let unrotated = Planes { samples: setup.samples, lut: setup.lut, center, radius, rotation: None };
+        for &c in &self.bins[b] {
+            let t = &casters.prepared[c as usize];
+            let region = match &casters.hulls[c as usize] {
+                Some(_) => influence_hull(&band_frustum, setup.light, &casters.raw[c as usize].1, setup.hull_degree),
                 None => None,
             };
             for (y, x0, x1) in lists.spans(region.as_deref(), &rows) {
                 for x in x0..x1 {
-                    let umbra_or_lit = !t.alpha && self.penumbra.is_some_and(|f| !f[y * w + x]);
+                    let umbra_or_lit = !t.alpha && setup.penumbra.is_some_and(|f| !f[y * w + x]);
                     for e in lists.span_entries((y, x, x + 1)) {
                         let m = &mut band_masks[(e - base) * words..(e - base + 1) * words];
-                        if m.iter().zip(&self.full).all(|(a, f)| a == f) {
+                        if m.iter().zip(full).all(|(a, f)| a == f) {
                             continue;
                         }
                         let (i, s) = (lists.entries[e] as usize, &view[lists.entries[e] as usize]);
@@ -661,14 +760,14 @@ impl Tester<'_> {
                         if umbra_or_lit {
                             // All of the light is blocked or none: the center decides.
                             if blocks_point(t, p, center) {
-                                m.copy_from_slice(&self.full);
+                                m.copy_from_slice(full);
                             }
                             continue;
                         }
-                        let planes = Planes { rotation: s.rotation, ..self.planes };
-                        if blocked_by(t, p, &planes, &self.full, &mut blocked, &mut scratch) {
+                        let planes = Planes { rotation: s.rotation, ..unrotated };
+                        if blocked_by(t, p, &planes, full, &mut blocked, &mut scratch) {
                             if t.alpha {
-                                alpha_test(self.scene, t, p, self.planes.samples, |y| rotate_about(center, s.rotation, y), &mut blocked);
+                                alpha_test(setup.scene, t, p, setup.samples, |y| rotate_about(center, s.rotation, y), &mut blocked);
                             }
                             m.iter_mut().zip(&blocked).for_each(|(a, b)| *a |= b);
                         }
@@ -686,7 +785,6 @@ fn rotate_about(center: DVec3, rotation: Option<DMat3>, y: DVec3) -> DVec3 {
         None => y,
     }
 }
-
 
 #[cfg(test)]
 mod tests {

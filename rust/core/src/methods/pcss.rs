@@ -199,7 +199,7 @@ pub fn pcss(scene: &Scene, light: &Light, receivers: &Receivers, opts: &PcssOpti
             filter_taps: &lookup.filter_taps,
             bias: lookup.bias,
         };
-        let (vis, no_blocker) = stats.time("lighting", || gpu::pcss::pcss(&gpu_lookup, receivers))?;
+        let (vis, no_blocker) = gpu::timed_stage(&mut stats, "lighting", || gpu::pcss::pcss(&gpu_lookup, receivers))?;
         stats.set("no_blocker", no_blocker);
         return Ok((vis, stats));
     }

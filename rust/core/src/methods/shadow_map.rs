@@ -26,7 +26,7 @@ use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
 use crate::gpu::multiview::Lighting;
-use crate::gpu::Backend;
+use crate::gpu::{self, Backend};
 use crate::limits::Peak;
 use crate::raster::depth::{raster_peak, rasterize_depth, DepthMap, LightFrustum, RasterOptions};
 use crate::raster::pcf::{DepthBias, PcfKernel, RASTERIZED_SLACK};
@@ -99,7 +99,10 @@ pub fn shadow_map(scene: &Scene, light: &Light, receivers: &Receivers, opts: &Sh
         .and(raster_peak(scene, frustum.width, frustum.height))
         .check("shadow_map", &mut stats)?;
     let map = stats.time("render", || rasterize_depth(scene, &frustum, &RasterOptions::default()))?;
-    let vis = stats.time("lookup", || lookup_all(&map, &frustum, receivers, opts))?;
+    let vis = match opts.backend {
+        Backend::Gpu => gpu::timed_stage(&mut stats, "lookup", || lookup_all(&map, &frustum, receivers, opts))?,
+        Backend::Cpu => stats.time("lookup", || lookup_all(&map, &frustum, receivers, opts))?,
+    };
     stats.set("resolution", frustum.width as f64);
     stats.set("texels_drawn", map.drawn_texels() as f64);
     stats.set("fragments", map.fragments as f64);

@@ -36,6 +36,7 @@ use crate::error::{Error, Result};
 use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::{AlphaTexture, Scene};
 use crate::geometry::receivers::Receivers;
+use crate::gpu::Backend;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, Peak};
@@ -313,6 +314,7 @@ pub fn stsv(scene: &Scene, bvh: &Bvh, light: &Light, receivers: &Receivers, samp
         lut: None,
         hull_degree: opts.object.hull_degree,
         restrict_to_penumbra: true,
+        backend: Backend::Cpu,
     };
     let n = receivers.len();
     // The visibility, the origins, the perforated bitmasks and volumes, then the opaque part's.

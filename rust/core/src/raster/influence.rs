@@ -71,12 +71,12 @@ pub(crate) struct Origins<'a> {
 }
 
 impl<'a> Origins<'a> {
-    /// `None` when no receiver faces the light.
     /// The memory of the origins of `receivers` receivers (ids and points) and their lists.
     pub fn peak(receivers: usize, opts: &ObjectOptions) -> Peak {
         Peak::default().buffer(&[receivers as u64, 4 + 12]).and(ReceiverLists::peak(receivers, opts.resolution))
     }
 
+    /// `None` when no receiver faces the light.
     pub fn new(light: &'a Light, receivers: &'a Receivers, samples: &'a SampleSet, opts: &ObjectOptions) -> Result<Option<Self>> {
         let (c, extent) = (light.center(), light.extent());
         let ids: Vec<u32> = (0..receivers.len() as u32)
@@ -116,26 +116,37 @@ pub struct ReceiverLists {
 }
 
 impl ReceiverLists {
-    /// Bins `points` (at least one, none at the light's center) into the texels of the frustum
-    /// from the light's center fitted to them (section 4.3): the square fit of
-    /// [`LightFrustum::fit`] for its axes, then the tightest fields of view and depth range.
     /// The memory of the lists of `points` receivers at `resolution`: per receiver its texel,
     /// entry and depth; per texel two list starts (the starts and the fill cursors).
     pub fn peak(points: usize, resolution: usize) -> Peak {
         Peak::default().buffer(&[points as u64, 8 + 4 + 8]).buffer(&[resolution as u64, resolution as u64, 2 * 8])
     }
 
+    /// Bins `points` (at least one, none at the light's center) into the texels of the frustum
+    /// from the light's center fitted to them (section 4.3): the square fit of
+    /// [`LightFrustum::fit`] for its axes, then the tightest fields of view and depth range.
     pub fn build(light: &Light, points: &[Vec3], resolution: usize) -> Result<Self> {
-        let frustum = fit_frustum(light, points, resolution)?;
+        Ok(Self::with_frustum(Self::fit(light, points, resolution)?, points))
+    }
+
+    /// The frustum from the light's center that [`ReceiverLists::build`] fits to `points`.
+    pub fn fit(light: &Light, points: &[Vec3], resolution: usize) -> Result<LightFrustum> {
+        fit_frustum(light, points, resolution)
+    }
+
+    /// The texel of `p` in the lists of `frustum` (points nearer than its near plane and outside
+    /// the map go to the nearest texel of the map's border).
+    pub fn texel(frustum: &LightFrustum, p: Vec3) -> usize {
         let (w, h) = (frustum.width, frustum.height);
-        let texel: Vec<usize> = points
-            .par_iter()
-            .map(|&p| {
-                let p = frustum.project(p).unwrap_or(Vec3::ZERO);
-                let (x, y) = ((p.x.max(0.0) as usize).min(w - 1), (p.y.max(0.0) as usize).min(h - 1));
-                y * w + x
-            })
-            .collect();
+        let p = frustum.project(p).unwrap_or(Vec3::ZERO);
+        let (x, y) = ((p.x.max(0.0) as usize).min(w - 1), (p.y.max(0.0) as usize).min(h - 1));
+        y * w + x
+    }
+
+    /// Bins `points` into the texels of `frustum` (fitted to them).
+    pub fn with_frustum(frustum: LightFrustum, points: &[Vec3]) -> Self {
+        let (w, h) = (frustum.width, frustum.height);
+        let texel: Vec<usize> = points.par_iter().map(|&p| Self::texel(&frustum, p)).collect();
         let mut start = vec![0usize; w * h + 1];
         for &t in &texel {
             start[t + 1] += 1;
@@ -150,7 +161,7 @@ impl ReceiverLists {
             fill[t] += 1;
         }
         let depths = points.iter().map(|&p| f64::from(frustum.to_view(p).z)).collect();
-        Ok(Self { frustum, start, entries, depths })
+        Self { frustum, start, entries, depths }
     }
 
     /// Rows per band of the parallel passes.
@@ -177,18 +188,7 @@ impl ReceiverLists {
 
     /// For each band, the indices of the regions (`None`: the whole map) whose rows reach it.
     pub fn bin(&self, hulls: &[Option<Vec<DVec2>>]) -> Vec<Vec<u32>> {
-        let (w, h) = (self.frustum.width, self.frustum.height);
-        let rows: Vec<Option<(usize, usize)>> = hulls
-            .par_iter()
-            .map(|hull| match hull {
-                None => Some((0, h)),
-                Some(hull) => {
-                    let r = conservative_rows(hull, w, h);
-                    r.first().map(|f| (f.0, r.last().map_or(f.0, |l| l.0) + 1))
-                }
-            })
-            .collect();
-        bin_row_ranges(&rows, self.band_rows(), self.bands())
+        bin_regions(&self.frustum, hulls)
     }
 
     /// The texel spans `(row, x0, x1)` of `rows` that the region `hull` (`None`: the whole map)
@@ -227,18 +227,13 @@ impl ReceiverLists {
     /// for those receivers); `None` when the rows hold none.
     pub fn band_frustum(&self, rows: &Range<usize>) -> Option<LightFrustum> {
         let far = self.entries[self.entries_of(rows)].iter().map(|&e| self.depths[e as usize] as f32).fold(0.0f32, f32::max);
-        (far > 0.0).then(|| LightFrustum { far: (far * 1.001).max(self.frustum.near * 2.0), ..self.frustum })
+        band_frustum(&self.frustum, far)
     }
 
     /// The list statistics of the paper's Figure 9 inlay: `average_list_length` and
     /// `max_list_length` (over occupied texels) and `occupied_texels_percent`.
     pub fn record_stats(&self, stats: &mut Stats) {
-        let lengths = self.start.windows(2).map(|w| w[1] - w[0]);
-        let (occupied, max) = lengths.fold((0usize, 0usize), |(o, m), l| (o + usize::from(l > 0), m.max(l)));
-        let texels = self.start.len() - 1;
-        stats.set("average_list_length", if occupied > 0 { self.entries.len() as f64 / occupied as f64 } else { 0.0 });
-        stats.set("max_list_length", max as f64);
-        stats.set("occupied_texels_percent", 100.0 * occupied as f64 / texels as f64);
+        record_list_stats(self.start.windows(2).map(|w| w[1] - w[0]), stats);
     }
 }
 
@@ -277,6 +272,38 @@ impl ReceiverLists {
             }
         });
     }
+}
+
+/// [`ReceiverLists::bin`] for the lists of `frustum`.
+pub fn bin_regions(frustum: &LightFrustum, hulls: &[Option<Vec<DVec2>>]) -> Vec<Vec<u32>> {
+    let (w, h) = (frustum.width, frustum.height);
+    let band = band_rows(h);
+    let rows: Vec<Option<(usize, usize)>> = hulls
+        .par_iter()
+        .map(|hull| match hull {
+            None => Some((0, h)),
+            Some(hull) => {
+                let r = conservative_rows(hull, w, h);
+                r.first().map(|f| (f.0, r.last().map_or(f.0, |l| l.0) + 1))
+            }
+        })
+        .collect();
+    bin_row_ranges(&rows, band, h.div_ceil(band))
+}
+
+/// [`ReceiverLists::band_frustum`] for receivers whose farthest linear depth is `far` (`None`
+/// for none, `far <= 0`).
+pub fn band_frustum(frustum: &LightFrustum, far: f32) -> Option<LightFrustum> {
+    (far > 0.0).then(|| LightFrustum { far: (far * 1.001).max(frustum.near * 2.0), ..*frustum })
+}
+
+/// [`ReceiverLists::record_stats`] from the length of every texel's list.
+pub fn record_list_stats(lengths: impl ExactSizeIterator<Item = usize>, stats: &mut Stats) {
+    let texels = lengths.len().max(1);
+    let (occupied, max, total) = lengths.fold((0usize, 0usize, 0usize), |(o, m, t), l| (o + usize::from(l > 0), m.max(l), t + l));
+    stats.set("average_list_length", if occupied > 0 { total as f64 / occupied as f64 } else { 0.0 });
+    stats.set("max_list_length", max as f64);
+    stats.set("occupied_texels_percent", 100.0 * occupied as f64 / texels as f64);
 }
 
 /// The frustum of [`ReceiverLists::build`].

@@ -30,50 +30,57 @@ pub fn convex_hull(points: &[DVec2]) -> Vec<DVec2> {
     hull
 }
 
+/// Slack of the conservative coverage, in texels.
+const SLACK: f64 = 1e-6;
+
 /// For each texel row the convex polygon `hull` (texel coordinates, any orientation) touches,
 /// `(y, x0, x1)`: the half-open texel columns `[x0, x1)` whose squares it touches in that row,
 /// clipped to a `width × height` map. Conservative: every texel square the polygon overlaps is
 /// included (up to `1e-6` texel of slack).
 pub fn conservative_rows(hull: &[DVec2], width: usize, height: usize) -> Vec<(usize, usize, usize)> {
-    const SLACK: f64 = 1e-6;
+    let Some((first, last)) = conservative_row_range(hull, height) else { return Vec::new() };
+    (first..=last).filter_map(|y| conservative_span(hull, y, width).map(|(x0, x1)| (y, x0, x1))).collect()
+}
+
+/// The first and last rows of a `height`-row map that the polygon `hull` may touch (with the
+/// slack of [`conservative_rows`]); `None` for none.
+pub fn conservative_row_range(hull: &[DVec2], height: usize) -> Option<(usize, usize)> {
     if hull.is_empty() {
-        return Vec::new();
+        return None;
     }
     let (lo_y, hi_y) = hull.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.y), b.max(p.y)));
     let y_first = (lo_y - SLACK).floor().max(0.0) as usize;
     let y_last = ((hi_y + SLACK).floor().min(height as f64 - 1.0)).max(-1.0);
-    if y_last < 0.0 || y_first >= height {
-        return Vec::new();
-    }
-    let mut rows = Vec::new();
-    for y in y_first..=y_last as usize {
-        let (top, bottom) = (y as f64 - SLACK, y as f64 + 1.0 + SLACK);
-        let (mut x_lo, mut x_hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        let n = hull.len();
-        for i in 0..n {
-            let (a, b) = (hull[i], hull[(i + 1) % n]);
-            if a.y >= top && a.y <= bottom {
-                x_lo = x_lo.min(a.x);
-                x_hi = x_hi.max(a.x);
-            }
-            for edge_y in [top, bottom] {
-                if (a.y - edge_y) * (b.y - edge_y) < 0.0 {
-                    let x = a.x + (b.x - a.x) * (edge_y - a.y) / (b.y - a.y);
-                    x_lo = x_lo.min(x);
-                    x_hi = x_hi.max(x);
-                }
-            }
+    (y_last >= 0.0 && y_first < height).then_some((y_first, y_last as usize))
+}
+
+/// The half-open columns `[x0, x1)` of row `y` of a `width`-column map whose texel squares the
+/// polygon `hull` touches (with the slack of [`conservative_rows`]); `None` for none. The GPU
+/// repeats it operation for operation (`row_span` in `gpu/alias_free.wgsl`).
+pub fn conservative_span(hull: &[DVec2], y: usize, width: usize) -> Option<(usize, usize)> {
+    let (top, bottom) = (y as f64 - SLACK, y as f64 + 1.0 + SLACK);
+    let (mut x_lo, mut x_hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    let n = hull.len();
+    for i in 0..n {
+        let (a, b) = (hull[i], hull[(i + 1) % n]);
+        if a.y >= top && a.y <= bottom {
+            x_lo = x_lo.min(a.x);
+            x_hi = x_hi.max(a.x);
         }
-        if x_lo > x_hi {
-            continue;
-        }
-        let x0 = (x_lo - SLACK).floor().max(0.0);
-        let x1 = ((x_hi + SLACK).floor() + 1.0).min(width as f64);
-        if x1 > x0 {
-            rows.push((y, x0 as usize, x1 as usize));
+        for edge_y in [top, bottom] {
+            if (a.y - edge_y) * (b.y - edge_y) < 0.0 {
+                let x = a.x + (b.x - a.x) * (edge_y - a.y) / (b.y - a.y);
+                x_lo = x_lo.min(x);
+                x_hi = x_hi.max(x);
+            }
         }
     }
-    rows
+    if x_lo > x_hi {
+        return None;
+    }
+    let x0 = (x_lo - SLACK).floor().max(0.0);
+    let x1 = ((x_hi + SLACK).floor() + 1.0).min(width as f64);
+    (x1 > x0).then_some((x0 as usize, x1 as usize))
 }
 
 #[cfg(test)]
