@@ -23,7 +23,10 @@
 //! Lane data is transposed into [`Chunk`]s of [`W`] lanes and every per-lane test is a plain
 //! loop over a chunk, which LLVM vectorizes to the registers of the instruction set it is
 //! compiled for. The traversal is compiled once per instruction set ([`Isa`]: SSE2 everywhere,
-//! AVX2 and AVX-512 where the CPU has them, chosen at run time), all from the same body.
+//! AVX2 and AVX-512 where the CPU has them, chosen at run time), all from the same body. A
+//! tile's origins are transposed once for all its light samples
+//! ([`Bvh::occluded_converging_lanes`]), and the same lanes serve the candidate test of the
+//! per-receiver frustum pass (one origin, many targets: [`Bvh::occluded_by_blocks`]).
 //!
 //! Exactness: every lane does the IEEE operations, in the same order, of the `RayData` that
 //! [`Bvh::occluded`] builds for the same segment and of its slab and watertight tests (LLVM
@@ -90,6 +93,43 @@ fn has_avx512() -> bool {
         && std::is_x86_feature_detected!("avx512bw")
         && std::is_x86_feature_detected!("avx512vl")
         && std::is_x86_feature_detected!("avx512dq")
+}
+
+/// Defines the method `$name(&self, isa: Isa, args...)`, which runs `self.$body(args...)`
+/// compiled for `isa` (the baseline unless the CPU has it): one body, inlined into one wrapper
+/// per instruction set, each compiled with its target features. `$body` must be
+/// `#[inline(always)]`, and so must everything its lane loops call.
+macro_rules! isa_dispatch {
+    ($(#[$doc:meta])* fn $name:ident => $body:ident($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty) => {
+        $(#[$doc])*
+        #[allow(clippy::too_many_arguments)]
+        fn $name(&self, isa: Isa, $($arg: $ty),*) -> $ret {
+            #[cfg(target_arch = "x86_64")]
+            #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx512dq")]
+            fn avx512(bvh: &Bvh, $($arg: $ty),*) -> $ret {
+                bvh.$body($($arg),*)
+            }
+            #[cfg(target_arch = "x86_64")]
+            #[target_feature(enable = "avx2")]
+            fn avx2(bvh: &Bvh, $($arg: $ty),*) -> $ret {
+                bvh.$body($($arg),*)
+            }
+            match isa {
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx512 if has_avx512() => {
+                    // SAFETY: the CPU has every feature `avx512` is compiled for (checked just
+                    // above).
+                    unsafe { avx512(self, $($arg),*) }
+                }
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx2 if std::is_x86_feature_detected!("avx2") => {
+                    // SAFETY: the CPU has AVX2 (checked just above).
+                    unsafe { avx2(self, $($arg),*) }
+                }
+                _ => self.$body($($arg),*),
+            }
+        }
+    };
 }
 
 /// The per-lane data of [`W`] rays of a packet, one array entry per lane: the fields of the
@@ -218,6 +258,16 @@ fn pick(v: [f32; 3], k: u32) -> f32 {
     }
 }
 
+/// The points `p` (at most [`W`]) per axis, one lane each; lanes past `p` get 0.
+#[inline(always)]
+fn transposed(p: &[Vec3]) -> [[f32; W]; 3] {
+    let mut out = [[0f32; W]; 3];
+    for (l, p) in p.iter().take(W).enumerate() {
+        (out[0][l], out[1][l], out[2][l]) = (p.x, p.y, p.z);
+    }
+    out
+}
+
 /// One lane's `RayData` fields for the direction `dir` from `org`, when no component of `dir`
 /// is zero or non-finite: the same IEEE operations as `RayData::new` (the safe reciprocal and
 /// the shear axes and constants).
@@ -270,31 +320,44 @@ impl Chunk {
     /// and no mask selects them.
     #[inline(always)]
     fn set_origins(&mut self, origins: &[Vec3]) {
-        let mut o = [[0f32; W]; 3];
-        for (l, p) in origins.iter().enumerate() {
-            (o[0][l], o[1][l], o[2][l]) = (p.x, p.y, p.z);
-        }
-        self.origin = o;
+        self.origin = transposed(origins);
     }
 
-    /// Sets the lanes `lanes` (a chunk mask) to the segments from their origins to `target`;
-    /// returns the mask of those with a non-empty segment. The other lanes get data no mask
-    /// selects.
+    /// Sets the lanes `lanes` (a chunk mask) to the segments from their origins to `target`
+    /// and their slopes from it; returns the mask of those with a non-empty segment. The other
+    /// lanes get data no mask selects.
     #[inline(always)]
     fn aim(&mut self, target: Vec3, lanes: u64, slopes: &Slopes) -> u64 {
-        let regular = self.aim_regular(target) & lanes;
+        let live = self.aim_lanes(&[[target.x; W], [target.y; W], [target.z; W]], lanes);
+        self.aim_slopes(slopes);
+        live
+    }
+
+    /// Sets the lanes to the segments from `origin` to `targets` (at most [`W`], no slopes);
+    /// returns the mask of those with a non-empty segment.
+    #[inline(always)]
+    fn set_rays(&mut self, origin: Vec3, targets: &[Vec3]) -> u64 {
+        self.origin = [[origin.x; W], [origin.y; W], [origin.z; W]];
+        self.aim_lanes(&transposed(targets), CHUNK_MASK >> (W - targets.len()))
+    }
+
+    /// Sets the lanes `lanes` to the segments from their origins to `targets[axis][lane]`;
+    /// returns the mask of those with a non-empty segment.
+    #[inline(always)]
+    fn aim_lanes(&mut self, targets: &[[f32; W]; 3], lanes: u64) -> u64 {
+        let regular = self.aim_regular(targets) & lanes;
         let mut live = regular;
         let mut special = lanes & !regular;
         while special != 0 {
             let l = special.trailing_zeros() as usize;
             special &= special - 1;
             let o = Vec3::new(self.origin[0][l], self.origin[1][l], self.origin[2][l]);
-            if let Some(r) = RayData::new(o, target - o) {
+            let y = Vec3::new(targets[0][l], targets[1][l], targets[2][l]);
+            if let Some(r) = RayData::new(o, y - o) {
                 self.set_lane(l, &r);
                 live |= 1 << l;
             }
         }
-        self.aim_slopes(slopes);
         live
     }
 
@@ -302,13 +365,13 @@ impl Chunk {
     /// the mask of the lanes where that is right: no direction component zero or non-finite.
     /// The others go through `RayData::new` itself, which handles those cases.
     #[inline(always)]
-    fn aim_regular(&mut self, target: Vec3) -> u64 {
+    fn aim_regular(&mut self, targets: &[[f32; W]; 3]) -> u64 {
         let o = self.origin;
         let (mut inv, mut k, mut ok, mut s) = ([[0f32; W]; 3], [[0u32; W]; 3], [[0f32; W]; 3], [[0f32; W]; 3]);
         let mut bytes = [0u8; W];
         for l in 0..W {
             let org = [o[0][l], o[1][l], o[2][l]];
-            let dir = [target.x - org[0], target.y - org[1], target.z - org[2]];
+            let dir = [targets[0][l] - org[0], targets[1][l] - org[1], targets[2][l] - org[2]];
             let ray = regular_ray(org, dir);
             for a in 0..3 {
                 (inv[a][l], k[a][l], ok[a][l], s[a][l]) = (ray.inv[a], ray.k[a], ray.ok[a], ray.s[a]);
@@ -412,6 +475,28 @@ impl Chunk {
         self.refined_lanes(v, hits & lanes & !zero, zero)
     }
 
+    /// The lanes of `lanes` that block `b` holds an opaque hit for, triangle by triangle.
+    #[inline(always)]
+    fn blocked_lanes(&self, scene: &Scene, b: &Tri4, lanes: u64) -> u64 {
+        let mut blocked = 0u64;
+        for t in 0..4 {
+            // Short leaves repeat their last face: test each face once.
+            if t > 0 && b.ids[t] == b.ids[t - 1] {
+                continue;
+            }
+            let mut v = [[0f32; 3]; 3];
+            for (vert, p) in v.iter_mut().enumerate() {
+                *p = [b.v[vert][0][t], b.v[vert][1][t], b.v[vert][2][t]];
+            }
+            let hits = self.triangle_lanes(&v, lanes & !blocked);
+            blocked |= if b.alpha >> t & 1 != 0 { opaque_lanes(scene, b.ids[t], self, &v, hits) } else { hits };
+            if blocked == lanes {
+                break;
+            }
+        }
+        blocked
+    }
+
     /// [`Chunk::triangle_lanes`] for lanes `zero` with double-precision edge functions, added
     /// to the hits `hits` of the other lanes.
     #[cold]
@@ -511,6 +596,18 @@ impl Packet {
         self.origin_scale = origins.iter().fold(0f32, |m, o| m.max(o.abs().max_element()));
     }
 
+    /// Sets the lanes to the segments from `origin` to `targets` (at most [`LANES`], one lane
+    /// each, in order) for the leaf test alone (no slopes); returns the mask of those with a
+    /// non-empty segment.
+    #[inline(always)]
+    fn set_rays(&mut self, origin: Vec3, targets: &[Vec3]) -> u64 {
+        let mut live = 0u64;
+        for (c, chunk) in targets[..targets.len().min(LANES)].chunks(W).enumerate() {
+            live |= self.chunks[c].set_rays(origin, chunk) << (W * c);
+        }
+        live
+    }
+
     /// Sets the lanes `lanes` to the segments from their origins to `target` (t in (0, 1)
     /// along `target - origin`) for the frustum axis `(k, sign)`; returns the mask of those with
     /// a non-empty segment. Only the chunks of those lanes are written; the others keep stale
@@ -558,62 +655,48 @@ impl Packet {
         [amin, amax, bmin, bmax]
     }
 
-    /// The lanes of `active` whose slopes lie in rectangle `c` of `rects` (see
-    /// [`Packet::child_rects`]).
+    /// For each child `c` of `node` in `children`, the lanes of `lanes` that may reach it: those
+    /// whose slopes lie in its rectangle of `rects` (see [`Packet::child_rects`]) and, for a
+    /// leaf, whose slab test accepts its box (see [`Chunk::box_lanes`]).
+    ///
+    /// Chunk by chunk, so that a chunk's data is loaded once per node, and only for chunks
+    /// with lanes (LLVM hoists the loads of every chunk a loop body touches to the loop's
+    /// entry).
     #[inline(always)]
-    fn rect_lanes(&self, rects: &[Vec4; 4], c: usize, active: u64) -> u64 {
-        let rect = [rects[0][c], rects[1][c], rects[2][c], rects[3][c]];
-        let mut out = 0u64;
-        for (c, chunk) in self.chunks.iter().enumerate() {
-            if chunk_lanes(active, c) != 0 {
-                out |= chunk.rect_lanes(rect) << (W * c);
-            }
-        }
-        out & active
-    }
-
-    /// The lanes of `active` whose slab test accepts child `c` of `node` (see
-    /// [`Chunk::box_lanes`]).
-    #[inline(always)]
-    fn box_lanes(&self, node: &Node4, c: usize, active: u64) -> u64 {
+    fn child_lanes(&self, node: &Node4, rects: &[Vec4; 4], children: u32, lanes: u64) -> [u64; 4] {
         let [lo, hi] = &node.bounds;
-        let (lo, hi) = ([lo[0][c], lo[1][c], lo[2][c]], [hi[0][c], hi[1][c], hi[2][c]]);
-        let mut out = 0u64;
+        let mut out = [0u64; 4];
         for (c, chunk) in self.chunks.iter().enumerate() {
-            if chunk_lanes(active, c) != 0 {
-                out |= chunk.box_lanes(lo, hi) << (W * c);
+            let mine = chunk_lanes(lanes, c);
+            if mine == 0 {
+                continue;
+            }
+            for (child, out) in out.iter_mut().enumerate() {
+                if children >> child & 1 == 0 {
+                    continue;
+                }
+                let rect = [rects[0][child], rects[1][child], rects[2][child], rects[3][child]];
+                let mut m = chunk.rect_lanes(rect) & mine;
+                if m != 0 && node.child[child] & LEAF != 0 {
+                    let corner = |b: &[Vec4; 3]| [b[0][child], b[1][child], b[2][child]];
+                    m &= chunk.box_lanes(corner(lo), corner(hi));
+                }
+                *out |= m << (W * c);
             }
         }
-        out & active
+        out
     }
 
-    /// The lanes of `lanes` that block `b` holds an opaque hit for: triangle by triangle, the
-    /// watertight test of all lanes at once; hits on perforated faces go through the texture.
+    /// The lanes of `lanes` that block `b` holds an opaque hit for: chunk by chunk (see
+    /// [`Packet::child_lanes`]) and triangle by triangle, the watertight test of the chunk's
+    /// lanes at once; hits on perforated faces go through the texture.
     #[inline(always)]
     fn blocked_lanes(&self, scene: &Scene, b: &Tri4, lanes: u64) -> u64 {
         let mut blocked = 0u64;
-        for t in 0..4 {
-            // Short leaves repeat their last face: test each face once.
-            if t > 0 && b.ids[t] == b.ids[t - 1] {
-                continue;
-            }
-            let mut v = [[0f32; 3]; 3];
-            for (vert, p) in v.iter_mut().enumerate() {
-                *p = [b.v[vert][0][t], b.v[vert][1][t], b.v[vert][2][t]];
-            }
-            let left = lanes & !blocked;
-            let perforated = b.alpha >> t & 1 != 0;
-            for (c, chunk) in self.chunks.iter().enumerate() {
-                let mine = chunk_lanes(left, c);
-                if mine == 0 {
-                    continue;
-                }
-                let hits = chunk.triangle_lanes(&v, mine);
-                let opaque = if perforated { opaque_lanes(scene, b.ids[t], chunk, &v, hits) } else { hits };
-                blocked |= opaque << (W * c);
-            }
-            if blocked == lanes {
-                break;
+        for (c, chunk) in self.chunks.iter().enumerate() {
+            let mine = chunk_lanes(lanes, c);
+            if mine != 0 {
+                blocked |= chunk.blocked_lanes(scene, b, mine) << (W * c);
             }
         }
         blocked
@@ -731,68 +814,19 @@ impl Bvh {
             .fold(0, |m, lane| m | 1 << lane)
     }
 
-    /// Aims the lanes `lanes` of the packet at `target` and traverses it with the code compiled
-    /// for `isa` (the widest the CPU has, unless a test asks for another); returns the mask of
-    /// blocked lanes.
-    #[allow(clippy::too_many_arguments)]
-    fn packet_trace(
-        &self,
-        isa: Isa,
-        scene: &Scene,
-        p: &mut Packet,
-        target: Vec3,
-        lanes: u64,
-        f: &Frustum,
-        stack: &mut [u32; STACK],
-    ) -> u64 {
-        match isa {
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx512 if has_avx512() => {
-                // SAFETY: the CPU has every feature the function is compiled for (checked just
-                // above).
-                unsafe { self.packet_trace_avx512(scene, p, target, lanes, f, stack) }
-            }
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 if std::is_x86_feature_detected!("avx2") => {
-                // SAFETY: the CPU has AVX2 (checked just above).
-                unsafe { self.packet_trace_avx2(scene, p, target, lanes, f, stack) }
-            }
-            _ => self.packet_trace_body(scene, p, target, lanes, f, stack),
-        }
+    isa_dispatch! {
+        /// Aims the lanes `lanes` of the packet at `target` and traverses it; returns the mask
+        /// of blocked lanes.
+        fn packet_trace => packet_trace_body(
+            scene: &Scene,
+            p: &mut Packet,
+            target: Vec3,
+            lanes: u64,
+            f: &Frustum,
+            stack: &mut [u32; STACK],
+        ) -> u64
     }
 
-    /// [`Bvh::packet_trace_body`] compiled for AVX-512.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx512dq")]
-    fn packet_trace_avx512(
-        &self,
-        scene: &Scene,
-        p: &mut Packet,
-        target: Vec3,
-        lanes: u64,
-        f: &Frustum,
-        stack: &mut [u32; STACK],
-    ) -> u64 {
-        self.packet_trace_body(scene, p, target, lanes, f, stack)
-    }
-
-    /// [`Bvh::packet_trace_body`] compiled for AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn packet_trace_avx2(
-        &self,
-        scene: &Scene,
-        p: &mut Packet,
-        target: Vec3,
-        lanes: u64,
-        f: &Frustum,
-        stack: &mut [u32; STACK],
-    ) -> u64 {
-        self.packet_trace_body(scene, p, target, lanes, f, stack)
-    }
-
-    /// Aims the lanes `lanes` of the packet at `target` and traverses it; returns the mask of
-    /// blocked lanes.
     #[inline(always)]
     fn packet_trace_body(
         &self,
@@ -809,43 +843,94 @@ impl Bvh {
         live & !active
     }
 
+    /// For each target, whether the open segment from `origin` to it (t in (0, 1)) hits one of
+    /// the blocks `cand`: the candidate test of [`Bvh::occluded_by_frustum`], compiled for
+    /// `isa`. Appends to `out`.
+    ///
+    /// The segments are lanes of the packet buffer, [`LANES`] at a time, each candidate block
+    /// tested for all the lanes not yet blocked at once (the same per-lane test as
+    /// [`Bvh::block_occludes`], see [`Packet::blocked_lanes`]).
+    pub(super) fn occluded_by_blocks(
+        &self,
+        isa: Isa,
+        scene: &Scene,
+        origin: Vec3,
+        targets: &[Vec3],
+        cand: &[u32],
+        out: &mut Vec<bool>,
+    ) {
+        PACKET.with(|p| match p.try_borrow_mut() {
+            Ok(mut packet) => {
+                for chunk in targets.chunks(LANES) {
+                    let blocked = self.blocks_trace(isa, scene, &mut packet, origin, chunk, cand);
+                    out.extend((0..chunk.len()).map(|lane| blocked >> lane & 1 != 0));
+                }
+            }
+            // Only busy if `is_opaque_at` re-entered the BVH on this thread: ray by ray.
+            Err(_) => out.extend(targets.iter().map(|&y| {
+                let hits = |r: &RayData| cand.iter().any(|&b| self.block_occludes(scene, &self.blocks[b as usize], r, 1.0));
+                RayData::new(origin, y - origin).is_some_and(|r| hits(&r))
+            })),
+        });
+    }
+
+    isa_dispatch! {
+        /// The mask of the segments `origin -> targets` (at most [`LANES`]) that hit one of the
+        /// blocks `cand`.
+        fn blocks_trace => blocks_trace_body(
+            scene: &Scene,
+            p: &mut Packet,
+            origin: Vec3,
+            targets: &[Vec3],
+            cand: &[u32],
+        ) -> u64
+    }
+
+    #[inline(always)]
+    fn blocks_trace_body(&self, scene: &Scene, p: &mut Packet, origin: Vec3, targets: &[Vec3], cand: &[u32]) -> u64 {
+        let live = p.set_rays(origin, targets);
+        let mut blocked = 0u64;
+        for &b in cand {
+            if blocked == live {
+                break;
+            }
+            blocked |= p.blocked_lanes(scene, &self.blocks[b as usize], live & !blocked);
+        }
+        blocked
+    }
+
     /// Traverses the tree with the packet's frustum, clearing from `active` every lane found
-    /// blocked; stops as soon as no lane is active. Each stacked node carries the lanes whose
-    /// lines pass its box by the projection test, so a subtree is left as soon as none of the
-    /// lanes still active can reach it (the frustum of all lanes stays as wide as at the start).
+    /// blocked; stops as soon as no lane is active. Each stacked node or leaf carries the lanes
+    /// that may reach it by the projection test (and a leaf's, the slab test), so a subtree is
+    /// left as soon as none of the lanes still active can reach it (the frustum of all lanes
+    /// stays as wide as at the start).
+    ///
+    /// One loop, no inner one (see [`Packet::child_lanes`]): leaves are stacked like nodes,
+    /// after the inner children of their parent, so they are tested first.
     #[inline(always)]
     fn packet_traverse(&self, scene: &Scene, p: &mut Packet, f: &Frustum, active: &mut u64, stack: &mut [u32; STACK]) {
-        if self.root & LEAF != 0 {
-            // A single-leaf tree has no node box: every lane tests the leaf.
-            *active &= !p.blocked_lanes(scene, &self.blocks[(self.root & !LEAF) as usize], *active);
-            return;
-        }
         let mut sp = 0usize;
+        // A single-leaf tree has no node box: every lane tests the leaf.
         let (mut cur, mut lanes) = (self.root, *active);
         loop {
             lanes &= *active;
-            if lanes != 0 {
+            if lanes != 0 && cur & LEAF != 0 {
+                *active &= !p.blocked_lanes(scene, &self.blocks[(cur & !LEAF) as usize], lanes);
+            } else if lanes != 0 {
                 let node = &self.nodes[cur as usize];
-                let mut mask = f.overlaps(node);
-                let rects = if mask != 0 { p.child_rects(node) } else { [Vec4::ZERO; 4] };
-                while mask != 0 {
-                    let c = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    let sub = p.rect_lanes(&rects, c, lanes & *active);
-                    if sub == 0 {
-                        continue;
-                    }
-                    let child = node.child[c];
-                    if child & LEAF == 0 {
-                        // At most 4 pushes per level and 3 * depth + 1 <= STACK (see `build`):
-                        // each level leaves at most 3 siblings behind, the deepest adds 4.
-                        stack[sp] = child;
-                        p.lane_stack[sp] = sub;
-                        sp += 1;
-                    } else {
-                        let hit = p.box_lanes(node, c, sub);
-                        if hit != 0 {
-                            *active &= !p.blocked_lanes(scene, &self.blocks[(child & !LEAF) as usize], hit);
+                let children = f.overlaps(node);
+                if children != 0 {
+                    let sub = p.child_lanes(node, &p.child_rects(node), children, lanes);
+                    for leaves in [false, true] {
+                        for (c, &sub) in sub.iter().enumerate() {
+                            if sub != 0 && (node.child[c] & LEAF != 0) == leaves {
+                                // At most 4 pushes per level and 3 * depth + 1 <= STACK (see
+                                // `build`): each level leaves at most 3 siblings behind, the
+                                // deepest adds 4.
+                                stack[sp] = node.child[c];
+                                p.lane_stack[sp] = sub;
+                                sp += 1;
+                            }
                         }
                     }
                 }
@@ -1013,5 +1098,31 @@ mod tests {
             blocked += check(&bvh, &scene, &origins, target).0;
         }
         assert_eq!(blocked, 3 * 49);
+    }
+
+    /// The candidate test of the frustum pass (shared origin, many targets) on every
+    /// instruction set: with every block as a candidate, the answers of single rays.
+    #[test]
+    fn candidate_blocks_equal_single_rays() {
+        let scene = scene(600, 9);
+        let bvh = Bvh::build(&scene).unwrap();
+        let all: Vec<u32> = (0..bvh.leaf_count() as u32).collect();
+        let mut rng = Rng::new(5);
+        let (mut blocked, mut lit) = (0, 0);
+        for _ in 0..20 {
+            let origin = Vec3::new(rng.next_f32() * 4.0, rng.next_f32() * 4.5 - 0.49, rng.next_f32() * 4.0);
+            let targets: Vec<Vec3> = (0..LANES + 13)
+                .map(|_| Vec3::new(rng.next_f32() * 6.0 - 1.0, 6.0 + rng.next_f32(), rng.next_f32() * 6.0 - 1.0))
+                .collect();
+            let expected: Vec<bool> = targets.iter().map(|&y| bvh.occluded(&scene, origin, y - origin, 1.0)).collect();
+            for isa in isas() {
+                let mut out = Vec::new();
+                bvh.occluded_by_blocks(isa, &scene, origin, &targets, &all, &mut out);
+                assert_eq!(out, expected, "{isa:?} origin {origin}");
+            }
+            blocked += expected.iter().filter(|&&b| b).count();
+            lit += expected.iter().filter(|&&b| !b).count();
+        }
+        assert!(blocked > 200 && lit > 200, "blocked {blocked}, lit {lit}");
     }
 }
