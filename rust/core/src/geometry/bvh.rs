@@ -279,11 +279,31 @@ impl Bvh {
     /// true; otherwise leaves `out` cleared and returns false (the caller traces the rays
     /// another way, e.g. [`Bvh::occluded_converging`] across receivers).
     pub fn occluded_by_frustum(&self, scene: &Scene, origin: Vec3, targets: &[Vec3], out: &mut Vec<bool>) -> bool {
+        match frustum::bounds(targets) {
+            Some(bounds) => self.occluded_by_frustum_within(scene, origin, targets, bounds, out),
+            None => {
+                out.clear();
+                false
+            }
+        }
+    }
+
+    /// [`Bvh::occluded_by_frustum`] given a box `bounds` (`[min, max]`) holding every target:
+    /// the bounds of a superset of them will do (e.g. of all the light samples a receiver
+    /// traces a subset of), saving a pass over the targets.
+    pub fn occluded_by_frustum_within(
+        &self,
+        scene: &Scene,
+        origin: Vec3,
+        targets: &[Vec3],
+        bounds: [Vec3; 2],
+        out: &mut Vec<bool>,
+    ) -> bool {
         out.clear();
         if targets.len() < FRUSTUM_MIN_RAYS {
             return false;
         }
-        let Some(f) = Frustum::new(origin, targets) else { return false };
+        let Some(f) = Frustum::around(origin, bounds) else { return false };
         let mut cand = [0u32; MAX_CANDIDATES];
         let found = ANY_STACK.with(|s| match s.try_borrow_mut() {
             Ok(mut stack) => f.collect(&self.nodes, self.root, &mut stack, &mut cand),

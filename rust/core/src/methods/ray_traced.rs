@@ -157,7 +157,9 @@ fn trace_shared(scene: &Scene, bvh: &Bvh, receivers: &Receivers, ys: &[Vec3], ep
 /// Per-thread buffers of [`trace_tile`].
 #[derive(Debug, Default)]
 struct TileBuffers {
+    /// The samples in front of one receiver, and their indices in `ys`.
     targets: Vec<Vec3>,
+    front_samples: Vec<usize>,
     blocked: Vec<bool>,
     /// The receivers left to the packets: index in the band and lit count, and their ray
     /// origins (lane `h` for `hard[h]`).
@@ -201,6 +203,9 @@ fn trace_tile(
     b.origins.clear();
     b.front.clear();
     b.front.resize(ys.len(), 0);
+    // A box holding every receiver's targets: they are subsets of the samples.
+    let y0 = ys.first().copied().unwrap_or(Vec3::ZERO);
+    let ys_bounds = ys.iter().fold([y0, y0], |[lo, hi], &y| [lo.min(y), hi.max(y)]);
     let mut rays = 0u64;
     for k in tile {
         let i = first + k;
@@ -210,19 +215,23 @@ fn trace_tile(
         let (p, n) = (receivers.points[i], receivers.normals[i]);
         let origin = p + n * epsilon;
         b.targets.clear();
-        b.targets.extend(ys.iter().copied().filter(|&y| (y - p).dot(n) > 0.0));
+        b.front_samples.clear();
+        for (s, &y) in ys.iter().enumerate() {
+            if (y - p).dot(n) > 0.0 {
+                b.targets.push(y);
+                b.front_samples.push(s);
+            }
+        }
         rays += b.targets.len() as u64;
         let left = k % width > 0 && b.to_packets[k - 1];
         let up = k >= width && b.to_packets[k - width];
-        if !(left && up) && bvh.occluded_by_frustum(scene, origin, &b.targets, &mut b.blocked) {
+        if !(left && up) && bvh.occluded_by_frustum_within(scene, origin, &b.targets, ys_bounds, &mut b.blocked) {
             band[k] = visibility(b.blocked.iter().filter(|&&x| !x).count() as u32);
         } else {
             b.to_packets[k] = true;
             let lane = 1u64 << b.hard.len();
-            for (front, &y) in b.front.iter_mut().zip(ys) {
-                if (y - p).dot(n) > 0.0 {
-                    *front |= lane;
-                }
+            for &s in &b.front_samples {
+                b.front[s] |= lane;
             }
             b.hard.push((k, 0));
             b.origins.push(origin);

@@ -789,7 +789,7 @@ impl Bvh {
                     *out = match packet.as_mut() {
                         _ if m == 0 => 0,
                         // The frustum of all the origins bounds the segments of any lanes.
-                        Some(packet) => match Frustum::new(y, &packet.origin_bounds) {
+                        Some(packet) => match Frustum::around(y, packet.origin_bounds) {
                             Some(f) => self.packet_trace(isa, scene, packet, y, m, &f, stack),
                             // No pyramid with apex `y` bounds the origins: the rays go one by one.
                             None => self.one_by_one(scene, origins, y, m),
