@@ -62,10 +62,12 @@ const CHUNK_MASK: u64 = (1 << W) - 1;
 /// widest the CPU has.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum Isa {
-    /// The target's baseline (SSE2 on x86-64).
+    /// The target's baseline (SSE2 on x86-64): 16 lanes as four registers.
     Baseline,
+    /// Two 8-lane registers.
     #[cfg(target_arch = "x86_64")]
     Avx2,
+    /// One 16-lane register, compares straight into mask registers.
     #[cfg(target_arch = "x86_64")]
     Avx512,
 }
@@ -86,7 +88,8 @@ impl Isa {
     }
 }
 
-/// Whether the CPU has the AVX-512 subsets [`Bvh::packet_traverse_avx512`] is compiled for.
+/// Whether the CPU has the AVX-512 subsets the `avx512` variants of [`isa_dispatch`] are
+/// compiled for.
 #[cfg(target_arch = "x86_64")]
 fn has_avx512() -> bool {
     std::is_x86_feature_detected!("avx512f")
