@@ -34,6 +34,7 @@ mod triangle;
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use frustum::{Frustum, MAX_CANDIDATES};
+use packet::Isa;
 use glam::{Vec3, Vec4};
 use std::cell::RefCell;
 pub use triangle::intersect_triangle;
@@ -278,43 +279,48 @@ impl Bvh {
     /// true; otherwise leaves `out` cleared and returns false (the caller traces the rays
     /// another way, e.g. [`Bvh::occluded_converging`] across receivers).
     pub fn occluded_by_frustum(&self, scene: &Scene, origin: Vec3, targets: &[Vec3], out: &mut Vec<bool>) -> bool {
+        match frustum::bounds(targets) {
+            Some(bounds) => self.occluded_by_frustum_within(scene, origin, targets, bounds, out),
+            None => {
+                out.clear();
+                false
+            }
+        }
+    }
+
+    /// [`Bvh::occluded_by_frustum`] given a box `bounds` (`[min, max]`) holding every target:
+    /// the bounds of a superset of them will do (e.g. of all the light samples a receiver
+    /// traces a subset of), saving a pass over the targets.
+    pub fn occluded_by_frustum_within(
+        &self,
+        scene: &Scene,
+        origin: Vec3,
+        targets: &[Vec3],
+        bounds: [Vec3; 2],
+        out: &mut Vec<bool>,
+    ) -> bool {
         out.clear();
         if targets.len() < FRUSTUM_MIN_RAYS {
             return false;
         }
-        let Some(f) = Frustum::new(origin, targets) else { return false };
+        let Some(f) = Frustum::around(origin, bounds) else { return false };
         let mut cand = [0u32; MAX_CANDIDATES];
         let found = ANY_STACK.with(|s| match s.try_borrow_mut() {
             Ok(mut stack) => f.collect(&self.nodes, self.root, &mut stack, &mut cand),
             Err(_) => f.collect(&self.nodes, self.root, &mut [0; STACK], &mut cand),
         });
         match found {
+            // No candidate: every segment is unblocked.
+            Some(0) => {
+                out.resize(targets.len(), false);
+                true
+            }
             Some(n) => {
-                self.occluded_by_candidates(scene, origin, targets, &cand[..n], out);
+                self.occluded_by_blocks(Isa::detect(), scene, origin, targets, &cand[..n], out);
                 true
             }
             None => false,
         }
-    }
-
-    /// Tests every segment `origin -> target` against the candidate blocks only, starting with
-    /// the block that blocked the previous segment.
-    fn occluded_by_candidates(&self, scene: &Scene, origin: Vec3, targets: &[Vec3], cand: &[u32], out: &mut Vec<bool>) {
-        if cand.is_empty() {
-            out.resize(targets.len(), false);
-            return;
-        }
-        let mut last = 0usize;
-        out.extend(targets.iter().map(|&y| {
-            let Some(r) = RayData::new(origin, y - origin) else { return false };
-            let hit = (0..cand.len())
-                .map(|k| (last + k) % cand.len())
-                .find(|&c| self.block_occludes(scene, &self.blocks[cand[c] as usize], &r, 1.0));
-            if let Some(c) = hit {
-                last = c;
-            }
-            hit.is_some()
-        }));
     }
 
     /// How many faces the open segment t in (0, `t_max`) of `origin + t dir` meets, among those

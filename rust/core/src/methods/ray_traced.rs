@@ -122,8 +122,9 @@ fn trace_all(
         .sum()
 }
 
-/// Receivers of one tile, at most the lanes of a packet ([`Bvh::occluded_converging`]).
+/// Receivers of one tile, at most the lanes of a packet ([`Bvh::occluded_converging_lanes`]).
 const TILE: usize = 64;
+const _: () = assert!(TILE <= Bvh::PACKET_LANES);
 /// Rows of a tile (fewer when the receiver grid has fewer rows; the width makes up `TILE`).
 const TILE_ROWS: usize = 8;
 
@@ -156,14 +157,17 @@ fn trace_shared(scene: &Scene, bvh: &Bvh, receivers: &Receivers, ys: &[Vec3], ep
 /// Per-thread buffers of [`trace_tile`].
 #[derive(Debug, Default)]
 struct TileBuffers {
+    /// The samples in front of one receiver, and their indices in `ys`.
     targets: Vec<Vec3>,
+    front_samples: Vec<usize>,
     blocked: Vec<bool>,
-    /// The receivers left to the packets: index in the band, ray origin, lit count.
-    hard: Vec<(usize, Vec3, u32)>,
-    /// `front[h * S + s]`: whether sample `s` is in front of hard receiver `h`.
-    front: Vec<bool>,
+    /// The receivers left to the packets: index in the band and lit count, and their ray
+    /// origins (lane `h` for `hard[h]`).
+    hard: Vec<(usize, u32)>,
     origins: Vec<Vec3>,
-    lanes: Vec<usize>,
+    /// Per sample, the lanes of the hard receivers it is in front of, and of those blocked.
+    front: Vec<u64>,
+    blocked_lanes: Vec<u64>,
     /// Per receiver of the band, whether it went to the packets (see [`trace_tile`]).
     to_packets: Vec<bool>,
 }
@@ -196,7 +200,12 @@ fn trace_tile(
     let total = ys.len() as f64;
     let visibility = |lit: u32| fraction(f64::from(lit), total);
     b.hard.clear();
+    b.origins.clear();
     b.front.clear();
+    b.front.resize(ys.len(), 0);
+    // A box holding every receiver's targets: they are subsets of the samples.
+    let y0 = ys.first().copied().unwrap_or(Vec3::ZERO);
+    let ys_bounds = ys.iter().fold([y0, y0], |[lo, hi], &y| [lo.min(y), hi.max(y)]);
     let mut rays = 0u64;
     for k in tile {
         let i = first + k;
@@ -206,36 +215,41 @@ fn trace_tile(
         let (p, n) = (receivers.points[i], receivers.normals[i]);
         let origin = p + n * epsilon;
         b.targets.clear();
-        b.targets.extend(ys.iter().copied().filter(|&y| (y - p).dot(n) > 0.0));
+        b.front_samples.clear();
+        for (s, &y) in ys.iter().enumerate() {
+            if (y - p).dot(n) > 0.0 {
+                b.targets.push(y);
+                b.front_samples.push(s);
+            }
+        }
         rays += b.targets.len() as u64;
         let left = k % width > 0 && b.to_packets[k - 1];
         let up = k >= width && b.to_packets[k - width];
-        if !(left && up) && bvh.occluded_by_frustum(scene, origin, &b.targets, &mut b.blocked) {
+        if !(left && up) && bvh.occluded_by_frustum_within(scene, origin, &b.targets, ys_bounds, &mut b.blocked) {
             band[k] = visibility(b.blocked.iter().filter(|&&x| !x).count() as u32);
         } else {
             b.to_packets[k] = true;
-            b.hard.push((k, origin, 0));
-            b.front.extend(ys.iter().map(|&y| (y - p).dot(n) > 0.0));
+            let lane = 1u64 << b.hard.len();
+            for &s in &b.front_samples {
+                b.front[s] |= lane;
+            }
+            b.hard.push((k, 0));
+            b.origins.push(origin);
         }
     }
     if b.hard.is_empty() {
         return rays;
     }
-    for (s, &y) in ys.iter().enumerate() {
-        b.origins.clear();
-        b.lanes.clear();
-        for (h, &(_, origin, _)) in b.hard.iter().enumerate() {
-            if b.front[h * ys.len() + s] {
-                b.origins.push(origin);
-                b.lanes.push(h);
-            }
-        }
-        bvh.occluded_converging(scene, &b.origins, y, &mut b.blocked);
-        for (&h, &blocked) in b.lanes.iter().zip(&b.blocked) {
-            b.hard[h].2 += u32::from(!blocked);
+    b.blocked_lanes.resize(ys.len(), 0);
+    bvh.occluded_converging_lanes(scene, &b.origins, ys, &b.front, &mut b.blocked_lanes);
+    for (&front, &blocked) in b.front.iter().zip(&b.blocked_lanes) {
+        let mut lit = front & !blocked;
+        while lit != 0 {
+            b.hard[lit.trailing_zeros() as usize].1 += 1;
+            lit &= lit - 1;
         }
     }
-    for &(k, _, lit) in &b.hard {
+    for &(k, lit) in &b.hard {
         band[k] = visibility(lit);
     }
     rays

@@ -44,23 +44,30 @@ pub(super) struct Frustum {
     hi: [Vec4; 3],
 }
 
+/// The bounding box `[min, max]` of `points`; `None` when there are none.
+pub(super) fn bounds(points: &[Vec3]) -> Option<[Vec3; 2]> {
+    let first = *points.first()?;
+    Some(points.iter().fold([first, first], |[lo, hi], &p| [lo.min(p), hi.max(p)]))
+}
+
 /// Relative widening of the slope bounds.
 const SLOPE_MARGIN: f32 = 1e-4;
 /// Relative tolerance of the plane test.
 const PLANE_TOL: f32 = 1e-5;
 
 impl Frustum {
-    /// The frustum of the segments `origin -> targets`; `None` when the corners of the targets'
-    /// bounding box do not all lie strictly ahead of `origin` along the dominant axis (then no
-    /// pyramid with apex `origin` bounds them).
+    /// The frustum of the segments from `origin` to targets within the box `[tlo, thi]`;
+    /// `None` when the box's corners do not all lie strictly ahead of `origin` along the
+    /// dominant axis (then no pyramid with apex `origin` bounds them).
     ///
     /// The slopes are bounded through the 8 corners of the targets' bounding box rather than
     /// through every target: a slope `d_i / d_k` is a linear-fractional function, so over a box
     /// where `d_k > 0` its extrema lie at corners. That costs one pass of min/max over the
     /// targets and 16 divisions, and loses nothing for axis-aligned lights.
-    pub fn new(origin: Vec3, targets: &[Vec3]) -> Option<Frustum> {
-        let first = *targets.first()?;
-        let (tlo, thi) = targets.iter().fold((first, first), |(lo, hi), &y| (lo.min(y), hi.max(y)));
+    ///
+    /// `[tlo, thi]` may be any box holding the targets (e.g. the bounds of a superset of them):
+    /// a looser frustum changes only the speed.
+    pub fn around(origin: Vec3, [tlo, thi]: [Vec3; 2]) -> Option<Frustum> {
         let center = (tlo + thi) * 0.5 - origin;
         let s = center.abs();
         let k = if s.x >= s.y && s.x >= s.z {

@@ -11,58 +11,159 @@
 //!   `bvh/frustum.rs`: it bounds the very same segments, read from `y`), so the inner-node work
 //!   is shared by all lanes (about one node test per ray instead of nine);
 //! - each child also gets the lanes that may reach it, by the central projection from `y`
-//!   ([`Slopes`]: a box's slope rectangle against each lane's slopes, whole groups of four
-//!   lanes first): penumbra rays graze different small leaves, and lanes leave the packet
-//!   when blocked, so the lines of the active lanes are far thinner than the frustum and whole
-//!   subtrees are skipped once no active lane can reach them;
+//!   ([`Slopes`]: a box's slope rectangle against each lane's slopes): penumbra rays graze
+//!   different small leaves, and lanes leave the packet when blocked, so the lines of the
+//!   active lanes are far thinner than the frustum and whole subtrees are skipped once no
+//!   active lane can reach them;
 //! - at a leaf, the lanes left are box-tested with the exact arithmetic of the single-ray slab
-//!   test (`Node4::hit`), four at a time, and each survivor runs the single-ray leaf test
-//!   [`Bvh::block_occludes`] on its own [`RayData`], built on its first leaf;
+//!   test (`Node4::hit`), and the survivors run the watertight test of `bvh/triangle.rs`
+//!   triangle by triangle, many lanes at once;
 //! - a blocked lane leaves the packet, and the traversal stops when no lane is left.
 //!
-//! Exactness: every lane is tested with the `RayData` that [`Bvh::occluded`] builds for the
-//! same segment; a leaf is skipped for a lane only when the frustum or the projection test
-//! (both conservative, with margins far above float rounding) or that lane's own slab test
-//! (identical to the single ray's, which never culls a leaf holding a watertight hit) rejects
-//! it. An opaque hit anywhere in the open segment answers either way, so each lane's answer
-//! equals [`Bvh::occluded`] bit for bit, whatever the packet it travels in.
+//! Lane data is transposed into [`Chunk`]s of [`W`] lanes and every per-lane test is a plain
+//! loop over a chunk, which LLVM vectorizes to the registers of the instruction set it is
+//! compiled for. The traversal is compiled once per instruction set ([`Isa`]: SSE2 everywhere,
+//! AVX2 and AVX-512 where the CPU has them, chosen at run time), all from the same body. A
+//! tile's origins are transposed once for all its light samples
+//! ([`Bvh::occluded_converging_lanes`]), and the same lanes serve the candidate test of the
+//! per-receiver frustum pass (one origin, many targets: [`Bvh::occluded_by_blocks`]).
+//!
+//! Exactness: every lane does the IEEE operations, in the same order, of the `RayData` that
+//! [`Bvh::occluded`] builds for the same segment and of its slab and watertight tests (LLVM
+//! never fuses or reorders float operations, whatever the vector width); a leaf is skipped for
+//! a lane only when the frustum or the projection test (both conservative, with margins far
+//! above float rounding) or that lane's own slab test (identical to the single ray's, which
+//! never culls a leaf holding a watertight hit) rejects it. An opaque hit anywhere in the open
+//! segment answers either way, so each lane's answer equals [`Bvh::occluded`] bit for bit,
+//! whatever the packet it travels in and whatever the instruction set.
 
 use super::frustum::Frustum;
 use super::triangle::RayData;
-use super::{Bvh, Node4, LEAF, ROBUST, STACK};
+use super::{Bvh, Node4, Tri4, LEAF, ROBUST, STACK};
 use crate::geometry::mesh::Scene;
 use glam::{Vec3, Vec4};
 use std::cell::RefCell;
 
 thread_local! {
-    /// Per-thread packet buffer (about 20 KiB, rewritten lane by lane, never zeroed again).
+    /// Per-thread packet buffer (about 8 KiB, rewritten lane by lane, never zeroed again).
     static PACKET: RefCell<Box<Packet>> = RefCell::new(Box::new(Packet::empty()));
 }
 
 /// Most rays of one packet (one bit each in the lane masks).
 pub(super) const LANES: usize = 64;
-/// Groups of four lanes.
-const GROUPS: usize = LANES / 4;
+/// Lanes of one [`Chunk`]: one AVX-512 register of `f32` (two AVX2 or four SSE registers).
+const W: usize = 16;
+/// Chunks of one packet.
+const CHUNKS: usize = LANES / W;
+/// The lanes of one chunk, as a mask.
+const CHUNK_MASK: u64 = (1 << W) - 1;
 
-/// The rays of one packet, with their slab-test data transposed four lanes per `Vec4`.
+/// The instruction sets the packet traversal is compiled for; [`Isa::detect`] picks the
+/// widest the CPU has.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Isa {
+    /// The target's baseline (SSE2 on x86-64): 16 lanes as four registers.
+    Baseline,
+    /// Two 8-lane registers.
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+    /// One 16-lane register, compares straight into mask registers.
+    #[cfg(target_arch = "x86_64")]
+    Avx512,
+}
+
+impl Isa {
+    /// The widest instruction set of this CPU.
+    pub(super) fn detect() -> Isa {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if has_avx512() {
+                return Isa::Avx512;
+            }
+            if std::is_x86_feature_detected!("avx2") {
+                return Isa::Avx2;
+            }
+        }
+        Isa::Baseline
+    }
+}
+
+/// Whether the CPU has the AVX-512 subsets the `avx512` variants of [`isa_dispatch`] are
+/// compiled for.
+#[cfg(target_arch = "x86_64")]
+fn has_avx512() -> bool {
+    std::is_x86_feature_detected!("avx512f")
+        && std::is_x86_feature_detected!("avx512bw")
+        && std::is_x86_feature_detected!("avx512vl")
+        && std::is_x86_feature_detected!("avx512dq")
+}
+
+/// Defines the method `$name(&self, isa: Isa, args...)`, which runs `self.$body(args...)`
+/// compiled for `isa` (the baseline unless the CPU has it): one body, inlined into one wrapper
+/// per instruction set, each compiled with its target features. `$body` must be
+/// `#[inline(always)]`, and so must everything its lane loops call.
+macro_rules! isa_dispatch {
+    ($(#[$doc:meta])* fn $name:ident => $body:ident($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty) => {
+        $(#[$doc])*
+        #[allow(clippy::too_many_arguments)]
+        fn $name(&self, isa: Isa, $($arg: $ty),*) -> $ret {
+            #[cfg(target_arch = "x86_64")]
+            #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx512dq")]
+            fn avx512(bvh: &Bvh, $($arg: $ty),*) -> $ret {
+                bvh.$body($($arg),*)
+            }
+            #[cfg(target_arch = "x86_64")]
+            #[target_feature(enable = "avx2")]
+            fn avx2(bvh: &Bvh, $($arg: $ty),*) -> $ret {
+                bvh.$body($($arg),*)
+            }
+            match isa {
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx512 if has_avx512() => {
+                    // SAFETY: the CPU has every feature `avx512` is compiled for (checked just
+                    // above).
+                    unsafe { avx512(self, $($arg),*) }
+                }
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx2 if std::is_x86_feature_detected!("avx2") => {
+                    // SAFETY: the CPU has AVX2 (checked just above).
+                    unsafe { avx2(self, $($arg),*) }
+                }
+                _ => self.$body($($arg),*),
+            }
+        }
+    };
+}
+
+/// The per-lane data of [`W`] rays of a packet, one array entry per lane: the fields of the
+/// lane's single-ray `RayData` (see `bvh/triangle.rs`) and its slopes.
+#[derive(Debug, Clone, Copy)]
+struct Chunk {
+    /// The lanes' ray origins, per axis.
+    origin: [[f32; W]; 3],
+    /// Slab test: the origin for the entry and for the exit planes and the safe reciprocal
+    /// direction (whose sign picks the entry plane), per axis.
+    org_near: [[f32; W]; 3],
+    org_far: [[f32; W]; 3],
+    inv: [[f32; W]; 3],
+    /// Watertight test: the shear permutation `[kx, ky, kz]`, the origin in those axes and the
+    /// shear constants.
+    k: [[u32; W]; 3],
+    ok: [[f32; W]; 3],
+    s: [[f32; W]; 3],
+    /// The footprint slopes (see [`Slopes`]).
+    sa: [f32; W],
+    sb: [f32; W],
+}
+
+/// The rays of one packet, transposed [`W`] lanes per [`Chunk`].
 pub(super) struct Packet {
-    origins: [Vec3; LANES],
-    /// The single-ray data of each lane, built on the lane's first leaf test (`built` bits):
-    /// many lanes never reach a leaf.
-    rays: [Option<RayData>; LANES],
-    built: u64,
-    org_near: [[Vec4; 3]; GROUPS],
-    org_far: [[Vec4; 3]; GROUPS],
-    inv: [[Vec4; 3]; GROUPS],
-    /// Per axis, lanes whose entry plane is the box maximum (as in `RayData::near`).
-    near: [[glam::BVec4A; 3]; GROUPS],
-    /// The lanes' footprint slopes (see [`Slopes`]).
+    chunks: [Chunk; CHUNKS],
+    /// The bounding box `[min, max]` of the lanes' origins and their largest coordinate
+    /// magnitude.
+    origin_bounds: [Vec3; 2],
+    origin_scale: f32,
     slopes: Slopes,
-    sa: [Vec4; GROUPS],
-    sb: [Vec4; GROUPS],
-    /// Per group of four lanes, the range of their slopes (`[a min, a max, b min, b max]`,
-    /// four groups per `Vec4`), to skip whole groups at once.
-    group_range: [[Vec4; 4]; GROUPS / 4],
     /// The lanes that may reach each node on the traversal stack.
     lane_stack: [u64; STACK],
 }
@@ -71,8 +172,8 @@ pub(super) struct Packet {
 /// (`d_k = (p_k - y_k) sign > 0` on the whole packet): a point `p` maps to the slopes
 /// `(d_i / d_k, d_j / d_k)` of its offset from `y`. Every point of a lane's segment maps to
 /// the lane's own slopes (they all lie on one line through `y`), so a segment can only meet a
-/// box whose slope rectangle holds the lane's slopes: four comparisons per four lanes reject
-/// most lanes (a per-ray refinement of the frustum test of Benthin and Wald 2009).
+/// box whose slope rectangle holds the lane's slopes: four comparisons per lane reject most
+/// lanes (a per-ray refinement of the frustum test of Benthin and Wald 2009).
 #[derive(Debug, Clone, Copy)]
 struct Slopes {
     y: Vec3,
@@ -83,116 +184,450 @@ struct Slopes {
     scale: f32,
 }
 
+/// Lane `l`'s entry of a byte mask of a chunk (see [`movemask`]).
+///
+/// Every lane loop writes such bytes in a plain `for` loop whose body is made of
+/// `#[inline(always)]` functions: LLVM vectorizes it into compares and one mask move per
+/// register. Closures, iterator adaptors and `array::map` would risk being left out of line,
+/// compiled for the baseline instead of the dispatched instruction set.
+#[inline(always)]
+fn top_bit(b: bool) -> u8 {
+    if b {
+        0x80
+    } else {
+        0
+    }
+}
+
+/// The top bits of `bytes` as a bitmask: `pmovmskb`, which LLVM folds with the compares before
+/// it into one mask move (the shift-and-or loop it does not recognize).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn movemask(bytes: [u8; W]) -> u64 {
+    // SAFETY: SSE2 is part of the x86-64 baseline, so every x86-64 CPU has it.
+    unsafe { movemask_sse2(bytes) }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "sse2")]
+#[inline]
+fn movemask_sse2(b: [u8; W]) -> u64 {
+    use std::arch::x86_64::{_mm_movemask_epi8, _mm_set_epi8};
+    let [b0, b1, b2, b3, b4, b5, b6, b7, b8, b9, b10, b11, b12, b13, b14, b15] = b.map(|x| x as i8);
+    let v = _mm_set_epi8(b15, b14, b13, b12, b11, b10, b9, b8, b7, b6, b5, b4, b3, b2, b1, b0);
+    u64::from(_mm_movemask_epi8(v) as u16)
+}
+
+/// The top bits of `bytes` as a bitmask (portable).
+#[cfg(not(target_arch = "x86_64"))]
+#[inline(always)]
+fn movemask(bytes: [u8; W]) -> u64 {
+    let mut m = 0u64;
+    for (l, &b) in bytes.iter().enumerate() {
+        m |= u64::from(b >> 7) << l;
+    }
+    m
+}
+
+/// `_mm_min_ps(a, b)` lane by lane (glam's `Vec4::min`): `b` unless `a < b`.
+#[inline(always)]
+fn min_ps(a: f32, b: f32) -> f32 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+/// `_mm_max_ps(a, b)` lane by lane (glam's `Vec4::max`): `b` unless `a > b`.
+#[inline(always)]
+fn max_ps(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// Component `k` (0, 1 or 2) of `v`, without a bounds check (a select LLVM vectorizes).
+#[inline(always)]
+fn pick(v: [f32; 3], k: u32) -> f32 {
+    if k == 0 {
+        v[0]
+    } else if k == 1 {
+        v[1]
+    } else {
+        v[2]
+    }
+}
+
+/// The points `p` (at most [`W`]) per axis, one lane each; lanes past `p` get 0.
+#[inline(always)]
+fn transposed(p: &[Vec3]) -> [[f32; W]; 3] {
+    let mut out = [[0f32; W]; 3];
+    for (l, p) in p.iter().take(W).enumerate() {
+        (out[0][l], out[1][l], out[2][l]) = (p.x, p.y, p.z);
+    }
+    out
+}
+
+/// One lane's `RayData` fields for the direction `dir` from `org`, when no component of `dir`
+/// is zero or non-finite: the same IEEE operations as `RayData::new` (the safe reciprocal and
+/// the shear axes and constants).
+struct LaneRay {
+    inv: [f32; 3],
+    k: [u32; 3],
+    ok: [f32; 3],
+    s: [f32; 3],
+}
+
+#[inline(always)]
+fn regular_ray(org: [f32; 3], dir: [f32; 3]) -> LaneRay {
+    let tiny = 1e-30f32;
+    let safe = |d: f32| 1.0 / if d.abs() < tiny { tiny.copysign(d) } else { d };
+    let (ax, ay, az) = (dir[0].abs(), dir[1].abs(), dir[2].abs());
+    let kz: u32 = if (ax >= ay) & (ax >= az) {
+        0
+    } else if ay >= az {
+        1
+    } else {
+        2
+    };
+    let dz = pick(dir, kz);
+    let (kx, ky) = if dz < 0.0 { ((kz + 2) % 3, (kz + 1) % 3) } else { ((kz + 1) % 3, (kz + 2) % 3) };
+    LaneRay {
+        inv: [safe(dir[0]), safe(dir[1]), safe(dir[2])],
+        k: [kx, ky, kz],
+        ok: [pick(org, kx), pick(org, ky), pick(org, kz)],
+        s: [pick(dir, kx) / dz, pick(dir, ky) / dz, 1.0 / dz],
+    }
+}
+
+// Lane loops index by lane on purpose: plain index loops are what LLVM vectorizes reliably
+// (see `top_bit`).
+#[allow(clippy::needless_range_loop)]
+impl Chunk {
+    const EMPTY: Chunk = Chunk {
+        origin: [[0.0; W]; 3],
+        org_near: [[0.0; W]; 3],
+        org_far: [[0.0; W]; 3],
+        inv: [[1.0; W]; 3],
+        k: [[0; W]; 3],
+        ok: [[0.0; W]; 3],
+        s: [[0.0; W]; 3],
+        sa: [0.0; W],
+        sb: [0.0; W],
+    };
+
+    /// Sets the origins of the lanes (at most [`W`]); lanes past `origins` get the origin 0
+    /// and no mask selects them.
+    #[inline(always)]
+    fn set_origins(&mut self, origins: &[Vec3]) {
+        self.origin = transposed(origins);
+    }
+
+    /// Sets the lanes `lanes` (a chunk mask) to the segments from their origins to `target`
+    /// and their slopes from it; returns the mask of those with a non-empty segment. The other
+    /// lanes get data no mask selects.
+    #[inline(always)]
+    fn aim(&mut self, target: Vec3, lanes: u64, slopes: &Slopes) -> u64 {
+        let live = self.aim_lanes(&[[target.x; W], [target.y; W], [target.z; W]], lanes);
+        self.aim_slopes(slopes);
+        live
+    }
+
+    /// Sets the lanes to the segments from `origin` to `targets` (at most [`W`], no slopes);
+    /// returns the mask of those with a non-empty segment.
+    #[inline(always)]
+    fn set_rays(&mut self, origin: Vec3, targets: &[Vec3]) -> u64 {
+        self.origin = [[origin.x; W], [origin.y; W], [origin.z; W]];
+        self.aim_lanes(&transposed(targets), CHUNK_MASK >> (W - targets.len()))
+    }
+
+    /// Sets the lanes `lanes` to the segments from their origins to `targets[axis][lane]`;
+    /// returns the mask of those with a non-empty segment.
+    #[inline(always)]
+    fn aim_lanes(&mut self, targets: &[[f32; W]; 3], lanes: u64) -> u64 {
+        let regular = self.aim_regular(targets) & lanes;
+        let mut live = regular;
+        let mut special = lanes & !regular;
+        while special != 0 {
+            let l = special.trailing_zeros() as usize;
+            special &= special - 1;
+            let o = Vec3::new(self.origin[0][l], self.origin[1][l], self.origin[2][l]);
+            let y = Vec3::new(targets[0][l], targets[1][l], targets[2][l]);
+            if let Some(r) = RayData::new(o, y - o) {
+                self.set_lane(l, &r);
+                live |= 1 << l;
+            }
+        }
+        live
+    }
+
+    /// Sets every lane as `RayData::new(o, target - o)` would (see [`regular_ray`]); returns
+    /// the mask of the lanes where that is right: no direction component zero or non-finite.
+    /// The others go through `RayData::new` itself, which handles those cases.
+    #[inline(always)]
+    fn aim_regular(&mut self, targets: &[[f32; W]; 3]) -> u64 {
+        let o = self.origin;
+        let (mut inv, mut k, mut ok, mut s) = ([[0f32; W]; 3], [[0u32; W]; 3], [[0f32; W]; 3], [[0f32; W]; 3]);
+        let mut bytes = [0u8; W];
+        for l in 0..W {
+            let org = [o[0][l], o[1][l], o[2][l]];
+            let dir = [targets[0][l] - org[0], targets[1][l] - org[1], targets[2][l] - org[2]];
+            let ray = regular_ray(org, dir);
+            for a in 0..3 {
+                (inv[a][l], k[a][l], ok[a][l], s[a][l]) = (ray.inv[a], ray.k[a], ray.ok[a], ray.s[a]);
+            }
+            let regular = |x: f32| (x != 0.0) & x.is_finite();
+            bytes[l] = top_bit(regular(dir[0]) & regular(dir[1]) & regular(dir[2]));
+        }
+        (self.inv, self.k, self.ok, self.s) = (inv, k, ok, s);
+        (self.org_near, self.org_far) = (o, o);
+        movemask(bytes)
+    }
+
+    /// Copies the single-ray data `r` into lane `l`.
+    #[inline(always)]
+    fn set_lane(&mut self, l: usize, r: &RayData) {
+        for a in 0..3 {
+            self.org_near[a][l] = r.org_near[a].x;
+            self.org_far[a][l] = r.org_far[a].x;
+            self.inv[a][l] = r.inv[a].x;
+            self.k[a][l] = r.k[a] as u32;
+            self.ok[a][l] = r.ok[a].x;
+            self.s[a][l] = r.s[a].x;
+        }
+    }
+
+    /// The lanes' slopes from the common target. `org_far` is the origin up to one ulp on axes
+    /// of zero direction: far below the tolerance of the slope test.
+    #[inline(always)]
+    fn aim_slopes(&mut self, &Slopes { y, k, sign, .. }: &Slopes) {
+        let (i, j) = ((k + 1) % 3, (k + 2) % 3);
+        let o = &self.org_far;
+        let (mut sa, mut sb) = ([0f32; W], [0f32; W]);
+        for l in 0..W {
+            let dk = (o[k][l] - y[k]) * sign;
+            sa[l] = (o[i][l] - y[i]) / dk;
+            sb[l] = (o[j][l] - y[j]) / dk;
+        }
+        (self.sa, self.sb) = (sa, sb);
+    }
+
+    /// The lanes whose slopes lie in the rectangle `[a min, a max, b min, b max]`.
+    #[inline(always)]
+    fn rect_lanes(&self, [amin, amax, bmin, bmax]: [f32; 4]) -> u64 {
+        let mut bytes = [0u8; W];
+        for l in 0..W {
+            let (a, b) = (self.sa[l], self.sb[l]);
+            bytes[l] = top_bit((a >= amin) & (a <= amax) & (b >= bmin) & (b <= bmax));
+        }
+        movemask(bytes)
+    }
+
+    /// The lanes whose slab test accepts the box `lo..hi` over t in (0, 1): per lane the same
+    /// IEEE operations, in the same order, as `Node4::hit` for that lane's single ray.
+    #[inline(always)]
+    fn box_lanes(&self, lo: [f32; 3], hi: [f32; 3]) -> u64 {
+        let mut bytes = [0u8; W];
+        for l in 0..W {
+            bytes[l] = top_bit(self.slab_accepts(l, &lo, &hi));
+        }
+        movemask(bytes)
+    }
+
+    /// Whether lane `l`'s slab test accepts the box `lo..hi` (see [`Chunk::box_lanes`]).
+    #[inline(always)]
+    fn slab_accepts(&self, l: usize, lo: &[f32; 3], hi: &[f32; 3]) -> bool {
+        let x = self.slab_distances(l, 0, lo, hi);
+        let y = self.slab_distances(l, 1, lo, hi);
+        let z = self.slab_distances(l, 2, lo, hi);
+        let tnear = max_ps(max_ps(x.0, y.0), max_ps(z.0, 0.0));
+        let tfar = min_ps(min_ps(x.1, y.1), min_ps(z.1, 1.0)) * ROBUST;
+        tnear <= tfar
+    }
+
+    /// Lane `l`'s entry and exit distances of the slab `lo[a]..hi[a]` of axis `a`.
+    #[inline(always)]
+    fn slab_distances(&self, l: usize, a: usize, lo: &[f32; 3], hi: &[f32; 3]) -> (f32, f32) {
+        // Whether the box maximum is the entry plane (`RayData::near`).
+        let near = self.inv[a][l] < 0.0;
+        let (bn, bf) = (if near { hi[a] } else { lo[a] }, if near { lo[a] } else { hi[a] });
+        ((bn - self.org_near[a][l]) * self.inv[a][l], (bf - self.org_far[a][l]) * self.inv[a][l])
+    }
+
+    /// The lanes of `lanes` that hit triangle `v` (`v[vertex][axis]`) by the watertight test
+    /// over t in (0, 1): per lane the IEEE operations of `hit4` for that lane's single ray, in
+    /// the same order. The lanes with an edge function of exactly zero are redone one by one
+    /// with the double-precision edge functions (a cold path, so that the common one keeps
+    /// everything in registers).
+    #[inline(always)]
+    fn triangle_lanes(&self, v: &[[f32; 3]; 3], lanes: u64) -> u64 {
+        let (mut hits, mut zero) = ([0u8; W], [0u8; W]);
+        for l in 0..W {
+            let e = self.sheared(l, v);
+            let uvw = edge_functions(&e);
+            hits[l] = top_bit(self.accepts(l, &e, uvw));
+            zero[l] = top_bit((uvw[0] == 0.0) | (uvw[1] == 0.0) | (uvw[2] == 0.0));
+        }
+        let (hits, zero) = (movemask(hits), movemask(zero) & lanes);
+        if zero == 0 {
+            return hits & lanes;
+        }
+        self.refined_lanes(v, hits & lanes & !zero, zero)
+    }
+
+    /// The lanes of `lanes` that block `b` holds an opaque hit for, triangle by triangle.
+    #[inline(always)]
+    fn blocked_lanes(&self, scene: &Scene, b: &Tri4, lanes: u64) -> u64 {
+        let mut blocked = 0u64;
+        for t in 0..4 {
+            // Short leaves repeat their last face: test each face once.
+            if t > 0 && b.ids[t] == b.ids[t - 1] {
+                continue;
+            }
+            let mut v = [[0f32; 3]; 3];
+            for (vert, p) in v.iter_mut().enumerate() {
+                *p = [b.v[vert][0][t], b.v[vert][1][t], b.v[vert][2][t]];
+            }
+            let hits = self.triangle_lanes(&v, lanes & !blocked);
+            blocked |= if b.alpha >> t & 1 != 0 { opaque_lanes(scene, b.ids[t], self, &v, hits) } else { hits };
+            if blocked == lanes {
+                break;
+            }
+        }
+        blocked
+    }
+
+    /// [`Chunk::triangle_lanes`] for lanes `zero` with double-precision edge functions, added
+    /// to the hits `hits` of the other lanes.
+    #[cold]
+    #[inline(never)]
+    fn refined_lanes(&self, v: &[[f32; 3]; 3], mut hits: u64, zero: u64) -> u64 {
+        let mut m = zero;
+        while m != 0 {
+            let l = m.trailing_zeros() as usize;
+            m &= m - 1;
+            let e = self.sheared(l, v);
+            hits |= u64::from(self.accepts(l, &e, edge_functions_f64(&e))) << l;
+        }
+        hits
+    }
+
+    /// The barycentric weights `(b1, b2)` of the hit of lane `l` (one that hit `v`), divided
+    /// as in `Lanes::get`.
+    fn barycentrics(&self, l: usize, v: &[[f32; 3]; 3]) -> (f32, f32) {
+        let e = self.sheared(l, v);
+        let mut uvw = edge_functions(&e);
+        if uvw.contains(&0.0) {
+            uvw = edge_functions_f64(&e);
+        }
+        let det = uvw[0] + uvw[1] + uvw[2];
+        (uvw[1] / det, uvw[2] / det)
+    }
+
+    /// The vertices of `v` relative to lane `l`'s origin in its permuted axes, sheared:
+    /// `[ax, ay, bx, by, cx, cy, az, bz, cz]`, as in `hit4`.
+    #[inline(always)]
+    fn sheared(&self, l: usize, v: &[[f32; 3]; 3]) -> [f32; 9] {
+        let [kx, ky, kz] = [self.k[0][l], self.k[1][l], self.k[2][l]];
+        let [ox, oy, oz] = [self.ok[0][l], self.ok[1][l], self.ok[2][l]];
+        let [sx, sy] = [self.s[0][l], self.s[1][l]];
+        let (az, bz, cz) = (pick(v[0], kz) - oz, pick(v[1], kz) - oz, pick(v[2], kz) - oz);
+        let ax = (pick(v[0], kx) - ox) - sx * az;
+        let ay = (pick(v[0], ky) - oy) - sy * az;
+        let bx = (pick(v[1], kx) - ox) - sx * bz;
+        let by = (pick(v[1], ky) - oy) - sy * bz;
+        let cx = (pick(v[2], kx) - ox) - sx * cz;
+        let cy = (pick(v[2], ky) - oy) - sy * cz;
+        [ax, ay, bx, by, cx, cy, az, bz, cz]
+    }
+
+    /// Whether lane `l` hits the triangle of sheared vertices `e` and edge functions `uvw`
+    /// within t in (0, 1), as in `hit4`.
+    #[inline(always)]
+    fn accepts(&self, l: usize, e: &[f32; 9], [u, v, w]: [f32; 3]) -> bool {
+        let neg = (u < 0.0) | (v < 0.0) | (w < 0.0);
+        let pos = (u > 0.0) | (v > 0.0) | (w > 0.0);
+        let det = u + v + w;
+        let sz = self.s[2][l];
+        let t = u * (sz * e[6]) + v * (sz * e[7]) + w * (sz * e[8]);
+        // T / det against the interval without dividing (sign folded in, as in `hit4`).
+        let ts = t * 1f32.copysign(det);
+        let limit = det.abs() * 1.0;
+        !(neg & pos) & (det != 0.0) & (ts > 0.0) & (ts < limit)
+    }
+}
+
+/// The edge functions `U, V, W` of the sheared vertices `e` (see [`Chunk::sheared`]), each
+/// from its own edge's two vertices only, as in `hit4`.
+#[inline(always)]
+fn edge_functions(e: &[f32; 9]) -> [f32; 3] {
+    let [ax, ay, bx, by, cx, cy, ..] = *e;
+    [cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax]
+}
+
+/// [`edge_functions`] in double precision (the products of two floats are exact there), as
+/// `refine` in `bvh/triangle.rs` does for rays through edges and vertices.
+fn edge_functions_f64(e: &[f32; 9]) -> [f32; 3] {
+    let [ax, ay, bx, by, cx, cy] = [0, 1, 2, 3, 4, 5].map(|q| f64::from(e[q]));
+    [(cx * by - cy * bx) as f32, (ax * cy - ay * cx) as f32, (bx * ay - by * ax) as f32]
+}
+
 impl Packet {
     /// A packet with no lanes.
     fn empty() -> Packet {
         Packet {
-            origins: [Vec3::ZERO; LANES],
-            rays: [None; LANES],
-            built: 0,
-            org_near: [[Vec4::ZERO; 3]; GROUPS],
-            org_far: [[Vec4::ZERO; 3]; GROUPS],
-            inv: [[Vec4::ONE; 3]; GROUPS],
-            near: [[glam::BVec4A::FALSE; 3]; GROUPS],
+            chunks: [Chunk::EMPTY; CHUNKS],
+            origin_bounds: [Vec3::ZERO; 2],
+            origin_scale: 0.0,
             slopes: Slopes { y: Vec3::ZERO, k: 0, sign: 1.0, scale: 0.0 },
-            sa: [Vec4::ZERO; GROUPS],
-            sb: [Vec4::ZERO; GROUPS],
-            group_range: [[Vec4::ZERO; 4]; GROUPS / 4],
             lane_stack: [0; STACK],
         }
     }
 
-    /// Sets the lanes to the segments `origins[i] -> target` (t in (0, 1) along
-    /// `target - origins[i]`, at most [`LANES`]) for the frustum axis `(k, sign)`; returns the
-    /// mask of lanes with a non-empty segment. Only the groups of those lanes are written; the
-    /// others keep stale data that the lane masks never read.
-    fn fill(&mut self, origins: &[Vec3], target: Vec3, (k, sign): (usize, f32)) -> u64 {
-        let (i, j) = ((k + 1) % 3, (k + 2) % 3);
-        let scale = origins.iter().fold(target.abs().max_element(), |m, o| m.max(o.abs().max_element()));
-        self.slopes = Slopes { y: target, k, sign, scale };
-        let n = origins.len().min(LANES);
-        self.origins[..n].copy_from_slice(&origins[..n]);
-        self.built = 0;
-        for (lane, &o) in origins[..n].iter().enumerate() {
-            let (g, l) = (lane / 4, lane % 4);
-            for a in 0..3 {
-                self.org_far[g][a][l] = o[a];
-            }
+    /// Sets the lanes' origins (at most [`LANES`], one lane each, in order), shared by the
+    /// segments to every target of [`Packet::aim`].
+    fn set_origins(&mut self, origins: &[Vec3]) {
+        let origins = &origins[..origins.len().min(LANES)];
+        for (c, chunk) in origins.chunks(W).enumerate() {
+            self.chunks[c].set_origins(chunk);
         }
+        let first = origins.first().copied().unwrap_or(Vec3::ZERO);
+        self.origin_bounds = origins.iter().fold([first, first], |[lo, hi], &o| [lo.min(o), hi.max(o)]);
+        self.origin_scale = origins.iter().fold(0f32, |m, o| m.max(o.abs().max_element()));
+    }
+
+    /// Sets the lanes to the segments from `origin` to `targets` (at most [`LANES`], one lane
+    /// each, in order) for the leaf test alone (no slopes); returns the mask of those with a
+    /// non-empty segment.
+    #[inline(always)]
+    fn set_rays(&mut self, origin: Vec3, targets: &[Vec3]) -> u64 {
         let mut live = 0u64;
-        for g in 0..n.div_ceil(4) {
-            live |= u64::from(self.slab_group(g, target)) << (4 * g);
-        }
-        // Lanes past `n` in the last group hold stale origins.
-        live &= if n == LANES { u64::MAX } else { (1 << n) - 1 };
-        let y = target.to_array().map(Vec4::splat);
-        for g in 0..n.div_ceil(4) {
-            // `org_far` is the origin up to one ulp on axes of zero direction: far below the
-            // tolerance of the slope test.
-            let o = &self.org_far[g];
-            let dk = (o[k] - y[k]) * Vec4::splat(sign);
-            (self.sa[g], self.sb[g]) = ((o[i] - y[i]) / dk, (o[j] - y[j]) / dk);
-            let bits = live >> (4 * g);
-            let m = glam::BVec4A::new(bits & 1 != 0, bits & 2 != 0, bits & 4 != 0, bits & 8 != 0);
-            let (inf, ninf) = (Vec4::INFINITY, Vec4::NEG_INFINITY);
-            let r = [
-                Vec4::select(m, self.sa[g], inf).min_element(),
-                Vec4::select(m, self.sa[g], ninf).max_element(),
-                Vec4::select(m, self.sb[g], inf).min_element(),
-                Vec4::select(m, self.sb[g], ninf).max_element(),
-            ];
-            for (q, v) in r.into_iter().enumerate() {
-                self.group_range[g / 4][q][g % 4] = v;
-            }
+        for (c, chunk) in targets[..targets.len().min(LANES)].chunks(W).enumerate() {
+            live |= self.chunks[c].set_rays(origin, chunk) << (W * c);
         }
         live
     }
 
-    /// Sets the slab-test data of group `g` (origins already in `org_far`) for the segments to
-    /// `target`, as `RayData::new` computes them lane by lane (same IEEE operations: the
-    /// direction `target - o` and its safe reciprocal); returns the 4-bit mask of lanes with a
-    /// non-empty segment. A group with a zero or non-finite direction component goes through
-    /// `RayData::new` itself, which handles those cases.
+    /// Sets the lanes `lanes` to the segments from their origins to `target` (t in (0, 1)
+    /// along `target - origin`) for the frustum axis `(k, sign)`; returns the mask of those with
+    /// a non-empty segment. Only the chunks of those lanes are written; the others keep stale
+    /// data that the lane masks never read.
     #[inline(always)]
-    fn slab_group(&mut self, g: usize, target: Vec3) -> u32 {
-        let o = self.org_far[g];
-        let d = [0, 1, 2].map(|a| Vec4::splat(target[a]) - o[a]);
-        let regular = d.iter().fold(glam::BVec4A::TRUE, |m, d| m & d.cmpne(Vec4::ZERO) & d.is_finite_mask());
-        if regular.all() {
-            let tiny = Vec4::splat(1e-30);
-            self.inv[g] = d.map(|d| Vec4::ONE / Vec4::select(d.abs().cmplt(tiny), tiny.copysign(d), d));
-            self.org_near[g] = o;
-            self.near[g] = self.inv[g].map(|i| i.cmplt(Vec4::ZERO));
-            return 0xF;
-        }
-        let mut live = 0u32;
-        for l in 0..4 {
-            let lane = 4 * g + l;
-            let origin = self.origins[lane];
-            let r = RayData::new(origin, target - origin);
-            self.rays[lane] = r;
-            self.built |= 1 << lane;
-            let Some(r) = r else { continue };
-            live |= 1 << l;
-            for a in 0..3 {
-                self.org_near[g][a][l] = r.org_near[a].x;
-                self.org_far[g][a][l] = r.org_far[a].x;
-                self.inv[g][a][l] = r.inv[a].x;
+    fn aim(&mut self, target: Vec3, lanes: u64, (k, sign): (usize, f32)) -> u64 {
+        let scale = self.origin_scale.max(target.abs().max_element());
+        self.slopes = Slopes { y: target, k, sign, scale };
+        let slopes = self.slopes;
+        let mut live = 0u64;
+        for (c, chunk) in self.chunks.iter_mut().enumerate() {
+            let mine = chunk_lanes(lanes, c);
+            if mine != 0 {
+                live |= chunk.aim(target, mine, &slopes) << (W * c);
             }
         }
-        self.near[g] = self.inv[g].map(|i| i.cmplt(Vec4::ZERO));
         live
-    }
-
-    /// The single-ray data of `lane` (live), built on first use.
-    #[inline(always)]
-    fn ray(&mut self, lane: usize) -> Option<RayData> {
-        if self.built >> lane & 1 == 0 {
-            let (o, y) = (self.origins[lane], self.slopes.y);
-            self.rays[lane] = RayData::new(o, y - o);
-            self.built |= 1 << lane;
-        }
-        self.rays[lane]
     }
 
     /// The slope rectangles `[a min, a max, b min, b max]` of the four children of `node`
@@ -223,54 +658,82 @@ impl Packet {
         [amin, amax, bmin, bmax]
     }
 
-    /// The lanes of `active` whose slopes lie in rectangle `c` of `rects` (see
-    /// [`Packet::child_rects`]): whole groups first by their slope range, then lane by lane.
+    /// For each child `c` of `node` in `children`, the lanes of `lanes` that may reach it: those
+    /// whose slopes lie in its rectangle of `rects` (see [`Packet::child_rects`]) and, for a
+    /// leaf, whose slab test accepts its box (see [`Chunk::box_lanes`]).
+    ///
+    /// Chunk by chunk, so that a chunk's data is loaded once per node, and only for chunks
+    /// with lanes (LLVM hoists the loads of every chunk a loop body touches to the loop's
+    /// entry).
     #[inline(always)]
-    fn rect_lanes(&self, rects: &[Vec4; 4], c: usize, active: u64) -> u64 {
-        let [amin, amax, bmin, bmax] = rects.map(|r| Vec4::splat(r[c]));
-        let quads = (64 - active.leading_zeros() as usize).div_ceil(16);
-        let mut groups = 0u32;
-        for (q, r) in self.group_range.iter().enumerate().take(quads) {
-            let m = r[1].cmpge(amin) & r[0].cmple(amax) & r[3].cmpge(bmin) & r[2].cmple(bmax);
-            groups |= m.bitmask() << (4 * q);
+    fn child_lanes(&self, node: &Node4, rects: &[Vec4; 4], children: u32, lanes: u64) -> [u64; 4] {
+        let [lo, hi] = &node.bounds;
+        let mut out = [0u64; 4];
+        for (c, chunk) in self.chunks.iter().enumerate() {
+            let mine = chunk_lanes(lanes, c);
+            if mine == 0 {
+                continue;
+            }
+            for (child, out) in out.iter_mut().enumerate() {
+                if children >> child & 1 == 0 {
+                    continue;
+                }
+                let rect = [rects[0][child], rects[1][child], rects[2][child], rects[3][child]];
+                let mut m = chunk.rect_lanes(rect) & mine;
+                if m != 0 && node.child[child] & LEAF != 0 {
+                    let corner = |b: &[Vec4; 3]| [b[0][child], b[1][child], b[2][child]];
+                    m &= chunk.box_lanes(corner(lo), corner(hi));
+                }
+                *out |= m << (W * c);
+            }
         }
-        let mut out = 0u64;
-        while groups != 0 {
-            let g = groups.trailing_zeros() as usize;
-            groups &= groups - 1;
-            let (a, b) = (self.sa[g], self.sb[g]);
-            let m = a.cmpge(amin) & a.cmple(amax) & b.cmpge(bmin) & b.cmple(bmax);
-            out |= u64::from(m.bitmask()) << (4 * g);
-        }
-        out & active
+        out
     }
 
-    /// The lanes of `active` whose slab test accepts child `c` of `node`: per lane the same
-    /// IEEE operations, in the same order, as `Node4::hit` for that lane's single ray.
+    /// The lanes of `lanes` that block `b` holds an opaque hit for: chunk by chunk (see
+    /// [`Packet::child_lanes`]) and triangle by triangle, the watertight test of the chunk's
+    /// lanes at once; hits on perforated faces go through the texture.
     #[inline(always)]
-    fn box_lanes(&self, node: &Node4, c: usize, active: u64) -> u64 {
-        let lo = [0, 1, 2].map(|a| Vec4::splat(node.bounds[0][a][c]));
-        let hi = [0, 1, 2].map(|a| Vec4::splat(node.bounds[1][a][c]));
-        let mut out = 0u64;
-        let mut groups = active;
-        while groups != 0 {
-            let g = groups.trailing_zeros() as usize / 4;
-            groups &= !(0xF << (4 * g));
-            let d = |a: usize| {
-                let (bn, bf) =
-                    (Vec4::select(self.near[g][a], hi[a], lo[a]), Vec4::select(self.near[g][a], lo[a], hi[a]));
-                ((bn - self.org_near[g][a]) * self.inv[g][a], (bf - self.org_far[g][a]) * self.inv[g][a])
-            };
-            let ((x0, x1), (y0, y1), (z0, z1)) = (d(0), d(1), d(2));
-            let tnear = x0.max(y0).max(z0.max(Vec4::ZERO));
-            let tfar = x1.min(y1).min(z1.min(Vec4::ONE)) * ROBUST;
-            out |= u64::from(tnear.cmple(tfar).bitmask()) << (4 * g);
+    fn blocked_lanes(&self, scene: &Scene, b: &Tri4, lanes: u64) -> u64 {
+        let mut blocked = 0u64;
+        for (c, chunk) in self.chunks.iter().enumerate() {
+            let mine = chunk_lanes(lanes, c);
+            if mine != 0 {
+                blocked |= chunk.blocked_lanes(scene, b, mine) << (W * c);
+            }
         }
-        out & active
+        blocked
     }
 }
 
+/// The lanes of `lanes` in chunk `c`, as a chunk mask.
+#[inline(always)]
+fn chunk_lanes(lanes: u64, c: usize) -> u64 {
+    lanes >> (W * c) & CHUNK_MASK
+}
+
+/// The lanes of `hits` (which hit the perforated face `id` of vertices `v`) that are opaque at
+/// their hit point.
+#[cold]
+#[inline(never)]
+fn opaque_lanes(scene: &Scene, id: u32, chunk: &Chunk, v: &[[f32; 3]; 3], hits: u64) -> u64 {
+    let mut out = 0u64;
+    let mut m = hits;
+    while m != 0 {
+        let l = m.trailing_zeros() as usize;
+        m &= m - 1;
+        let (b1, b2) = chunk.barycentrics(l, v);
+        if scene.is_opaque_at(id, b1, b2) {
+            out |= 1 << l;
+        }
+    }
+    out
+}
+
 impl Bvh {
+    /// Most origins of one call of [`Bvh::occluded_converging_lanes`].
+    pub const PACKET_LANES: usize = LANES;
+
     /// For each origin, whether the open segment from it to `target` is blocked (t in (0, 1)
     /// with `dir = target - origin`): the shadow rays of many receivers to one light sample.
     /// Clears and fills `out`.
@@ -280,68 +743,198 @@ impl Bvh {
     pub fn occluded_converging(&self, scene: &Scene, origins: &[Vec3], target: Vec3, out: &mut Vec<bool>) {
         out.clear();
         for chunk in origins.chunks(LANES) {
-            let blocked = self.packet_blocked(scene, chunk, target);
-            out.extend((0..chunk.len()).map(|lane| blocked >> lane & 1 != 0));
+            let mut blocked = [0u64];
+            self.occluded_converging_lanes(scene, chunk, &[target], &[u64::MAX], &mut blocked);
+            out.extend((0..chunk.len()).map(|lane| blocked[0] >> lane & 1 != 0));
         }
     }
 
-    /// The mask of blocked lanes of the packet `origins -> target` (at most [`LANES`]).
-    fn packet_blocked(&self, scene: &Scene, origins: &[Vec3], target: Vec3) -> u64 {
-        let one_by_one = || {
-            (0..origins.len())
-                .filter(|&lane| self.occluded(scene, origins[lane], target - origins[lane], 1.0))
-                .fold(0, |m, lane| m | 1 << lane)
-        };
-        // No pyramid with apex `target` bounds the origins: the rays go one by one.
-        let Some(frustum) = Frustum::new(target, origins) else { return one_by_one() };
+    /// The shadow rays of up to [`Bvh::PACKET_LANES`] receivers (`origins`, lane `i` for
+    /// `origins[i]`; any further origins are ignored) to many light samples: for each target
+    /// `targets[s]`, sets `blocked[s]` to the mask of the lanes of `lanes[s]` whose open segment
+    /// `origin -> targets[s]` (t in (0, 1)) is blocked. Stops at the shortest of `targets`,
+    /// `lanes` and `blocked`.
+    ///
+    /// Same answers as [`Bvh::occluded`] per segment: the rays of each target are one packet
+    /// of [`Bvh::occluded_converging`], with the origins transposed once for all targets.
+    pub fn occluded_converging_lanes(
+        &self,
+        scene: &Scene,
+        origins: &[Vec3],
+        targets: &[Vec3],
+        lanes: &[u64],
+        blocked: &mut [u64],
+    ) {
+        self.occluded_converging_lanes_with(Isa::detect(), scene, origins, targets, lanes, blocked);
+    }
+
+    /// [`Bvh::occluded_converging_lanes`] with the traversal compiled for `isa`.
+    pub(super) fn occluded_converging_lanes_with(
+        &self,
+        isa: Isa,
+        scene: &Scene,
+        origins: &[Vec3],
+        targets: &[Vec3],
+        lanes: &[u64],
+        blocked: &mut [u64],
+    ) {
+        let origins = &origins[..origins.len().min(LANES)];
+        let present = u64::MAX.checked_shr((LANES - origins.len()) as u32).unwrap_or(0);
         PACKET.with(|p| {
             // Only busy if `is_opaque_at` re-entered the BVH on this thread.
-            let Ok(mut packet) = p.try_borrow_mut() else { return one_by_one() };
-            let live = packet.fill(origins, target, frustum.axis());
-            let mut active = live;
+            let mut packet = p.try_borrow_mut().ok();
+            if let Some(packet) = packet.as_mut() {
+                packet.set_origins(origins);
+            }
+            let mut trace = |stack: &mut [u32; STACK]| {
+                for ((&y, &m), out) in targets.iter().zip(lanes).zip(blocked.iter_mut()) {
+                    let m = m & present;
+                    *out = match packet.as_mut() {
+                        _ if m == 0 => 0,
+                        // The frustum of all the origins bounds the segments of any lanes.
+                        Some(packet) => match Frustum::around(y, packet.origin_bounds) {
+                            Some(f) => self.packet_trace(isa, scene, packet, y, m, &f, stack),
+                            // No pyramid with apex `y` bounds the origins: the rays go one by one.
+                            None => self.one_by_one(scene, origins, y, m),
+                        },
+                        None => self.one_by_one(scene, origins, y, m),
+                    };
+                }
+            };
             super::ANY_STACK.with(|s| match s.try_borrow_mut() {
-                Ok(mut stack) => self.packet_traverse(scene, &mut packet, &frustum, &mut active, &mut stack),
-                Err(_) => self.packet_traverse(scene, &mut packet, &frustum, &mut active, &mut [0; STACK]),
+                Ok(mut stack) => trace(&mut stack),
+                Err(_) => trace(&mut [0; STACK]),
             });
-            live & !active
-        })
+        });
+    }
+
+    /// The mask of the lanes of `lanes` whose segment `origins[lane] -> target` is blocked,
+    /// ray by ray.
+    fn one_by_one(&self, scene: &Scene, origins: &[Vec3], target: Vec3, lanes: u64) -> u64 {
+        (0..origins.len())
+            .filter(|&lane| lanes >> lane & 1 != 0)
+            .filter(|&lane| self.occluded(scene, origins[lane], target - origins[lane], 1.0))
+            .fold(0, |m, lane| m | 1 << lane)
+    }
+
+    isa_dispatch! {
+        /// Aims the lanes `lanes` of the packet at `target` and traverses it; returns the mask
+        /// of blocked lanes.
+        fn packet_trace => packet_trace_body(
+            scene: &Scene,
+            p: &mut Packet,
+            target: Vec3,
+            lanes: u64,
+            f: &Frustum,
+            stack: &mut [u32; STACK],
+        ) -> u64
+    }
+
+    #[inline(always)]
+    fn packet_trace_body(
+        &self,
+        scene: &Scene,
+        p: &mut Packet,
+        target: Vec3,
+        lanes: u64,
+        f: &Frustum,
+        stack: &mut [u32; STACK],
+    ) -> u64 {
+        let live = p.aim(target, lanes, f.axis());
+        let mut active = live;
+        self.packet_traverse(scene, p, f, &mut active, stack);
+        live & !active
+    }
+
+    /// For each target, whether the open segment from `origin` to it (t in (0, 1)) hits one of
+    /// the blocks `cand`: the candidate test of [`Bvh::occluded_by_frustum`], compiled for
+    /// `isa`. Appends to `out`.
+    ///
+    /// The segments are lanes of the packet buffer, [`LANES`] at a time, each candidate block
+    /// tested for all the lanes not yet blocked at once (the same per-lane test as
+    /// [`Bvh::block_occludes`], see [`Packet::blocked_lanes`]).
+    pub(super) fn occluded_by_blocks(
+        &self,
+        isa: Isa,
+        scene: &Scene,
+        origin: Vec3,
+        targets: &[Vec3],
+        cand: &[u32],
+        out: &mut Vec<bool>,
+    ) {
+        PACKET.with(|p| match p.try_borrow_mut() {
+            Ok(mut packet) => {
+                for chunk in targets.chunks(LANES) {
+                    let blocked = self.blocks_trace(isa, scene, &mut packet, origin, chunk, cand);
+                    out.extend((0..chunk.len()).map(|lane| blocked >> lane & 1 != 0));
+                }
+            }
+            // Only busy if `is_opaque_at` re-entered the BVH on this thread: ray by ray.
+            Err(_) => out.extend(targets.iter().map(|&y| {
+                let hits = |r: &RayData| cand.iter().any(|&b| self.block_occludes(scene, &self.blocks[b as usize], r, 1.0));
+                RayData::new(origin, y - origin).is_some_and(|r| hits(&r))
+            })),
+        });
+    }
+
+    isa_dispatch! {
+        /// The mask of the segments `origin -> targets` (at most [`LANES`]) that hit one of the
+        /// blocks `cand`.
+        fn blocks_trace => blocks_trace_body(
+            scene: &Scene,
+            p: &mut Packet,
+            origin: Vec3,
+            targets: &[Vec3],
+            cand: &[u32],
+        ) -> u64
+    }
+
+    #[inline(always)]
+    fn blocks_trace_body(&self, scene: &Scene, p: &mut Packet, origin: Vec3, targets: &[Vec3], cand: &[u32]) -> u64 {
+        let live = p.set_rays(origin, targets);
+        let mut blocked = 0u64;
+        for &b in cand {
+            if blocked == live {
+                break;
+            }
+            blocked |= p.blocked_lanes(scene, &self.blocks[b as usize], live & !blocked);
+        }
+        blocked
     }
 
     /// Traverses the tree with the packet's frustum, clearing from `active` every lane found
-    /// blocked; stops as soon as no lane is active. Each stacked node carries the lanes whose
-    /// lines pass its box by the projection test, so a subtree is left as soon as none of the
-    /// lanes still active can reach it (the frustum of all lanes stays as wide as at the start).
+    /// blocked; stops as soon as no lane is active. Each stacked node or leaf carries the lanes
+    /// that may reach it by the projection test (and a leaf's, the slab test), so a subtree is
+    /// left as soon as none of the lanes still active can reach it (the frustum of all lanes
+    /// stays as wide as at the start).
+    ///
+    /// One loop, no inner one (see [`Packet::child_lanes`]): leaves are stacked like nodes,
+    /// after the inner children of their parent, so they are tested first.
+    #[inline(always)]
     fn packet_traverse(&self, scene: &Scene, p: &mut Packet, f: &Frustum, active: &mut u64, stack: &mut [u32; STACK]) {
-        if self.root & LEAF != 0 {
-            // A single-leaf tree has no node box: every lane tests the leaf.
-            self.packet_leaf(scene, p, self.root & !LEAF, *active, active);
-            return;
-        }
         let mut sp = 0usize;
+        // A single-leaf tree has no node box: every lane tests the leaf.
         let (mut cur, mut lanes) = (self.root, *active);
         loop {
             lanes &= *active;
-            if lanes != 0 {
+            if lanes != 0 && cur & LEAF != 0 {
+                *active &= !p.blocked_lanes(scene, &self.blocks[(cur & !LEAF) as usize], lanes);
+            } else if lanes != 0 {
                 let node = &self.nodes[cur as usize];
-                let mut mask = f.overlaps(node);
-                let rects = if mask != 0 { p.child_rects(node) } else { [Vec4::ZERO; 4] };
-                while mask != 0 {
-                    let c = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    let sub = p.rect_lanes(&rects, c, lanes & *active);
-                    if sub == 0 {
-                        continue;
-                    }
-                    let child = node.child[c];
-                    if child & LEAF == 0 {
-                        // At most 4 pushes per level and 3 * depth + 1 <= STACK (see `build`):
-                        // each level leaves at most 3 siblings behind, the deepest adds 4.
-                        stack[sp] = child;
-                        p.lane_stack[sp] = sub;
-                        sp += 1;
-                    } else {
-                        let hit = p.box_lanes(node, c, sub);
-                        self.packet_leaf(scene, p, child & !LEAF, hit, active);
+                let children = f.overlaps(node);
+                if children != 0 {
+                    let sub = p.child_lanes(node, &p.child_rects(node), children, lanes);
+                    for leaves in [false, true] {
+                        for (c, &sub) in sub.iter().enumerate() {
+                            if sub != 0 && (node.child[c] & LEAF != 0) == leaves {
+                                // At most 4 pushes per level and 3 * depth + 1 <= STACK (see
+                                // `build`): each level leaves at most 3 siblings behind, the
+                                // deepest adds 4.
+                                stack[sp] = node.child[c];
+                                p.lane_stack[sp] = sub;
+                                sp += 1;
+                            }
+                        }
                     }
                 }
             }
@@ -350,23 +943,6 @@ impl Bvh {
             }
             sp -= 1;
             (cur, lanes) = (stack[sp], p.lane_stack[sp]);
-        }
-    }
-
-    /// Tests the `lanes` of the packet against block `b` with the single-ray leaf test and
-    /// clears the blocked ones from `active`.
-    #[inline]
-    fn packet_leaf(&self, scene: &Scene, p: &mut Packet, b: u32, lanes: u64, active: &mut u64) {
-        let block = &self.blocks[b as usize];
-        let mut m = lanes;
-        while m != 0 {
-            let lane = m.trailing_zeros() as usize;
-            m &= m - 1;
-            if let Some(r) = p.ray(lane) {
-                if self.block_occludes(scene, block, &r, 1.0) {
-                    *active &= !(1 << lane);
-                }
-            }
         }
     }
 }
@@ -400,13 +976,37 @@ mod tests {
         Scene::new(vec![opaque, perforated, ground]).unwrap()
     }
 
-    /// Checks every lane of `occluded_converging` against `occluded`; returns (blocked, lit).
+    /// The instruction sets of this CPU: every packet test runs on each.
+    fn isas() -> Vec<Isa> {
+        let mut isas = vec![Isa::Baseline];
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::is_x86_feature_detected!("avx2") {
+                isas.push(Isa::Avx2);
+            }
+            if has_avx512() {
+                isas.push(Isa::Avx512);
+            }
+        }
+        isas
+    }
+
+    /// Checks every lane of `occluded_converging` against `occluded`, and the traversal of
+    /// every instruction set against it; returns (blocked, lit).
     fn check(bvh: &Bvh, scene: &Scene, origins: &[Vec3], target: Vec3) -> (usize, usize) {
         let mut out = vec![true; 3];
         bvh.occluded_converging(scene, origins, target, &mut out);
         assert_eq!(out.len(), origins.len());
         for (&o, &blocked) in origins.iter().zip(&out) {
             assert_eq!(blocked, bvh.occluded(scene, o, target - o, 1.0), "origin {o} target {target}");
+        }
+        for isa in isas() {
+            for (c, chunk) in origins.chunks(LANES).enumerate() {
+                let mut blocked = [0u64];
+                bvh.occluded_converging_lanes_with(isa, scene, chunk, &[target], &[u64::MAX], &mut blocked);
+                let expected = (0..chunk.len()).filter(|&i| out[LANES * c + i]).fold(0u64, |m, i| m | 1 << i);
+                assert_eq!(blocked[0], expected, "{isa:?} target {target}");
+            }
         }
         let blocked = out.iter().filter(|&&b| b).count();
         (blocked, out.len() - blocked)
@@ -450,5 +1050,82 @@ mod tests {
         check(&bvh, &scene, &around, Vec3::new(2.0, 2.0, 2.1));
         // No origins at all.
         check(&bvh, &scene, &[], target);
+    }
+
+    /// Many targets with their own lane masks per call: each target's answers are those of
+    /// single rays for its lanes alone (and 0 for the others), on every instruction set.
+    #[test]
+    fn converging_lanes_equal_single_rays() {
+        let scene = scene(600, 5);
+        let bvh = Bvh::build(&scene).unwrap();
+        let mut rng = Rng::new(3);
+        let origins: Vec<Vec3> = (0..LANES + 5)
+            .map(|k| Vec3::new(1.0 + (k % 8) as f32 * 0.03, -0.49 + rng.next_f32() * 2.0, 1.0 + (k / 8) as f32 * 0.03))
+            .collect();
+        let targets: Vec<Vec3> = (0..24)
+            .map(|_| Vec3::new(rng.next_f32() * 6.0 - 1.0, 6.0 + rng.next_f32(), rng.next_f32() * 6.0 - 1.0))
+            .collect();
+        let lanes: Vec<u64> = (0..targets.len()).map(|_| rng.next_u64() | rng.next_u64()).collect();
+        let (mut blocked, mut lit) = (0, 0);
+        for isa in isas() {
+            let mut out = vec![u64::MAX; targets.len()];
+            bvh.occluded_converging_lanes_with(isa, &scene, &origins, &targets, &lanes, &mut out);
+            for ((&y, &m), &got) in targets.iter().zip(&lanes).zip(&out) {
+                // Origins past the first LANES are ignored.
+                let expected = (0..LANES)
+                    .filter(|&i| m >> i & 1 != 0 && bvh.occluded(&scene, origins[i], y - origins[i], 1.0))
+                    .fold(0u64, |acc, i| acc | 1 << i);
+                assert_eq!(got, expected, "{isa:?} target {y}");
+                (blocked, lit) = (blocked + got.count_ones(), lit + (m & !got).count_ones());
+            }
+        }
+        assert!(blocked > 100 && lit > 100, "blocked {blocked}, lit {lit}");
+    }
+
+    /// Segments through the shared vertices and edges of a grid of unit triangles (integer
+    /// coordinates: edge functions of exactly zero, redone in double precision): the packets
+    /// of every instruction set agree with single rays, which never slip through.
+    #[test]
+    fn converging_packets_through_vertices_and_edges() {
+        let k = 8u32;
+        let pos: Vec<Vec3> = (0..=k).flat_map(|z| (0..=k).map(move |x| Vec3::new(x as f32, 0.0, z as f32))).collect();
+        let faces = (0..k)
+            .flat_map(|z| (0..k).map(move |x| z * (k + 1) + x))
+            .flat_map(|a| [[a, a + 1, a + k + 2], [a, a + k + 2, a + k + 1]])
+            .collect();
+        let scene = Scene::new(vec![Mesh::new(pos, faces, None, None, false).unwrap()]).unwrap();
+        let bvh = Bvh::build(&scene).unwrap();
+        let origins: Vec<Vec3> = (0..49).map(|i| Vec3::new((i % 7) as f32, -1.0, (i / 7) as f32)).collect();
+        let mut blocked = 0;
+        for target in [Vec3::new(2.0, 1.0, 4.0), Vec3::new(3.0, 3.0, 1.0), Vec3::new(6.0, 1.0, 6.0)] {
+            blocked += check(&bvh, &scene, &origins, target).0;
+        }
+        assert_eq!(blocked, 3 * 49);
+    }
+
+    /// The candidate test of the frustum pass (shared origin, many targets) on every
+    /// instruction set: with every block as a candidate, the answers of single rays.
+    #[test]
+    fn candidate_blocks_equal_single_rays() {
+        let scene = scene(600, 9);
+        let bvh = Bvh::build(&scene).unwrap();
+        let all: Vec<u32> = (0..bvh.leaf_count() as u32).collect();
+        let mut rng = Rng::new(5);
+        let (mut blocked, mut lit) = (0, 0);
+        for _ in 0..20 {
+            let origin = Vec3::new(rng.next_f32() * 4.0, rng.next_f32() * 4.5 - 0.49, rng.next_f32() * 4.0);
+            let targets: Vec<Vec3> = (0..LANES + 13)
+                .map(|_| Vec3::new(rng.next_f32() * 6.0 - 1.0, 6.0 + rng.next_f32(), rng.next_f32() * 6.0 - 1.0))
+                .collect();
+            let expected: Vec<bool> = targets.iter().map(|&y| bvh.occluded(&scene, origin, y - origin, 1.0)).collect();
+            for isa in isas() {
+                let mut out = Vec::new();
+                bvh.occluded_by_blocks(isa, &scene, origin, &targets, &all, &mut out);
+                assert_eq!(out, expected, "{isa:?} origin {origin}");
+            }
+            blocked += expected.iter().filter(|&&b| b).count();
+            lit += expected.iter().filter(|&&b| !b).count();
+        }
+        assert!(blocked > 200 && lit > 200, "blocked {blocked}, lit {lit}");
     }
 }
