@@ -14,7 +14,8 @@ cd "$(dirname "$0")/.."
 secs="${1:-10}"
 fuzz_dir=rust/fuzz
 
-# No sanitizer: softshadows-core has no unsafe code, and ASan would halve the executions.
+# No sanitizer: softshadows-core's only unsafe code is the SIMD dispatch of its packet tracer (each
+# call checked for its CPU features), and ASan would halve the executions.
 # Debug assertions (overflow checks included) are on, as cargo-fuzz builds by default.
 cargo +nightly fuzz build --fuzz-dir "$fuzz_dir" --sanitizer none
 host="$(rustc +nightly -vV | sed -n 's/^host: //p')"
