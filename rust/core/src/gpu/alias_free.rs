@@ -13,7 +13,7 @@
 //! CPU's bits (the f64 arithmetic is repeated operation for operation, see the shader).
 
 use super::context::{context, Gpu};
-use super::multiview::{view_record, FRUSTUM};
+use super::multiview::{view_record, FRUSTUM, VECTOR64};
 use crate::error::{Error, Result};
 use crate::methods::alias_free::Setup;
 use crate::raster::depth::band_rows;
@@ -397,7 +397,7 @@ fn pipelines(gpu: &Gpu) -> &'static Pipelines {
             gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("alias_free"), entries: &entries })
         };
         let (lists_layout, tests_layout) = (layout(storage(4, false)), layout(storage(8, true)));
-        let source = format!("{FRUSTUM}\n{SHADER}");
+        let source = format!("{FRUSTUM}\n{VECTOR64}\n{SHADER}");
         let make = |name: &str, layout| gpu.pipeline_with_layout("alias_free", &source, name, layout);
         Pipelines {
             count: make("count_texels", &lists_layout),

@@ -84,14 +84,6 @@ const MAX_WORDS: u32 = 32u;
 // Slack of the texel squares against the regions, as raster/region.rs's conservative_rows.
 const SLACK: f64 = 1.0e-6lf;
 
-fn dot_d(a: vec3<f64>, b: vec3<f64>) -> f64 {
-    return ((a.x * b.x) + (a.y * b.y)) + (a.z * b.z);
-}
-
-fn cross_d(a: vec3<f64>, b: vec3<f64>) -> vec3<f64> {
-    return vec3<f64>(a.y * b.z - b.y * a.z, a.z * b.x - b.z * a.x, a.x * b.y - b.x * a.y);
-}
-
 fn light_vec(at: u32) -> vec3<f64> {
     return vec3<f64>(light[at], light[at + 1u], light[at + 2u]);
 }

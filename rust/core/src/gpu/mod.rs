@@ -214,13 +214,14 @@ mod shader_tests {
     fn every_shader_parses_and_validates() {
         use naga::valid::Capabilities;
         let frustum = include_str!("frustum.wgsl");
+        let vector64 = include_str!("vector64.wgsl");
         for (name, source, capabilities) in [
             ("vwss.wgsl", format!("{frustum}\n{}", include_str!("vwss.wgsl")), Capabilities::empty()),
             ("multiview.wgsl", format!("{frustum}\n{}", include_str!("multiview.wgsl")), Capabilities::empty()),
             ("pcss.wgsl", format!("{frustum}\n{}", include_str!("pcss.wgsl")), Capabilities::FLOAT64),
-            ("mvr.wgsl", format!("{frustum}\n{}", include_str!("mvr.wgsl")), Capabilities::FLOAT64),
+            ("mvr.wgsl", format!("{frustum}\n{vector64}\n{}", include_str!("mvr.wgsl")), Capabilities::FLOAT64),
             ("cssm.wgsl", include_str!("cssm.wgsl").to_string(), Capabilities::FLOAT64),
-            ("alias_free.wgsl", format!("{frustum}\n{}", include_str!("alias_free.wgsl")), Capabilities::FLOAT64),
+            ("alias_free.wgsl", format!("{frustum}\n{vector64}\n{}", include_str!("alias_free.wgsl")), Capabilities::FLOAT64),
         ] {
             let source = source.as_str();
             let module = naga::front::wgsl::parse_str(source).unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(source)));

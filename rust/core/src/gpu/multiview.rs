@@ -11,6 +11,8 @@ use std::sync::OnceLock;
 
 /// `frustum.wgsl`, prepended to the shaders that read or write depth maps.
 pub(crate) const FRUSTUM: &str = include_str!("frustum.wgsl");
+/// `vector64.wgsl`, prepended after it to the shaders that repeat the CPU's f64 arithmetic.
+pub(crate) const VECTOR64: &str = include_str!("vector64.wgsl");
 const SHADER: &str = include_str!("multiview.wgsl");
 /// Bytes per receiver record: two vec4<f32>.
 const RECEIVER_BYTES: u64 = 32;

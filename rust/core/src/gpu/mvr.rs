@@ -5,7 +5,7 @@
 //! maps fit one binding.
 
 use super::context::{context, Gpu, WORKGROUP};
-use super::multiview::{decode_maps, upload_views, views_per_batch, Lighting, FRUSTUM};
+use super::multiview::{decode_maps, upload_views, views_per_batch, Lighting, FRUSTUM, VECTOR64};
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::raster::depth::{DepthMap, LightFrustum};
@@ -26,7 +26,7 @@ struct Pipelines {
 fn pipelines(gpu: &Gpu) -> &'static Pipelines {
     static PIPELINES: OnceLock<Pipelines> = OnceLock::new();
     PIPELINES.get_or_init(|| {
-        let source = format!("{FRUSTUM}\n{SHADER}");
+        let source = format!("{FRUSTUM}\n{VECTOR64}\n{SHADER}");
         let entry = |binding: u32| {
             let ty = match binding {
                 0 => wgpu::BufferBindingType::Uniform,

@@ -41,14 +41,6 @@ const MAX_POLY: u32 = 8u;
 // llvmpipe stops at 65535), so larger bounds are refused rather than drawn in part.
 const MAX_STEPS: u32 = 65000u;
 
-fn dot_d(a: vec3<f64>, b: vec3<f64>) -> f64 {
-    return ((a.x * b.x) + (a.y * b.y)) + (a.z * b.z);
-}
-
-fn cross_d(a: vec3<f64>, b: vec3<f64>) -> vec3<f64> {
-    return vec3<f64>(a.y * b.z - b.y * a.z, a.z * b.x - b.z * a.x, a.x * b.y - b.x * a.y);
-}
-
 // f64::round: half away from zero.
 fn round_away(x: f64) -> f64 {
     let t = trunc(x);
