@@ -79,19 +79,24 @@ pub(crate) fn masks(setup: &Setup<'_>, stats: &mut Stats) -> Result<Vec<u64>> {
     Ok(out)
 }
 
-/// Iterations that Mesa's llvmpipe lets one loop of one invocation run (it silently stops the
-/// loop after 65535, counted over every time the loop runs in the invocation), less a margin.
+/// Loop iterations that Mesa's llvmpipe lets one invocation run: it silently stops a loop once
+/// the invocation has run 65535 iterations of all its loops together (measured: a loop of 40000
+/// after another of 40000 runs 25534), less a margin.
 const LOOP_BUDGET: usize = 60_000;
+/// Loop iterations of one `cover` invocation before its entry tests: the region search and the
+/// row's span (at most three steps per point of a polygon of at most 3 x 64 points).
+const COVER_LOOPS: usize = 1_000;
 
-/// How many entries of each texel's list one `cover` invocation may test: its costliest loop
-/// runs for at most [`TEXELS_PER_THREAD`] texels times that many entries times the iterations one
-/// entry test takes in it (the exact tests' sample loop over four planes, the table's word
-/// loops, the alpha test's sample loop), within [`LOOP_BUDGET`].
+/// How many entries of each texel's list one `cover` invocation may test, so that its loops stay
+/// within [`LOOP_BUDGET`]: [`TEXELS_PER_THREAD`] texels times that many entries times the loop
+/// iterations of one entry test at most (`test_entry` in `alias_free.wgsl`: per straddling plane
+/// the exact tests' sample loop or the table's two binary searches, and the word loops; the
+/// alpha test's sample loop; the mask's word loops).
 fn entries_per_slot(setup: &Setup<'_>, words: usize) -> u32 {
-    let samples = 32 * words;
-    let tests = if setup.lut.is_some() { 4 * words + 24 } else { 4 * samples };
-    let alpha = if setup.casters.prepared.iter().any(|t| t.alpha) { samples } else { 0 };
-    (LOOP_BUDGET / (TEXELS_PER_THREAD * tests.max(alpha))).max(1) as u32
+    let per_plane = if setup.lut.is_some() { 2 * 8 + 2 * words } else { 32 * words + 2 * words };
+    let alpha = if setup.casters.prepared.iter().any(|t| t.alpha) { 32 * words } else { 0 };
+    let per_entry = 4 * per_plane + alpha + 4 * words + 16;
+    ((LOOP_BUDGET - COVER_LOOPS) / (TEXELS_PER_THREAD * per_entry)).max(1) as u32
 }
 
 /// `values`, refused when larger than a binding of `binding` bytes.

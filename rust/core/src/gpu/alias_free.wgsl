@@ -7,9 +7,9 @@
 // samples into their masks by atomics. The tests repeat the CPU's f64 arithmetic operation for
 // operation (glam's orders, no fused multiply-adds written), and the lookup table's bins are
 // found by the same binary searches, so the masks are the CPU's bits. Mesa's llvmpipe silently
-// stops a loop after 65535 iterations in one invocation, counted over every time the loop runs:
-// each invocation tests at most `per_slot` entries of each of its texels' lists (sized by the host
-// for the costliest loop of one entry test), and dispatches go over the slots of the longest list.
+// stops a loop once an invocation has run 65535 iterations of all its loops together: each
+// invocation tests at most `per_slot` entries of each of its texels' lists (sized by the host for
+// the loops of one entry test), and dispatches go over the slots of the longest list.
 
 struct Params {
     view: View,
