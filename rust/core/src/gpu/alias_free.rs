@@ -12,7 +12,7 @@
 //! by atomics, so the order of the lists and of the threads changes nothing: the result is the
 //! CPU's bits (the f64 arithmetic is repeated operation for operation, see the shader).
 
-use super::context::{context, Gpu};
+use super::context::{context, Binding, Gpu};
 use super::multiview::{view_record, FRUSTUM, VECTOR64};
 use crate::error::{Error, Result};
 use crate::methods::alias_free::Setup;
@@ -394,14 +394,9 @@ struct Pipelines {
 fn pipelines(gpu: &Gpu) -> &'static Pipelines {
     static PIPELINES: OnceLock<Pipelines> = OnceLock::new();
     PIPELINES.get_or_init(|| {
-        let entry = |binding, ty| wgpu::BindGroupLayoutEntry { binding, visibility: wgpu::ShaderStages::COMPUTE, ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None }, count: None };
-        let storage = |binding, read_only| entry(binding, wgpu::BufferBindingType::Storage { read_only });
-        let shared = [entry(0, wgpu::BufferBindingType::Uniform), storage(1, true), storage(2, true), storage(3, true), storage(5, true), storage(6, true), storage(7, false)];
-        let layout = |lists: wgpu::BindGroupLayoutEntry| {
-            let entries: Vec<wgpu::BindGroupLayoutEntry> = shared.iter().copied().chain([lists]).collect();
-            gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("alias_free"), entries: &entries })
-        };
-        let (lists_layout, tests_layout) = (layout(storage(4, false)), layout(storage(8, true)));
+        use Binding::{Read, ReadWrite, Uniform};
+        let layout = |lists: (u32, Binding)| gpu.layout("alias_free", &[(0, Uniform), (1, Read), (2, Read), (3, Read), lists, (5, Read), (6, Read), (7, ReadWrite)]);
+        let (lists_layout, tests_layout) = (layout((4, ReadWrite)), layout((8, Read)));
         let source = format!("{FRUSTUM}\n{VECTOR64}\n{SHADER}");
         let make = |name: &str, layout| gpu.pipeline_with_layout("alias_free", &source, name, layout);
         Pipelines {

@@ -20,6 +20,14 @@ pub struct Gpu {
     adapter_limits: DispatchLimits,
 }
 
+/// How a compute shader binds one buffer of an explicit layout ([`Gpu::layout`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Binding {
+    Uniform,
+    Read,
+    ReadWrite,
+}
+
 /// Threads per workgroup of every shader (`@workgroup_size(64)`).
 pub const WORKGROUP: u64 = 64;
 
@@ -159,6 +167,22 @@ impl Gpu {
         let slot = CLOCK.with(|c| c.borrow_mut().as_mut().and_then(Clock::next_pass));
         let writes = slot.as_ref().map(|(set, at)| wgpu::ComputePassTimestampWrites { query_set: set, beginning_of_pass_write_index: Some(*at), end_of_pass_write_index: Some(at + 1) });
         encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: writes })
+    }
+
+    /// A bind group layout for compute shaders with buffers at the given binding numbers.
+    pub fn layout(&self, label: &str, bindings: &[(u32, Binding)]) -> wgpu::BindGroupLayout {
+        let entries: Vec<wgpu::BindGroupLayoutEntry> = bindings
+            .iter()
+            .map(|&(binding, kind)| {
+                let ty = match kind {
+                    Binding::Uniform => wgpu::BufferBindingType::Uniform,
+                    Binding::Read => wgpu::BufferBindingType::Storage { read_only: true },
+                    Binding::ReadWrite => wgpu::BufferBindingType::Storage { read_only: false },
+                };
+                wgpu::BindGroupLayoutEntry { binding, visibility: wgpu::ShaderStages::COMPUTE, ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None }, count: None }
+            })
+            .collect();
+        self.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries: &entries })
     }
 
     /// A compute pipeline for `entry` of the WGSL `source`, its layout derived from the entry.

@@ -3,7 +3,7 @@
 //! Tables are split into groups of coefficients that fit one storage binding, receivers into
 //! chunks, and every pass into dispatches within the workgroup limit.
 
-use super::context::{context, Gpu};
+use super::context::{context, Binding, Gpu};
 use super::DispatchLimits;
 use crate::error::{Error, Result};
 use crate::methods::cssm::{Shared, Start};
@@ -76,22 +76,7 @@ struct Pipelines {
 fn pipelines(gpu: &Gpu) -> &'static Pipelines {
     static PIPELINES: OnceLock<Pipelines> = OnceLock::new();
     PIPELINES.get_or_init(|| {
-        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { read_only }, has_dynamic_offset: false, min_binding_size: None },
-            count: None,
-        };
-        let uniform = wgpu::BindGroupLayoutEntry {
-            binding: 0,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None },
-            count: None,
-        };
-        let layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("cssm"),
-            entries: &[uniform, storage(1, true), storage(2, false), storage(3, false)],
-        });
+        let layout = gpu.layout("cssm", &[(0, Binding::Uniform), (1, Binding::Read), (2, Binding::ReadWrite), (3, Binding::ReadWrite)]);
         let make = |entry: &str| gpu.pipeline_with_layout("cssm", SHADER, entry, &layout);
         Pipelines {
             basis: make("basis"),

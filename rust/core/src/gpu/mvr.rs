@@ -4,7 +4,7 @@
 //! once per call in chunks within the binding and workgroup limits; views go in batches whose
 //! maps fit one binding.
 
-use super::context::{context, Gpu, WORKGROUP};
+use super::context::{context, Binding, Gpu, WORKGROUP};
 use super::multiview::{decode_maps, upload_views, views_per_batch, Lighting, FRUSTUM, VECTOR64};
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
@@ -27,21 +27,13 @@ fn pipelines(gpu: &Gpu) -> &'static Pipelines {
     static PIPELINES: OnceLock<Pipelines> = OnceLock::new();
     PIPELINES.get_or_init(|| {
         let source = format!("{FRUSTUM}\n{VECTOR64}\n{SHADER}");
-        let entry = |binding: u32| {
-            let ty = match binding {
-                0 => wgpu::BufferBindingType::Uniform,
-                1..=3 => wgpu::BufferBindingType::Storage { read_only: true },
-                _ => wgpu::BufferBindingType::Storage { read_only: false },
-            };
-            wgpu::BindGroupLayoutEntry {
-                binding,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
-                count: None,
-            }
+        let kind = |binding: u32| match binding {
+            0 => Binding::Uniform,
+            1..=3 => Binding::Read,
+            _ => Binding::ReadWrite,
         };
-        let entries: Vec<wgpu::BindGroupLayoutEntry> = (0..8).map(entry).collect();
-        let layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("mvr"), entries: &entries });
+        let bindings: Vec<(u32, Binding)> = (0..8).map(|b| (b, kind(b))).collect();
+        let layout = gpu.layout("mvr", &bindings);
         let make = |name: &str| gpu.pipeline_with_layout("mvr", &source, name, &layout);
         Pipelines { small: make("raster_small"), workgroups: make("large_workgroups"), large: make("raster_large"), layout }
     })
