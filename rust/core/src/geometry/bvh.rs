@@ -46,8 +46,6 @@ const STACK: usize = 256;
 const LEAF: u32 = 1 << 31;
 /// An unused child slot (its box is empty and never hit).
 const EMPTY: u32 = u32::MAX;
-/// Fewest shadow rays of one receiver for which the frustum pass pays off.
-const FRUSTUM_MIN_RAYS: usize = 4;
 /// Conservative scale of box exit distances (>= 1 + 2 gamma_3 of Ize 2013).
 const ROBUST: f32 = 1.0 + 4.0 * f32::EPSILON;
 
@@ -55,6 +53,24 @@ thread_local! {
     /// Per-thread traversal stacks, so that no query zeroes a fresh kilobyte-sized stack.
     static ANY_STACK: RefCell<[u32; STACK]> = const { RefCell::new([0; STACK]) };
     static CLOSEST_STACK: RefCell<[(u32, f32); STACK]> = const { RefCell::new([(0, 0.0); STACK]) };
+}
+
+/// The leaves one frustum pass found ([`Bvh::frustum_candidates`]): at most
+/// [`FrustumCandidates::MAX`].
+#[derive(Debug, Clone, Copy)]
+pub struct FrustumCandidates {
+    leaves: [u32; MAX_CANDIDATES],
+    len: usize,
+}
+
+impl FrustumCandidates {
+    /// Most leaves of one frustum pass.
+    pub const MAX: usize = MAX_CANDIDATES;
+
+    /// Whether the frustum met no leaf: all its segments are unblocked.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
 }
 
 /// A closest hit: distance `t` in units of the ray direction, the global face id and the
@@ -300,26 +316,51 @@ impl Bvh {
         out: &mut Vec<bool>,
     ) -> bool {
         out.clear();
-        if targets.len() < FRUSTUM_MIN_RAYS {
+        if targets.len() < Self::FRUSTUM_MIN_RAYS {
             return false;
         }
-        let Some(f) = Frustum::around(origin, bounds) else { return false };
-        let mut cand = [0u32; MAX_CANDIDATES];
-        let found = ANY_STACK.with(|s| match s.try_borrow_mut() {
-            Ok(mut stack) => f.collect(&self.nodes, self.root, &mut stack, &mut cand),
-            Err(_) => f.collect(&self.nodes, self.root, &mut [0; STACK], &mut cand),
-        });
-        match found {
-            // No candidate: every segment is unblocked.
-            Some(0) => {
-                out.resize(targets.len(), false);
-                true
-            }
-            Some(n) => {
-                self.occluded_by_blocks(Isa::detect(), scene, origin, targets, &cand[..n], out);
+        match self.frustum_candidates(origin, bounds) {
+            Some(cand) => {
+                self.occluded_by_candidates(scene, origin, targets, &cand, out);
                 true
             }
             None => false,
+        }
+    }
+
+    /// Fewest shadow rays of one receiver for which the frustum pass pays off.
+    pub const FRUSTUM_MIN_RAYS: usize = 4;
+
+    /// The first half of the frustum pass: the leaves that the frustum of the segments from
+    /// `origin` to any point of the box `bounds` meets, or `None` when it meets more than
+    /// [`FrustumCandidates::MAX`] (or no pyramid with apex `origin` bounds the box). No
+    /// candidate means that every such segment is unblocked.
+    pub fn frustum_candidates(&self, origin: Vec3, bounds: [Vec3; 2]) -> Option<FrustumCandidates> {
+        let f = Frustum::around(origin, bounds)?;
+        let mut cand = FrustumCandidates { leaves: [0; MAX_CANDIDATES], len: 0 };
+        cand.len = ANY_STACK.with(|s| match s.try_borrow_mut() {
+            Ok(mut stack) => f.collect(&self.nodes, self.root, &mut stack, &mut cand.leaves),
+            Err(_) => f.collect(&self.nodes, self.root, &mut [0; STACK], &mut cand.leaves),
+        })?;
+        Some(cand)
+    }
+
+    /// The second half of the frustum pass: for each target (within the box `cand` was found
+    /// for), whether the open segment from `origin` to it is blocked, by the candidate leaves
+    /// alone. Clears and fills `out`.
+    pub fn occluded_by_candidates(
+        &self,
+        scene: &Scene,
+        origin: Vec3,
+        targets: &[Vec3],
+        cand: &FrustumCandidates,
+        out: &mut Vec<bool>,
+    ) {
+        out.clear();
+        if cand.is_empty() {
+            out.resize(targets.len(), false);
+        } else {
+            self.occluded_by_blocks(Isa::detect(), scene, origin, targets, &cand.leaves[..cand.len], out);
         }
     }
 

@@ -135,6 +135,7 @@ fn trace_shared(scene: &Scene, bvh: &Bvh, receivers: &Receivers, ys: &[Vec3], ep
     let width = receivers.width.max(1);
     let rows = TILE_ROWS.min(receivers.height.max(1));
     let cols = TILE / rows;
+    let shared = SharedSamples::new(ys);
     out.par_chunks_mut(rows * width)
         .enumerate()
         .map_init(TileBuffers::default, |buf, (b, band)| {
@@ -147,19 +148,64 @@ fn trace_shared(scene: &Scene, bvh: &Bvh, receivers: &Receivers, ys: &[Vec3], ep
                     let tile = (0..rows)
                         .flat_map(|r| (x0..(x0 + cols).min(width)).map(move |x| r * width + x))
                         .filter(move |&k| k < len);
-                    trace_tile(scene, bvh, receivers, ys, epsilon, (first, width), tile, band, buf)
+                    trace_tile(scene, bvh, receivers, &shared, epsilon, (first, width), tile, band, buf)
                 })
                 .sum::<u64>()
         })
         .sum()
 }
 
+/// The samples every receiver shares: as points, per axis (for [`SharedSamples::front`]) and
+/// their bounding box.
+struct SharedSamples<'a> {
+    points: &'a [Vec3],
+    axes: [Vec<f32>; 3],
+    bounds: [Vec3; 2],
+}
+
+impl<'a> SharedSamples<'a> {
+    fn new(points: &'a [Vec3]) -> Self {
+        let y0 = points.first().copied().unwrap_or(Vec3::ZERO);
+        Self {
+            points,
+            axes: [0, 1, 2].map(|a| points.iter().map(|y| y[a]).collect()),
+            bounds: points.iter().fold([y0, y0], |[lo, hi], &y| [lo.min(y), hi.max(y)]),
+        }
+    }
+
+    /// Sets `bits` to the samples in front of the tangent plane at `p` with normal `n` (bit
+    /// `s % 64` of word `s / 64` for sample `s`) and returns their count: the test
+    /// `(y - p).dot(n) > 0` of [`receiver_visibility`], the same IEEE operations in the same
+    /// order, in a loop LLVM vectorizes.
+    fn front(&self, p: Vec3, n: Vec3, bits: &mut Vec<u64>) -> u32 {
+        bits.clear();
+        let [xs, ys, zs] = &self.axes;
+        for ((x, y), z) in xs.chunks(64).zip(ys.chunks(64)).zip(zs.chunks(64)) {
+            let mut word = 0u64;
+            for (l, ((&x, &y), &z)) in x.iter().zip(y).zip(z).enumerate() {
+                let dot = (x - p.x) * n.x + (y - p.y) * n.y + (z - p.z) * n.z;
+                word |= u64::from(dot > 0.0) << l;
+            }
+            bits.push(word);
+        }
+        bits.iter().map(|w| w.count_ones()).sum()
+    }
+}
+
+/// The indices of the set bits of `bits` (see [`SharedSamples::front`]), in increasing order.
+fn set_bits(bits: &[u64]) -> impl Iterator<Item = usize> + '_ {
+    bits.iter().enumerate().flat_map(|(w, &word)| {
+        std::iter::successors((word != 0).then_some(word), |&m| Some(m & (m - 1)).filter(|&m| m != 0))
+            .map(move |m| 64 * w + m.trailing_zeros() as usize)
+    })
+}
+
 /// Per-thread buffers of [`trace_tile`].
 #[derive(Debug, Default)]
 struct TileBuffers {
-    /// The samples in front of one receiver, and their indices in `ys`.
+    /// The samples in front of one receiver, as bits and as points.
+    front_bits: Vec<u64>,
     targets: Vec<Vec3>,
-    front_samples: Vec<usize>,
     blocked: Vec<bool>,
     /// The receivers left to the packets: index in the band and lit count, and their ray
     /// origins (lane `h` for `hard[h]`).
@@ -175,21 +221,22 @@ struct TileBuffers {
 /// Traces the receivers `tile` (indices into `band`, whose first receiver is `first`, of a grid
 /// `width` receivers wide) to the shared samples `ys`; returns the rays traced.
 ///
-/// First each receiver's own frustum pass ([`Bvh::occluded_by_frustum`]) answers the
-/// receivers whose rays meet few leaves (all fully lit ones). A receiver whose left and upper
-/// neighbours in the band both went to the packets skips that pass and goes there too: shadow
-/// regions are contiguous, so the pass would almost surely fail after meeting over 16 leaves,
-/// and either path gives the same answers (the left neighbour may lie in the previous tile of
-/// the band, so `b.to_packets` must be reset per band). The rays of the others go by
-/// sample: those of all remaining receivers of the tile to sample `y_s` converge at `y_s` and
-/// are traced as one coherent packet (Benthin and Wald 2009, see `bvh/packet.rs`). Both give
-/// the answers of single rays, so V is the same as [`receiver_visibility`] computes.
+/// First each receiver's own frustum pass ([`Bvh::frustum_candidates`], through the box of
+/// all the samples) answers the receivers whose rays meet few leaves (all fully lit ones,
+/// without listing their samples). A receiver whose left and upper neighbours in the band both
+/// went to the packets skips that pass and goes there too: shadow regions are contiguous, so
+/// the pass would almost surely fail after meeting over 16 leaves, and either path gives the
+/// same answers (the left neighbour may lie in the previous tile of the band, so
+/// `b.to_packets` must be reset per band). The rays of the others go by sample: those of all
+/// remaining receivers of the tile to sample `y_s` converge at `y_s` and are traced as one
+/// coherent packet (Benthin and Wald 2009, see `bvh/packet.rs`). Both give the answers of
+/// single rays, so V is the same as [`receiver_visibility`] computes.
 #[allow(clippy::too_many_arguments)]
 fn trace_tile(
     scene: &Scene,
     bvh: &Bvh,
     receivers: &Receivers,
-    ys: &[Vec3],
+    ys: &SharedSamples,
     epsilon: f32,
     (first, width): (usize, usize),
     tile: impl Iterator<Item = usize>,
@@ -197,15 +244,12 @@ fn trace_tile(
     b: &mut TileBuffers,
 ) -> u64 {
     // Unit weights: the sums of `receiver_visibility` are exact counts here.
-    let total = ys.len() as f64;
+    let total = ys.points.len() as f64;
     let visibility = |lit: u32| fraction(f64::from(lit), total);
     b.hard.clear();
     b.origins.clear();
     b.front.clear();
-    b.front.resize(ys.len(), 0);
-    // A box holding every receiver's targets: they are subsets of the samples.
-    let y0 = ys.first().copied().unwrap_or(Vec3::ZERO);
-    let ys_bounds = ys.iter().fold([y0, y0], |[lo, hi], &y| [lo.min(y), hi.max(y)]);
+    b.front.resize(ys.points.len(), 0);
     let mut rays = 0u64;
     for k in tile {
         let i = first + k;
@@ -214,34 +258,35 @@ fn trace_tile(
         }
         let (p, n) = (receivers.points[i], receivers.normals[i]);
         let origin = p + n * epsilon;
-        b.targets.clear();
-        b.front_samples.clear();
-        for (s, &y) in ys.iter().enumerate() {
-            if (y - p).dot(n) > 0.0 {
-                b.targets.push(y);
-                b.front_samples.push(s);
-            }
-        }
-        rays += b.targets.len() as u64;
+        let count = ys.front(p, n, &mut b.front_bits);
+        rays += u64::from(count);
         let left = k % width > 0 && b.to_packets[k - 1];
         let up = k >= width && b.to_packets[k - width];
-        if !(left && up) && bvh.occluded_by_frustum_within(scene, origin, &b.targets, ys_bounds, &mut b.blocked) {
-            band[k] = visibility(b.blocked.iter().filter(|&&x| !x).count() as u32);
-        } else {
-            b.to_packets[k] = true;
-            let lane = 1u64 << b.hard.len();
-            for &s in &b.front_samples {
-                b.front[s] |= lane;
+        let frustum = count as usize >= Bvh::FRUSTUM_MIN_RAYS && !(left && up);
+        match frustum.then(|| bvh.frustum_candidates(origin, ys.bounds)).flatten() {
+            Some(cand) if cand.is_empty() => band[k] = visibility(count),
+            Some(cand) => {
+                b.targets.clear();
+                b.targets.extend(set_bits(&b.front_bits).map(|s| ys.points[s]));
+                bvh.occluded_by_candidates(scene, origin, &b.targets, &cand, &mut b.blocked);
+                band[k] = visibility(b.blocked.iter().filter(|&&x| !x).count() as u32);
             }
-            b.hard.push((k, 0));
-            b.origins.push(origin);
+            None => {
+                b.to_packets[k] = true;
+                let lane = 1u64 << b.hard.len();
+                for s in set_bits(&b.front_bits) {
+                    b.front[s] |= lane;
+                }
+                b.hard.push((k, 0));
+                b.origins.push(origin);
+            }
         }
     }
     if b.hard.is_empty() {
         return rays;
     }
-    b.blocked_lanes.resize(ys.len(), 0);
-    bvh.occluded_converging_lanes(scene, &b.origins, ys, &b.front, &mut b.blocked_lanes);
+    b.blocked_lanes.resize(ys.points.len(), 0);
+    bvh.occluded_converging_lanes(scene, &b.origins, ys.points, &b.front, &mut b.blocked_lanes);
     for (&front, &blocked) in b.front.iter().zip(&b.blocked_lanes) {
         let mut lit = front & !blocked;
         while lit != 0 {
