@@ -154,6 +154,9 @@ struct Chunk {
     /// The footprint slopes (see [`Slopes`]).
     sa: [f32; W],
     sb: [f32; W],
+    /// The shear permutation of every lane the last aim set, when they all have the same
+    /// (the rule in a packet: its rays are nearly parallel).
+    shared_k: Option<[u32; 3]>,
 }
 
 /// The rays of one packet, transposed [`W`] lanes per [`Chunk`].
@@ -261,6 +264,12 @@ fn pick(v: [f32; 3], k: u32) -> f32 {
     }
 }
 
+/// The point `p` in the permuted axes `[kx, ky, kz]`.
+#[inline(always)]
+fn permuted(p: [f32; 3], [kx, ky, kz]: [u32; 3]) -> [f32; 3] {
+    [pick(p, kx), pick(p, ky), pick(p, kz)]
+}
+
 /// The points `p` (at most [`W`]) per axis, one lane each; lanes past `p` get 0.
 #[inline(always)]
 fn transposed(p: &[Vec3]) -> [[f32; W]; 3] {
@@ -317,6 +326,7 @@ impl Chunk {
         s: [[0.0; W]; 3],
         sa: [0.0; W],
         sb: [0.0; W],
+        shared_k: None,
     };
 
     /// Sets the origins of the lanes (at most [`W`]); lanes past `origins` get the origin 0
@@ -333,6 +343,7 @@ impl Chunk {
     fn aim(&mut self, target: Vec3, lanes: u64, slopes: &Slopes) -> u64 {
         let live = self.aim_lanes(&[[target.x; W], [target.y; W], [target.z; W]], lanes);
         self.aim_slopes(slopes);
+        self.shared_k = self.common_k(live);
         live
     }
 
@@ -341,7 +352,21 @@ impl Chunk {
     #[inline(always)]
     fn set_rays(&mut self, origin: Vec3, targets: &[Vec3]) -> u64 {
         self.origin = [[origin.x; W], [origin.y; W], [origin.z; W]];
-        self.aim_lanes(&transposed(targets), CHUNK_MASK >> (W - targets.len()))
+        let live = self.aim_lanes(&transposed(targets), CHUNK_MASK >> (W - targets.len()));
+        self.shared_k = self.common_k(live);
+        live
+    }
+
+    /// The shear permutation of the lanes `lanes` if they all have the same.
+    #[inline(always)]
+    fn common_k(&self, lanes: u64) -> Option<[u32; 3]> {
+        let first = (lanes != 0).then(|| lanes.trailing_zeros() as usize)?;
+        let k = [self.k[0][first], self.k[1][first], self.k[2][first]];
+        let mut differs = [0u8; W];
+        for l in 0..W {
+            differs[l] = top_bit((self.k[0][l] != k[0]) | (self.k[1][l] != k[1]) | (self.k[2][l] != k[2]));
+        }
+        (movemask(differs) & lanes == 0).then_some(k)
     }
 
     /// Sets the lanes `lanes` to the segments from their origins to `targets[axis][lane]`;
@@ -462,20 +487,34 @@ impl Chunk {
     /// the same order. The lanes with an edge function of exactly zero are redone one by one
     /// with the double-precision edge functions (a cold path, so that the common one keeps
     /// everything in registers).
+    ///
+    /// When the lanes share their shear permutation, the vertices are permuted once for all.
     #[inline(always)]
     fn triangle_lanes(&self, v: &[[f32; 3]; 3], lanes: u64) -> u64 {
-        let (mut hits, mut zero) = ([0u8; W], [0u8; W]);
-        for l in 0..W {
-            let e = self.sheared(l, v);
-            let uvw = edge_functions(&e);
-            hits[l] = top_bit(self.accepts(l, &e, uvw));
-            zero[l] = top_bit((uvw[0] == 0.0) | (uvw[1] == 0.0) | (uvw[2] == 0.0));
-        }
-        let (hits, zero) = (movemask(hits), movemask(zero) & lanes);
+        let (hits, zero) = match self.shared_k {
+            Some(k) => self.edge_tests::<true>(v, &v.map(|p| permuted(p, k))),
+            None => self.edge_tests::<false>(v, v),
+        };
+        let zero = zero & lanes;
         if zero == 0 {
             return hits & lanes;
         }
         self.refined_lanes(v, hits & lanes & !zero, zero)
+    }
+
+    /// The lanes that hit triangle `v` by the watertight test with single-precision edge
+    /// functions, and those with an edge function of exactly zero. `SHARED`: every lane has
+    /// the shear permutation that `vk` holds `v` permuted by.
+    #[inline(always)]
+    fn edge_tests<const SHARED: bool>(&self, v: &[[f32; 3]; 3], vk: &[[f32; 3]; 3]) -> (u64, u64) {
+        let (mut hits, mut zero) = ([0u8; W], [0u8; W]);
+        for l in 0..W {
+            let e = if SHARED { self.sheared_permuted(l, vk) } else { self.sheared(l, v) };
+            let uvw = edge_functions(&e);
+            hits[l] = top_bit(self.accepts(l, &e, uvw));
+            zero[l] = top_bit((uvw[0] == 0.0) | (uvw[1] == 0.0) | (uvw[2] == 0.0));
+        }
+        (movemask(hits), movemask(zero))
     }
 
     /// The lanes of `lanes` that block `b` holds an opaque hit for, triangle by triangle.
@@ -531,16 +570,24 @@ impl Chunk {
     /// `[ax, ay, bx, by, cx, cy, az, bz, cz]`, as in `hit4`.
     #[inline(always)]
     fn sheared(&self, l: usize, v: &[[f32; 3]; 3]) -> [f32; 9] {
-        let [kx, ky, kz] = [self.k[0][l], self.k[1][l], self.k[2][l]];
+        let k = [self.k[0][l], self.k[1][l], self.k[2][l]];
+        self.sheared_permuted(l, &v.map(|p| permuted(p, k)))
+    }
+
+    /// [`Chunk::sheared`] given the vertices already in lane `l`'s permuted axes
+    /// (`vk[vertex] = [x, y, z]` there).
+    #[inline(always)]
+    fn sheared_permuted(&self, l: usize, vk: &[[f32; 3]; 3]) -> [f32; 9] {
         let [ox, oy, oz] = [self.ok[0][l], self.ok[1][l], self.ok[2][l]];
         let [sx, sy] = [self.s[0][l], self.s[1][l]];
-        let (az, bz, cz) = (pick(v[0], kz) - oz, pick(v[1], kz) - oz, pick(v[2], kz) - oz);
-        let ax = (pick(v[0], kx) - ox) - sx * az;
-        let ay = (pick(v[0], ky) - oy) - sy * az;
-        let bx = (pick(v[1], kx) - ox) - sx * bz;
-        let by = (pick(v[1], ky) - oy) - sy * bz;
-        let cx = (pick(v[2], kx) - ox) - sx * cz;
-        let cy = (pick(v[2], ky) - oy) - sy * cz;
+        let [[ax, ay, az], [bx, by, bz], [cx, cy, cz]] = *vk;
+        let (az, bz, cz) = (az - oz, bz - oz, cz - oz);
+        let ax = (ax - ox) - sx * az;
+        let ay = (ay - oy) - sy * az;
+        let bx = (bx - ox) - sx * bz;
+        let by = (by - oy) - sy * bz;
+        let cx = (cx - ox) - sx * cz;
+        let cy = (cy - oy) - sy * cz;
         [ax, ay, bx, by, cx, cy, az, bz, cz]
     }
 
@@ -1032,6 +1079,29 @@ mod tests {
             }
         }
         assert!(blocked > 2000 && lit > 2000, "blocked {blocked}, lit {lit}");
+    }
+
+    #[test]
+    fn converging_packets_with_mixed_shear_axes() {
+        let scene = scene(600, 7);
+        let bvh = Bvh::build(&scene).unwrap();
+        let target = Vec3::new(2.0, 3.0, 2.0);
+        let (mut blocked, mut lit) = (0, 0);
+        for row in 0..12 {
+            // Directions (d, 1.5, dz) with d across 1.5: every chunk of 16 lanes holds rays
+            // whose dominant axis is x and rays whose dominant axis is y (two shear
+            // permutations), so the per-lane path of `Chunk::triangle_lanes` runs.
+            let z = 1.75 + 0.04 * row as f32;
+            let d = |k: usize| 1.2 + 0.04 * (k % 16) as f32 + 0.01 * (k / 16) as f32;
+            let origins: Vec<Vec3> = (0..64).map(|k| Vec3::new(2.0 - d(k), 1.5, z)).collect();
+            for chunk in origins.chunks(W) {
+                let axes: Vec<usize> = chunk.iter().map(|&o| RayData::new(o, target - o).unwrap().k[2]).collect();
+                assert!(axes.contains(&0) && axes.contains(&1), "row {row}: dominant axes {axes:?}");
+            }
+            let (b, l) = check(&bvh, &scene, &origins, target);
+            (blocked, lit) = (blocked + b, lit + l);
+        }
+        assert!(blocked > 50 && lit > 50, "blocked {blocked}, lit {lit}");
     }
 
     #[test]
