@@ -59,8 +59,17 @@ thread_local! {
 /// [`FrustumCandidates::MAX`].
 #[derive(Debug, Clone, Copy)]
 pub struct FrustumCandidates {
-    leaves: [u32; MAX_CANDIDATES],
+    leaves: [LeafRef; MAX_CANDIDATES],
     len: usize,
+}
+
+/// A leaf and the box its parent node stores for it (for the root leaf of a tree of at most
+/// four triangles, the bounds of the whole tree).
+#[derive(Debug, Clone, Copy, Default)]
+struct LeafRef {
+    block: u32,
+    lo: [f32; 3],
+    hi: [f32; 3],
 }
 
 impl FrustumCandidates {
@@ -114,6 +123,12 @@ struct Node4 {
 }
 
 impl Node4 {
+    /// Child `c`, a leaf, with its box.
+    fn leaf_ref(&self, c: usize) -> LeafRef {
+        let [lo, hi] = &self.bounds;
+        LeafRef { block: self.child[c] & !LEAF, lo: [lo[0][c], lo[1][c], lo[2][c]], hi: [hi[0][c], hi[1][c], hi[2][c]] }
+    }
+
     const EMPTY_NODE: Node4 = Node4 { bounds: [[Vec4::INFINITY; 3], [Vec4::NEG_INFINITY; 3]], child: [EMPTY; 4] };
 
     /// Slab test of the four child boxes: the bitmask of those overlapping (0, `t_max`) and
@@ -328,6 +343,29 @@ impl Bvh {
         }
     }
 
+    /// The root: a node index, or the leaf of a tree of at most four triangles with the tree's
+    /// bounds.
+    fn root_ref(&self) -> std::result::Result<u32, LeafRef> {
+        if self.root & LEAF == 0 {
+            return Ok(self.root);
+        }
+        let (lo, hi) = self.bounds;
+        Err(LeafRef { block: self.root & !LEAF, lo: lo.to_array(), hi: hi.to_array() })
+    }
+
+    /// Every leaf with the box its parent stores for it.
+    #[cfg(test)]
+    fn leaf_refs(&self) -> Vec<LeafRef> {
+        match self.root_ref() {
+            Err(leaf) => vec![leaf],
+            Ok(_) => self
+                .nodes
+                .iter()
+                .flat_map(|node| (0..4).filter(|&c| node.child[c] != EMPTY && node.child[c] & LEAF != 0).map(|c| node.leaf_ref(c)))
+                .collect(),
+        }
+    }
+
     /// Fewest shadow rays of one receiver for which the frustum pass pays off.
     pub const FRUSTUM_MIN_RAYS: usize = 4;
 
@@ -337,10 +375,11 @@ impl Bvh {
     /// candidate means that every such segment is unblocked.
     pub fn frustum_candidates(&self, origin: Vec3, bounds: [Vec3; 2]) -> Option<FrustumCandidates> {
         let f = Frustum::around(origin, bounds)?;
-        let mut cand = FrustumCandidates { leaves: [0; MAX_CANDIDATES], len: 0 };
+        let mut cand = FrustumCandidates { leaves: [LeafRef::default(); MAX_CANDIDATES], len: 0 };
+        let root = self.root_ref();
         cand.len = ANY_STACK.with(|s| match s.try_borrow_mut() {
-            Ok(mut stack) => f.collect(&self.nodes, self.root, &mut stack, &mut cand.leaves),
-            Err(_) => f.collect(&self.nodes, self.root, &mut [0; STACK], &mut cand.leaves),
+            Ok(mut stack) => f.collect(&self.nodes, root, &mut stack, &mut cand.leaves),
+            Err(_) => f.collect(&self.nodes, root, &mut [0; STACK], &mut cand.leaves),
         })?;
         Some(cand)
     }

@@ -15,7 +15,7 @@
 //! distances and of the watertight test. A leaf holding a triangle that any ray hits is
 //! therefore always collected; extra leaves cost time only.
 
-use super::{Node4, LEAF, STACK};
+use super::{LeafRef, Node4, LEAF, STACK};
 use glam::{Vec3, Vec4};
 
 /// Most leaves collected before falling back to per-ray traversal.
@@ -136,34 +136,42 @@ impl Frustum {
         m.bitmask()
     }
 
-    /// Collects into `out` the leaves (block indices) of the tree under `root` that may meet
-    /// the frustum; `None` when there are more than [`MAX_CANDIDATES`].
+    /// Collects into `out` the leaves, with their boxes, of the tree under `root` (a node
+    /// index, or a root leaf) that may meet the frustum; `None` when there are more than
+    /// [`MAX_CANDIDATES`].
     pub fn collect(
         &self,
         nodes: &[Node4],
-        root: u32,
+        root: Result<u32, LeafRef>,
         stack: &mut [u32; STACK],
-        out: &mut [u32; MAX_CANDIDATES],
+        out: &mut [LeafRef; MAX_CANDIDATES],
     ) -> Option<usize> {
+        let mut cur = match root {
+            Ok(node) => node,
+            Err(leaf) => {
+                out[0] = leaf;
+                return Some(1);
+            }
+        };
         let (mut sp, mut n) = (0usize, 0usize);
-        let mut cur = root;
         loop {
-            if cur & LEAF == 0 {
-                let node = &nodes[cur as usize];
-                let mut mask = self.overlaps(node);
-                while mask != 0 {
+            let node = &nodes[cur as usize];
+            let mut mask = self.overlaps(node);
+            while mask != 0 {
+                let c = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                if node.child[c] & LEAF != 0 {
+                    if n == MAX_CANDIDATES {
+                        return None;
+                    }
+                    out[n] = node.leaf_ref(c);
+                    n += 1;
+                } else {
                     // Each level leaves at most 3 siblings behind, the deepest adds 4:
                     // at most 3 * depth + 1 <= STACK entries (see `build`).
-                    stack[sp] = node.child[mask.trailing_zeros() as usize];
+                    stack[sp] = node.child[c];
                     sp += 1;
-                    mask &= mask - 1;
                 }
-            } else {
-                if n == MAX_CANDIDATES {
-                    return None;
-                }
-                out[n] = cur & !LEAF;
-                n += 1;
             }
             if sp == 0 {
                 return Some(n);

@@ -39,7 +39,7 @@
 
 use super::frustum::Frustum;
 use super::triangle::RayData;
-use super::{Bvh, Node4, Tri4, LEAF, ROBUST, STACK};
+use super::{Bvh, LeafRef, Node4, Tri4, LEAF, ROBUST, STACK};
 use crate::geometry::mesh::Scene;
 use glam::{Vec3, Vec4};
 use std::cell::RefCell;
@@ -737,6 +737,19 @@ impl Packet {
         out
     }
 
+    /// The lanes of `lanes` whose slab test accepts the box `lo..hi`, chunk by chunk.
+    #[inline(always)]
+    fn box_lanes(&self, lo: [f32; 3], hi: [f32; 3], lanes: u64) -> u64 {
+        let mut out = 0u64;
+        for (c, chunk) in self.chunks.iter().enumerate() {
+            let mine = chunk_lanes(lanes, c);
+            if mine != 0 {
+                out |= (chunk.box_lanes(lo, hi) & mine) << (W * c);
+            }
+        }
+        out
+    }
+
     /// The lanes of `lanes` that block `b` holds an opaque hit for: chunk by chunk (see
     /// [`Packet::child_lanes`]) and triangle by triangle, the watertight test of the chunk's
     /// lanes at once; hits on perforated faces go through the texture.
@@ -906,7 +919,7 @@ impl Bvh {
         scene: &Scene,
         origin: Vec3,
         targets: &[Vec3],
-        cand: &[u32],
+        cand: &[LeafRef],
         out: &mut Vec<bool>,
     ) {
         PACKET.with(|p| match p.try_borrow_mut() {
@@ -918,7 +931,7 @@ impl Bvh {
             }
             // Only busy if `is_opaque_at` re-entered the BVH on this thread: ray by ray.
             Err(_) => out.extend(targets.iter().map(|&y| {
-                let hits = |r: &RayData| cand.iter().any(|&b| self.block_occludes(scene, &self.blocks[b as usize], r, 1.0));
+                let hits = |r: &RayData| cand.iter().any(|c| self.block_occludes(scene, &self.blocks[c.block as usize], r, 1.0));
                 RayData::new(origin, y - origin).is_some_and(|r| hits(&r))
             })),
         });
@@ -932,19 +945,23 @@ impl Bvh {
             p: &mut Packet,
             origin: Vec3,
             targets: &[Vec3],
-            cand: &[u32],
+            cand: &[LeafRef],
         ) -> u64
     }
 
     #[inline(always)]
-    fn blocks_trace_body(&self, scene: &Scene, p: &mut Packet, origin: Vec3, targets: &[Vec3], cand: &[u32]) -> u64 {
+    fn blocks_trace_body(&self, scene: &Scene, p: &mut Packet, origin: Vec3, targets: &[Vec3], cand: &[LeafRef]) -> u64 {
         let live = p.set_rays(origin, targets);
         let mut blocked = 0u64;
-        for &b in cand {
+        for c in cand {
             if blocked == live {
                 break;
             }
-            blocked |= p.blocked_lanes(scene, &self.blocks[b as usize], live & !blocked);
+            // The lanes' own slab tests first, as in the traversal (see `Packet::child_lanes`).
+            let lanes = p.box_lanes(c.lo, c.hi, live & !blocked);
+            if lanes != 0 {
+                blocked |= p.blocked_lanes(scene, &self.blocks[c.block as usize], lanes);
+            }
         }
         blocked
     }
@@ -1179,7 +1196,8 @@ mod tests {
     fn candidate_blocks_equal_single_rays() {
         let scene = scene(600, 9);
         let bvh = Bvh::build(&scene).unwrap();
-        let all: Vec<u32> = (0..bvh.leaf_count() as u32).collect();
+        let all = bvh.leaf_refs();
+        assert_eq!(all.len(), bvh.leaf_count());
         let mut rng = Rng::new(5);
         let (mut blocked, mut lit) = (0, 0);
         for _ in 0..20 {
