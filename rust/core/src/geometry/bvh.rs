@@ -306,9 +306,9 @@ impl Bvh {
     }
 
     /// The frustum pass of [`Bvh::occluded_many`] alone: when the frustum of the segments
-    /// `origin -> targets` meets at most 16 leaves, fills `out` with the answers and returns
-    /// true; otherwise leaves `out` cleared and returns false (the caller traces the rays
-    /// another way, e.g. [`Bvh::occluded_converging`] across receivers).
+    /// `origin -> targets` meets at most [`FrustumCandidates::MAX`] leaves, fills `out` with
+    /// the answers and returns true; otherwise leaves `out` cleared and returns false (the
+    /// caller traces the rays another way, e.g. [`Bvh::occluded_converging`] across receivers).
     pub fn occluded_by_frustum(&self, scene: &Scene, origin: Vec3, targets: &[Vec3], out: &mut Vec<bool>) -> bool {
         match frustum::bounds(targets) {
             Some(bounds) => self.occluded_by_frustum_within(scene, origin, targets, bounds, out),

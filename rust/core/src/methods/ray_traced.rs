@@ -225,7 +225,7 @@ struct TileBuffers {
 /// all the samples) answers the receivers whose rays meet few leaves (all fully lit ones,
 /// without listing their samples). A receiver whose left and upper neighbours in the band both
 /// went to the packets skips that pass and goes there too: shadow regions are contiguous, so
-/// the pass would almost surely fail after meeting over 16 leaves, and either path gives the
+/// the pass would almost surely fail after meeting too many leaves, and either path gives the
 /// same answers (the left neighbour may lie in the previous tile of the band, so
 /// `b.to_packets` must be reset per band). The rays of the others go by sample: those of all
 /// remaining receivers of the tile to sample `y_s` converge at `y_s` and are traced as one

@@ -19,7 +19,7 @@ use super::{LeafRef, Node4, LEAF, STACK};
 use glam::{Vec3, Vec4};
 
 /// Most leaves collected before falling back to per-ray traversal.
-pub(super) const MAX_CANDIDATES: usize = 16;
+pub(super) const MAX_CANDIDATES: usize = 24;
 
 /// One bounding plane `n . (p - o) >= 0` with `n` non-zero on axes `a` and `k` only.
 #[derive(Debug, Clone, Copy)]
