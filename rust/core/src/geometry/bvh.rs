@@ -264,7 +264,7 @@ impl Bvh {
         }
         let Some(r) = RayData::new(origin, dir) else { return false };
         if let Some(b) = self.blocks.get(cache.block as usize) {
-            if self.block_occludes(scene, b, &r, t_max) {
+            if Self::block_occludes(scene, b, &r, t_max) {
                 return true;
             }
         }
@@ -482,7 +482,7 @@ impl Bvh {
                 }
             } else {
                 let b = cur & !LEAF;
-                if self.block_occludes(scene, &self.blocks[b as usize], r, t_max) {
+                if Self::block_occludes(scene, &self.blocks[b as usize], r, t_max) {
                     return Some(b);
                 }
             }
@@ -528,7 +528,7 @@ impl Bvh {
     /// Whether block `b` holds an opaque hit: opaque-mesh lanes answer at once, perforated lanes
     /// go through the texture.
     #[inline(always)]
-    fn block_occludes(&self, scene: &Scene, b: &Tri4, r: &RayData, t_max: f32) -> bool {
+    fn block_occludes(scene: &Scene, b: &Tri4, r: &RayData, t_max: f32) -> bool {
         let lanes = hit4(b, r, t_max);
         if lanes.mask & !b.alpha != 0 {
             return true;
