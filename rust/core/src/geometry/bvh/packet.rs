@@ -172,9 +172,14 @@ pub(super) struct Packet {
     origin_bounds: [Vec3; 2],
     origin_scale: f32,
     slopes: Slopes,
-    /// The lanes that may reach each node on the traversal stack.
+    /// The lanes that may reach each node on the traversal stack, and for a leaf its parent
+    /// node and slot (`4 parent + slot`).
     lane_stack: [u64; STACK],
+    slot_stack: [usize; STACK],
 }
+
+/// The slot of a leaf with no parent node (the root of a tree of at most four triangles).
+const NO_SLOT: usize = usize::MAX;
 
 /// Central projection from the common target `y` along the frustum's dominant axis `k`
 /// (`d_k = (p_k - y_k) sign > 0` on the whole packet): a point `p` maps to the slopes
@@ -669,6 +674,7 @@ impl Packet {
             origin_scale: 0.0,
             slopes: Slopes { y: Vec3::ZERO, k: 0, sign: 1.0, scale: 0.0 },
             lane_stack: [0; STACK],
+            slot_stack: [NO_SLOT; STACK],
         }
     }
 
@@ -743,33 +749,25 @@ impl Packet {
         [amin, amax, bmin, bmax]
     }
 
-    /// For each child `c` of `node` in `children`, the lanes of `lanes` that may reach it: those
-    /// whose slopes lie in its rectangle of `rects` (see [`Packet::child_rects`]) and, for a
-    /// leaf, whose slab test accepts its box (see [`Chunk::box_lanes`]).
+    /// For each child `c` of `node`, the lanes of `lanes` whose slopes lie in its rectangle of
+    /// `rects` (see [`Packet::child_rects`]); none for a child not in `children`.
     ///
     /// Chunk by chunk, so that a chunk's data is loaded once per node, and only for chunks
     /// with lanes (LLVM hoists the loads of every chunk a loop body touches to the loop's
-    /// entry).
+    /// entry). All four rectangles are tested, met or not: the children met are unpredictable,
+    /// and a mispredicted branch costs more than a rectangle test.
     #[inline(always)]
-    fn child_lanes(&self, node: &Node4, rects: &[Vec4; 4], children: u32, lanes: u64) -> [u64; 4] {
-        let [lo, hi] = &node.bounds;
+    fn child_lanes(&self, rects: &[Vec4; 4], children: u32, lanes: u64) -> [u64; 4] {
+        let met = [0, 1, 2, 3].map(|child| 0u64.wrapping_sub(u64::from(children >> child & 1)));
         let mut out = [0u64; 4];
         for (c, chunk) in self.chunks.iter().enumerate() {
             let mine = chunk_lanes(lanes, c);
             if mine == 0 {
                 continue;
             }
-            for (child, out) in out.iter_mut().enumerate() {
-                if children >> child & 1 == 0 {
-                    continue;
-                }
+            for child in 0..4 {
                 let rect = [rects[0][child], rects[1][child], rects[2][child], rects[3][child]];
-                let mut m = chunk.rect_lanes(rect) & mine;
-                if m != 0 && node.child[child] & LEAF != 0 {
-                    let corner = |b: &[Vec4; 3]| [b[0][child], b[1][child], b[2][child]];
-                    m &= chunk.box_lanes(corner(lo), corner(hi));
-                }
-                *out |= m << (W * c);
+                out[child] |= (chunk.rect_lanes(rect) & mine & met[child]) << (W * c);
             }
         }
         out
@@ -1006,9 +1004,10 @@ impl Bvh {
 
     /// Traverses the tree with the packet's frustum, clearing from `active` every lane found
     /// blocked; stops as soon as no lane is active. Each stacked node or leaf carries the lanes
-    /// that may reach it by the projection test (and a leaf's, the slab test), so a subtree is
-    /// left as soon as none of the lanes still active can reach it (the frustum of all lanes
-    /// stays as wide as at the start).
+    /// that may reach it by the projection test, so a subtree is left as soon as none of the
+    /// lanes still active can reach it (the frustum of all lanes stays as wide as at the
+    /// start). A leaf also carries its box (its parent and slot): the lanes still active when
+    /// it is popped run their slab tests, and those accepted the triangle tests.
     ///
     /// One loop, no inner one (see [`Packet::child_lanes`]): leaves are stacked like nodes,
     /// after the inner children of their parent, so they are tested first.
@@ -1016,16 +1015,22 @@ impl Bvh {
     fn packet_traverse(&self, scene: &Scene, p: &mut Packet, f: &Frustum, active: &mut u64, stack: &mut [u32; STACK]) {
         let mut sp = 0usize;
         // A single-leaf tree has no node box: every lane tests the leaf.
-        let (mut cur, mut lanes) = (self.root, *active);
+        let (mut cur, mut lanes, mut slot) = (self.root, *active, NO_SLOT);
         loop {
             lanes &= *active;
             if lanes != 0 && cur & LEAF != 0 {
-                *active &= !p.blocked_lanes(scene, &self.blocks[(cur & !LEAF) as usize], lanes);
+                if slot != NO_SLOT {
+                    let leaf = self.nodes[slot / 4].leaf_ref(slot % 4);
+                    lanes = p.box_lanes(leaf.lo, leaf.hi, lanes);
+                }
+                if lanes != 0 {
+                    *active &= !p.blocked_lanes(scene, &self.blocks[(cur & !LEAF) as usize], lanes);
+                }
             } else if lanes != 0 {
                 let node = &self.nodes[cur as usize];
                 let children = f.overlaps(node);
                 if children != 0 {
-                    let sub = p.child_lanes(node, &p.child_rects(node), children, lanes);
+                    let sub = p.child_lanes(&p.child_rects(node), children, lanes);
                     for leaves in [false, true] {
                         for (c, &sub) in sub.iter().enumerate() {
                             if sub != 0 && (node.child[c] & LEAF != 0) == leaves {
@@ -1034,6 +1039,7 @@ impl Bvh {
                                 // deepest adds 4.
                                 stack[sp] = node.child[c];
                                 p.lane_stack[sp] = sub;
+                                p.slot_stack[sp] = cur as usize * 4 + c;
                                 sp += 1;
                             }
                         }
@@ -1044,7 +1050,7 @@ impl Bvh {
                 return;
             }
             sp -= 1;
-            (cur, lanes) = (stack[sp], p.lane_stack[sp]);
+            (cur, lanes, slot) = (stack[sp], p.lane_stack[sp], p.slot_stack[sp]);
         }
     }
 }
