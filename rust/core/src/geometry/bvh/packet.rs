@@ -15,9 +15,11 @@
 //!   different small leaves, and lanes leave the packet when blocked, so the lines of the
 //!   active lanes are far thinner than the frustum and whole subtrees are skipped once no
 //!   active lane can reach them;
-//! - at a leaf, the lanes left are box-tested with the exact arithmetic of the single-ray slab
-//!   test (`Node4::hit`), and the survivors run the watertight test of `bvh/triangle.rs`
-//!   triangle by triangle, many lanes at once;
+//! - at a leaf, the lanes still active when it is popped are box-tested with the exact
+//!   arithmetic of the single-ray slab test (`Node4::hit`), and the survivors run the
+//!   watertight test of `bvh/triangle.rs`: triangle by triangle, many lanes at once (the
+//!   vertices permuted once when the lanes share their shear axes, as nearly parallel rays
+//!   do), or lane by lane, four triangles at once, for a chunk bringing only a few lanes;
 //! - a blocked lane leaves the packet, and the traversal stops when no lane is left.
 //!
 //! Lane data is transposed into [`Chunk`]s of [`W`] lanes and every per-lane test is a plain
@@ -30,7 +32,8 @@
 //!
 //! Exactness: every lane does the IEEE operations, in the same order, of the `RayData` that
 //! [`Bvh::occluded`] builds for the same segment and of its slab and watertight tests (LLVM
-//! never fuses or reorders float operations, whatever the vector width); a leaf is skipped for
+//! never fuses or reorders float operations, whatever the vector width; lanes tested one by
+//! one run `hit4` itself on their own `RayData`); a leaf is skipped for
 //! a lane only when the frustum or the projection test (both conservative, with margins far
 //! above float rounding) or that lane's own slab test (identical to the single ray's, which
 //! never culls a leaf holding a watertight hit) rejects it. An opaque hit anywhere in the open
