@@ -72,6 +72,14 @@ struct LeafRef {
     hi: [f32; 3],
 }
 
+/// Where a traversal starts: the root node, or the only leaf of a tree of at most four
+/// triangles.
+#[derive(Debug, Clone, Copy)]
+enum Root {
+    Node(u32),
+    Leaf(LeafRef),
+}
+
 impl FrustumCandidates {
     /// Most leaves of one frustum pass.
     pub const MAX: usize = MAX_CANDIDATES;
@@ -343,22 +351,21 @@ impl Bvh {
         }
     }
 
-    /// The root: a node index, or the leaf of a tree of at most four triangles with the tree's
-    /// bounds.
-    fn root_ref(&self) -> std::result::Result<u32, LeafRef> {
+    /// The root node, or the only leaf with the tree's bounds.
+    fn root_ref(&self) -> Root {
         if self.root & LEAF == 0 {
-            return Ok(self.root);
+            return Root::Node(self.root);
         }
         let (lo, hi) = self.bounds;
-        Err(LeafRef { block: self.root & !LEAF, lo: lo.to_array(), hi: hi.to_array() })
+        Root::Leaf(LeafRef { block: self.root & !LEAF, lo: lo.to_array(), hi: hi.to_array() })
     }
 
     /// Every leaf with the box its parent stores for it.
     #[cfg(test)]
     fn leaf_refs(&self) -> Vec<LeafRef> {
         match self.root_ref() {
-            Err(leaf) => vec![leaf],
-            Ok(_) => self
+            Root::Leaf(leaf) => vec![leaf],
+            Root::Node(_) => self
                 .nodes
                 .iter()
                 .flat_map(|node| (0..4).filter(|&c| node.child[c] != EMPTY && node.child[c] & LEAF != 0).map(|c| node.leaf_ref(c)))

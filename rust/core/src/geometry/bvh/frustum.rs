@@ -15,7 +15,7 @@
 //! distances and of the watertight test. A leaf holding a triangle that any ray hits is
 //! therefore always collected; extra leaves cost time only.
 
-use super::{LeafRef, Node4, LEAF, STACK};
+use super::{LeafRef, Node4, Root, LEAF, STACK};
 use glam::{Vec3, Vec4};
 
 /// Most leaves collected before falling back to per-ray traversal.
@@ -136,19 +136,18 @@ impl Frustum {
         m.bitmask()
     }
 
-    /// Collects into `out` the leaves, with their boxes, of the tree under `root` (a node
-    /// index, or a root leaf) that may meet the frustum; `None` when there are more than
-    /// [`MAX_CANDIDATES`].
+    /// Collects into `out` the leaves, with their boxes, of the tree under `root` that may meet
+    /// the frustum; `None` when there are more than [`MAX_CANDIDATES`].
     pub fn collect(
         &self,
         nodes: &[Node4],
-        root: Result<u32, LeafRef>,
+        root: Root,
         stack: &mut [u32; STACK],
         out: &mut [LeafRef; MAX_CANDIDATES],
     ) -> Option<usize> {
         let mut cur = match root {
-            Ok(node) => node,
-            Err(leaf) => {
+            Root::Node(node) => node,
+            Root::Leaf(leaf) => {
                 out[0] = leaf;
                 return Some(1);
             }
