@@ -373,6 +373,33 @@ impl Bvh {
         }
     }
 
+    /// Whether no leaf may meet a segment from a point of the box `a` to a point of the box
+    /// `b` (`[min, max]` each): then every such segment is unblocked. False also when the test
+    /// does not apply (`b` not larger than `a`, or overlapping it).
+    ///
+    /// One traversal with the frustum through the corners of both boxes from an apex behind
+    /// `a`, on the line from the center of `b` through that of `a`: it holds the boxes, so
+    /// their convex hull and every such segment (see [`Frustum::around_boxes`]). The apex is
+    /// placed (a quarter further than) where the cone tangent to both boxes' bounding spheres
+    /// has its tip, which makes the frustum about as thin as the hull: the shaft of Haines and
+    /// Wallace (1994) with a pyramid's planes.
+    pub fn shaft_is_empty(&self, a: [Vec3; 2], b: [Vec3; 2]) -> bool {
+        let (ca, cb) = ((a[0] + a[1]) * 0.5, (b[0] + b[1]) * 0.5);
+        let (ra, rb) = ((a[1] - a[0]).length() * 0.5, (b[1] - b[0]).length() * 0.5);
+        let axis = ca - cb;
+        let len = axis.length();
+        // `!(x > y)` also refuses NaN.
+        if !(rb > ra && len > 0.0) {
+            return false;
+        }
+        let behind = (1.25 * ra / (rb - ra)).max(1e-3) * len;
+        let Some(f) = Frustum::around_boxes(ca + axis * (behind / len), &[a, b]) else { return false };
+        ANY_STACK.with(|s| match s.try_borrow_mut() {
+            Ok(mut stack) => f.collect(&self.nodes, self.root_ref(), &mut stack, &mut []),
+            Err(_) => f.collect(&self.nodes, self.root_ref(), &mut [0; STACK], &mut []),
+        }) == Some(0)
+    }
+
     /// Fewest shadow rays of one receiver for which the frustum pass pays off.
     pub const FRUSTUM_MIN_RAYS: usize = 4;
 
@@ -615,6 +642,56 @@ fn push_far_children(node: &Node4, mask: u32, tnear: Vec4, stack: &mut [(u32, f3
 mod tests {
     use super::*;
     use crate::geometry::mesh::Mesh;
+    use crate::light::sampling::Rng;
+
+    /// The shaft test is conservative: no segment between points of two boxes whose shaft is
+    /// empty is blocked (random points and corners, against single rays), and it finds shafts
+    /// both empty and not, the latter with blocked segments.
+    #[test]
+    fn empty_shafts_hold_no_blocked_segment() {
+        let mut rng = Rng::new(17);
+        let mut point = |lo: Vec3, size: Vec3| lo + size * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+        // Small random triangles over [0, 4]^3 and a ground quad at y = -0.5.
+        let (mut positions, mut faces) = (Vec::new(), Vec::new());
+        for t in 0..120u32 {
+            let a = point(Vec3::ZERO, Vec3::splat(4.0));
+            positions.extend([a, a + point(Vec3::splat(-0.3), Vec3::splat(0.6)), a + point(Vec3::splat(-0.3), Vec3::splat(0.6))]);
+            faces.push([3 * t, 3 * t + 1, 3 * t + 2]);
+        }
+        let ground = [(-1.0, -1.0), (5.0, -1.0), (5.0, 5.0), (-1.0, 5.0)].map(|(x, z)| Vec3::new(x, -0.5, z));
+        let meshes = vec![
+            Mesh::new(positions, faces, None, None, false).unwrap(),
+            Mesh::new(ground.to_vec(), vec![[0, 1, 2], [0, 2, 3]], None, None, false).unwrap(),
+        ];
+        let scene = Scene::new(meshes).unwrap();
+        let bvh = Bvh::build(&scene).unwrap();
+        let (mut empty, mut blocked_in_full) = (0, 0);
+        for _ in 0..3000 {
+            // A tile of origins just above the ground or among the triangles, a light above.
+            let a0 = point(Vec3::new(-0.5, -0.49, -0.5), Vec3::new(5.0, 4.0, 5.0));
+            let a = [a0, a0 + point(Vec3::ZERO, Vec3::new(0.15, 0.02, 0.15))];
+            let b0 = point(Vec3::new(-1.0, 6.0, -1.0), Vec3::new(6.0, 1.0, 6.0));
+            let b = [b0, b0 + Vec3::new(0.8, 0.05, 0.8)];
+            let is_empty = bvh.shaft_is_empty(a, b);
+            let corner = |[lo, hi]: [Vec3; 2], c: usize| Vec3::select(glam::BVec3::new(c & 1 != 0, c & 2 != 0, c & 4 != 0), hi, lo);
+            let mut blocked = 0;
+            for s in 0..64 {
+                let (p, q) = if s < 8 { (corner(a, s), corner(b, 7 - s)) } else { (point(a[0], a[1] - a[0]), point(b[0], b[1] - b[0])) };
+                blocked += usize::from(bvh.occluded(&scene, p, q - p, 1.0));
+            }
+            if is_empty {
+                assert_eq!(blocked, 0, "empty shaft {a:?} -> {b:?}");
+                empty += 1;
+            } else {
+                blocked_in_full += blocked;
+            }
+        }
+        assert!(empty > 300 && blocked_in_full > 10000, "empty {empty}, blocked {blocked_in_full}");
+        // Boxes the test does not apply to: the same box, and a larger box of origins.
+        let box_a = [Vec3::new(1.0, 0.0, 1.0), Vec3::new(1.2, 0.1, 1.2)];
+        assert!(!bvh.shaft_is_empty(box_a, box_a));
+        assert!(!bvh.shaft_is_empty([Vec3::new(-1.0, -0.4, -1.0), Vec3::new(5.0, -0.3, 5.0)], [Vec3::splat(9.0), Vec3::splat(9.1)]));
+    }
 
     /// Fuzzing regression: a NaN or infinite origin or direction (a receiver or sample near
     /// f32::MAX overflowing `p + epsilon n` or `y - p`) made the slab test accept the empty child

@@ -12,9 +12,10 @@
 //! go to [`Bvh::occluded_many`] together: they share their origin, so one frustum traversal
 //! finds the few leaves they may hit (none for a lit receiver), and umbra rays reuse the leaf
 //! that blocked the previous ray; neither changes an answer. When all receivers share their
-//! samples, receivers in penumbra or umbra are instead traced by screen tiles, as coherent
-//! packets of the tile's rays to each sample ([`Bvh::occluded_converging`], after Benthin and
-//! Wald 2009): same answers, about twice as fast for those rays.
+//! samples, the receivers go by screen tiles: a tile whose shaft to the samples meets no leaf
+//! is lit at once (Haines and Wallace 1994), and receivers in penumbra or umbra are traced as
+//! coherent packets of the tile's rays to each sample ([`Bvh::occluded_converging`], after
+//! Benthin and Wald 2009): same answers, about twice as fast for those rays.
 
 use crate::error::{Error, Result};
 use crate::geometry::bvh::Bvh;
@@ -203,6 +204,8 @@ fn set_bits(bits: &[u64]) -> impl Iterator<Item = usize> + '_ {
 /// Per-thread buffers of [`trace_tile`].
 #[derive(Debug, Default)]
 struct TileBuffers {
+    /// The valid receivers of the tile (indices in the band).
+    tile: Vec<usize>,
     /// The samples in front of one receiver, as bits and as points.
     front_bits: Vec<u64>,
     targets: Vec<Vec3>,
@@ -221,9 +224,11 @@ struct TileBuffers {
 /// Traces the receivers `tile` (indices into `band`, whose first receiver is `first`, of a grid
 /// `width` receivers wide) to the shared samples `ys`; returns the rays traced.
 ///
-/// First each receiver's own frustum pass ([`Bvh::frustum_candidates`], through the box of
-/// all the samples) answers the receivers whose rays meet few leaves (all fully lit ones,
-/// without listing their samples). A receiver whose left and upper neighbours in the band both
+/// When no leaf meets the shaft between the tile's ray origins and the samples
+/// ([`Bvh::shaft_is_empty`]), every receiver of the tile sees all its front samples. Otherwise
+/// each receiver's own frustum pass ([`Bvh::frustum_candidates`], through the box of all the
+/// samples) answers the receivers whose rays meet few leaves (all fully lit ones, without
+/// listing their samples). A receiver whose left and upper neighbours in the band both
 /// went to the packets skips that pass and goes there too: shadow regions are contiguous, so
 /// the pass would almost surely fail after meeting too many leaves, and either path gives the
 /// same answers (the left neighbour may lie in the previous tile of the band, so
@@ -250,16 +255,23 @@ fn trace_tile(
     b.origins.clear();
     b.front.clear();
     b.front.resize(ys.points.len(), 0);
+    b.tile.clear();
+    b.tile.extend(tile.filter(|&k| receivers.valid[first + k]));
+    let origin = |k: usize| receivers.points[first + k] + receivers.normals[first + k] * epsilon;
+    let Some(&k0) = b.tile.first() else { return 0 };
+    let origins = b.tile.iter().fold([origin(k0); 2], |[lo, hi], &k| [lo.min(origin(k)), hi.max(origin(k))]);
+    let lit_tile = bvh.shaft_is_empty(origins, ys.bounds);
     let mut rays = 0u64;
-    for k in tile {
+    for &k in &b.tile {
         let i = first + k;
-        if !receivers.valid[i] {
-            continue;
-        }
         let (p, n) = (receivers.points[i], receivers.normals[i]);
-        let origin = p + n * epsilon;
+        let origin = origin(k);
         let count = ys.front(p, n, &mut b.front_bits);
         rays += u64::from(count);
+        if lit_tile {
+            band[k] = visibility(count);
+            continue;
+        }
         let left = k % width > 0 && b.to_packets[k - 1];
         let up = k >= width && b.to_packets[k - width];
         let frustum = count as usize >= Bvh::FRUSTUM_MIN_RAYS && !(left && up);

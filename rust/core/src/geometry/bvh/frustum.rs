@@ -67,7 +67,25 @@ impl Frustum {
     ///
     /// `[tlo, thi]` may be any box holding the targets (e.g. the bounds of a superset of them):
     /// a looser frustum changes only the speed.
-    pub fn around(origin: Vec3, [tlo, thi]: [Vec3; 2]) -> Option<Frustum> {
+    pub fn around(origin: Vec3, targets: [Vec3; 2]) -> Option<Frustum> {
+        Self::pyramid(origin, &[targets], targets, [targets[0].min(origin), targets[1].max(origin)])
+    }
+
+    /// The frustum with apex `apex` through the corners of every box of `boxes` (`[min, max]`
+    /// each), cut by their bounding box: it holds every point of the boxes, so (being convex)
+    /// every segment between two such points, and nothing outside their bounding box. `None`
+    /// under the condition of [`Frustum::around`], for the corners of all the boxes and the
+    /// dominant axis of the center of their bounding box, or without boxes.
+    pub fn around_boxes(apex: Vec3, boxes: &[[Vec3; 2]]) -> Option<Frustum> {
+        let [first, ..] = boxes else { return None };
+        let bounds = boxes.iter().fold(*first, |[lo, hi], b| [lo.min(b[0]), hi.max(b[1])]);
+        Self::pyramid(apex, boxes, bounds, bounds)
+    }
+
+    /// The pyramid with apex `origin` through the corners of `boxes`, whose bounding box is
+    /// `[tlo, thi]`, cut by the box `[lo, hi]` (see [`Frustum::around`] and
+    /// [`Frustum::around_boxes`]).
+    fn pyramid(origin: Vec3, boxes: &[[Vec3; 2]], [tlo, thi]: [Vec3; 2], [lo, hi]: [Vec3; 2]) -> Option<Frustum> {
         let center = (tlo + thi) * 0.5 - origin;
         let s = center.abs();
         let k = if s.x >= s.y && s.x >= s.z {
@@ -81,17 +99,18 @@ impl Frustum {
         let (i, j) = ((k + 1) % 3, (k + 2) % 3);
         let (mut amin, mut amax, mut bmin, mut bmax) =
             (f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY);
-        for corner in 0..8 {
-            let q = Vec3::select(glam::BVec3::new(corner & 1 != 0, corner & 2 != 0, corner & 4 != 0), thi, tlo);
-            let d = q - origin;
-            let dk = d[k] * sign;
-            if dk.is_nan() || dk <= 0.0 {
-                return None;
+        for &[blo, bhi] in boxes {
+            for corner in 0..8 {
+                let q = Vec3::select(glam::BVec3::new(corner & 1 != 0, corner & 2 != 0, corner & 4 != 0), bhi, blo);
+                let d = q - origin;
+                let dk = d[k] * sign;
+                if dk.is_nan() || dk <= 0.0 {
+                    return None;
+                }
+                let (a, b) = (d[i] / dk, d[j] / dk);
+                (amin, amax, bmin, bmax) = (amin.min(a), amax.max(a), bmin.min(b), bmax.max(b));
             }
-            let (a, b) = (d[i] / dk, d[j] / dk);
-            (amin, amax, bmin, bmax) = (amin.min(a), amax.max(a), bmin.min(b), bmax.max(b));
         }
-        let (lo, hi) = (tlo.min(origin), thi.max(origin));
         if !(amin.is_finite() && amax.is_finite() && bmin.is_finite() && bmax.is_finite()) {
             return None;
         }
@@ -137,18 +156,12 @@ impl Frustum {
     }
 
     /// Collects into `out` the leaves, with their boxes, of the tree under `root` that may meet
-    /// the frustum; `None` when there are more than [`MAX_CANDIDATES`].
-    pub fn collect(
-        &self,
-        nodes: &[Node4],
-        root: Root,
-        stack: &mut [u32; STACK],
-        out: &mut [LeafRef; MAX_CANDIDATES],
-    ) -> Option<usize> {
+    /// the frustum; `None` when there are more than `out` holds.
+    pub fn collect(&self, nodes: &[Node4], root: Root, stack: &mut [u32; STACK], out: &mut [LeafRef]) -> Option<usize> {
         let mut cur = match root {
             Root::Node(node) => node,
             Root::Leaf(leaf) => {
-                out[0] = leaf;
+                *out.first_mut()? = leaf;
                 return Some(1);
             }
         };
@@ -160,10 +173,7 @@ impl Frustum {
                 let c = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
                 if node.child[c] & LEAF != 0 {
-                    if n == MAX_CANDIDATES {
-                        return None;
-                    }
-                    out[n] = node.leaf_ref(c);
+                    *out.get_mut(n)? = node.leaf_ref(c);
                     n += 1;
                 } else {
                     // Each level leaves at most 3 siblings behind, the deepest adds 4:
