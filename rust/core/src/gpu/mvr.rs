@@ -23,6 +23,11 @@ struct Pipelines {
     large: wgpu::ComputePipeline,
 }
 
+/// Extra slots of the large-triangle list, for triangles that need several workgroups' worth
+/// of texels (`STEPS` per thread in `mvr.wgsl`, about 944k texels a slot): a triangle filling a
+/// 16384^2 map takes 285.
+const LARGE_SLOTS: u64 = 1024;
+
 fn pipelines(gpu: &Gpu) -> &'static Pipelines {
     static PIPELINES: OnceLock<Pipelines> = OnceLock::new();
     PIPELINES.get_or_init(|| {
@@ -114,11 +119,11 @@ impl Rasterizer {
         let fars: Vec<f32> = views.iter().map(|v| v.far).collect();
         let fars = gpu.buffer_init("mvr fars", bytemuck::cast_slice(&fars), wgpu::BufferUsages::STORAGE);
         let p = pipelines(gpu);
-        // The large-triangle list: room for every (triangle, view) pair of the largest chunk, as
-        // far as one binding holds.
+        // The large triangles' slots (16 bytes each): room for a slot of every (triangle, view)
+        // pair of the largest chunk and LARGE_SLOTS more, as far as one binding holds.
         let limits = gpu.limits();
-        let most = self.chunks.iter().map(|(_, n)| u64::from(*n)).max().unwrap_or(1) * views.len() as u64;
-        let large = gpu.storage("mvr large triangles", most.min(limits.binding_bytes / 8).max(1) * 8);
+        let most = self.chunks.iter().map(|(_, n)| u64::from(*n)).max().unwrap_or(1) * views.len() as u64 + LARGE_SLOTS;
+        let large = gpu.storage("mvr large triangles", most.min(limits.binding_bytes / 16).max(1) * 16);
         let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("mvr") });
         encoder.clear_buffer(&maps, 0, None);
         encoder.clear_buffer(&counters, 0, None);

@@ -6,8 +6,9 @@
 // polygon's depth range. Maps keep the minimum depth as frustum.wgsl stores it.
 //
 // `raster_small` runs one thread per (triangle, view); a triangle whose bounds hold more texels
-// than one thread may visit goes to the `large` list, whose entries `raster_large` draws with one
-// workgroup each, its 64 threads sharing the texels (every thread sets the triangle up alike).
+// than one thread may visit goes to the `large` list in slots, each of which `raster_large` draws
+// with one workgroup, its 64 threads sharing the slot's texels (every thread sets the triangle up
+// alike).
 
 struct Params {
     triangles: u32,   // in this dispatch
@@ -25,21 +26,26 @@ struct Params {
 @group(0) @binding(2) var<storage, read> fars: array<f32>;
 @group(0) @binding(3) var<storage, read> triangles: array<f32>;
 @group(0) @binding(4) var<storage, read_write> maps: array<atomic<u32>>;
-// Per view: the fragments drawn; the last entry counts triangles too large even for a workgroup
-// (more than MAX_STEPS texels per thread) or beyond the `large` list's capacity.
+// Per view: the fragments drawn; the last entry counts the triangles refused: those whose slots
+// did not fit the `large` list.
 @group(0) @binding(5) var<storage, read_write> fragments: array<atomic<u32>>;
-// The large triangles' (triangle, view) pairs; the indirect dispatch of `raster_large`
-// (x, y, 1 workgroups: entry y * max_groups + x) and, last, the pairs found (some may not have
+// The large triangles' slots (triangle, view, slot, 0); the indirect dispatch of `raster_large`
+// (x, y, 1 workgroups: entry y * max_groups + x) and, last, the slots found (some may not have
 // fit the list).
-@group(0) @binding(6) var<storage, read_write> large: array<vec2<u32>>;
+@group(0) @binding(6) var<storage, read_write> large: array<vec4<u32>>;
 @group(0) @binding(7) var<storage, read_write> large_dispatch: array<atomic<u32>, 4>;
 
 const GUARD_TEXELS: f64 = 65536.0lf;
 const SUBPIXEL: f64 = 256.0lf;
 const MAX_POLY: u32 = 8u;
-// Texels one thread visits at most per fan triangle: drivers may cap a loop's iterations (Mesa's
-// llvmpipe stops at 65535), so larger bounds are refused rather than drawn in part.
-const MAX_STEPS: u32 = 65000u;
+// Texels one thread visits at most in one invocation. Drivers may cap loops: Mesa's llvmpipe
+// silently stops an invocation's loops once they have run 65535 iterations all together (see
+// gpu/alias_free.rs). Within a budget of 60000: the setup's loops (under 1000) and, per texel,
+// the texel loop and its edge loop of 3 (which llvmpipe unrolls: 32768 texels per thread ran
+// whole; counted anyway, for a driver that does not).
+const STEPS: u32 = (60000u - 1000u) / 4u;
+// Threads of a `raster_large` workgroup.
+const LANES: u32 = 64u;
 
 // f64::round: half away from zero.
 fn round_away(x: f64) -> f64 {
@@ -242,26 +248,35 @@ fn snap(s: Setup, f: u32) -> Snapped {
     return out;
 }
 
-// The most texels a fan triangle of `s` spans.
-fn largest_bounds(s: Setup) -> u32 {
-    var most = 0u;
+// The texels of the fan triangles' bounds of `s` that thread 0 of `lanes` visits (the most of
+// any thread): its steps.
+fn steps(s: Setup, lanes: u32) -> u32 {
+    var total = 0u;
     for (var f = 1u; f + 1u < s.count; f = f + 1u) {
         let t = snap(s, f);
-        most = max(most, t.size.x * t.size.y);
+        total = total + (t.size.x * t.size.y + lanes - 1u) / lanes;
     }
-    return most;
+    return total;
 }
 
-// Draws the texels `lane`, `lane + lanes`, ... of every fan triangle's bounds into view k's map;
-// returns the fragments drawn.
-fn draw(s: Setup, k: u32, lane: u32, lanes: u32) -> u32 {
+// Draws into view k's map the texels `lane`, `lane + lanes`, ... of every fan triangle's bounds,
+// in order, from the `first`-th of this thread's steps on, `count` steps at most; returns the
+// fragments drawn.
+fn draw(s: Setup, k: u32, lane: u32, lanes: u32, first: u32, count: u32) -> u32 {
     let texels = params.width * params.height;
     let hs = SUBPIXEL / 2.0lf;
     var drawn = 0u;
-    for (var f = 1u; f + 1u < s.count; f = f + 1u) {
+    // This thread's steps before fan triangle f.
+    var before = 0u;
+    for (var f = 1u; f + 1u < s.count && before < first + count; f = f + 1u) {
         let t = snap(s, f);
         let cells = t.size.x * t.size.y;
-        for (var c = lane; c < cells; c = c + lanes) {
+        let mine = select(0u, (cells - lane + lanes - 1u) / lanes, cells > lane);
+        let j0 = max(first, before) - before;
+        let j1 = min(first + count, before + mine) - before;
+        before = before + mine;
+        for (var j = j0; j < j1; j = j + 1u) {
+            let c = lane + j * lanes;
             let tx_ = t.lo.x + c % t.size.x;
             let ty_ = t.lo.y + c / t.size.x;
             let px = f64(tx_) * SUBPIXEL + hs;
@@ -299,16 +314,19 @@ fn raster_small(@builtin(global_invocation_id) id: vec3<u32>) {
     if (s.count < 3u) {
         return;
     }
-    if (largest_bounds(s) > MAX_STEPS) {
-        let entry = atomicAdd(&large_dispatch[3], 1u);
-        if (entry < arrayLength(&large)) {
-            large[entry] = id.xy;
-        } else {
+    if (steps(s, 1u) > STEPS) {
+        let slots = (steps(s, LANES) + STEPS - 1u) / STEPS;
+        let first = atomicAdd(&large_dispatch[3], slots);
+        if (first + slots > arrayLength(&large)) {
             refuse();
+            return;
+        }
+        for (var q = 0u; q < slots; q = q + 1u) {
+            large[first + q] = vec4<u32>(id.x, id.y, q, 0u);
         }
         return;
     }
-    let drawn = draw(s, id.y, 0u, 1u);
+    let drawn = draw(s, id.y, 0u, 1u, 0u, STEPS);
     if (drawn > 0u) {
         atomicAdd(&fragments[id.y], drawn);
     }
@@ -322,7 +340,7 @@ fn large_workgroups() {
     atomicStore(&large_dispatch[1], (n + params.max_groups - 1u) / params.max_groups);
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(LANES)
 fn raster_large(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
     let index = group.y * params.max_groups + group.x;
     if (index >= min(atomicLoad(&large_dispatch[3]), arrayLength(&large))) {
@@ -330,13 +348,7 @@ fn raster_large(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocati
     }
     let entry = large[index];
     let s = setup(entry.x, entry.y);
-    if (largest_bounds(s) / 64u > MAX_STEPS) {
-        if (lane == 0u) {
-            refuse();
-        }
-        return;
-    }
-    let drawn = draw(s, entry.y, lane, 64u);
+    let drawn = draw(s, entry.y, lane, LANES, entry.z * STEPS, STEPS);
     if (drawn > 0u) {
         atomicAdd(&fragments[entry.y], drawn);
     }
