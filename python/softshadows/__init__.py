@@ -24,6 +24,8 @@ from .scene import Mesh, Scene
 
 __version__ = "0.1.0"
 
+from . import claims  # noqa: E402  (its measurements call the methods above)
+
 
 def set_memory_limit(bytes: int | None) -> None:
     """Caps the working memory a call may plan to allocate (``None`` restores 75% of RAM).
@@ -72,6 +74,7 @@ if hasattr(_os, "register_at_fork"):
 
 __all__ = [
     "alias_free",
+    "claims",
     "evaluate",
     "sweep",
     "backprojection",

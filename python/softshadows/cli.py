@@ -4,6 +4,8 @@
 reference and writes a picture grid, EXR files and a metrics table (Markdown and JSON).
 ``softshadows evaluate --scenes A,B --methods X,Y --lights rect,disk --out DIR`` runs the
 evaluation suite (:mod:`softshadows.evaluation`) and writes its report.
+``softshadows reproduce [--papers KEYS] [--tier fast|paper] [--out DIR]`` measures the claims
+ledger (:mod:`softshadows.claims`) and writes ``claims.md``, ``claims.csv`` and the figures.
 """
 
 from __future__ import annotations
@@ -108,9 +110,21 @@ def main(argv=None) -> int:
     e.add_argument("--reference-samples", type=int, default=4096, help="light samples of the Mitsuba reference")
     e.add_argument("--out", type=Path, default=Path("evaluation"), help="output folder (default: ./evaluation)")
     e.add_argument("--readme", type=Path, default=None, help="also rewrite the results table of this README")
+    r = sub.add_parser("reproduce", help="measure every claim of the five papers (the claims ledger)",
+                       formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    r.add_argument("--papers", default=None, help="comma-separated paper keys (sintorn08, forest09, annen08, schwarz08, marrs18); default all")
+    r.add_argument("--ids", default=None, help="comma-separated claim ids; default all of the papers'")
+    r.add_argument("--tier", choices=("fast", "paper"), default="fast",
+                   help="fast: small sizes, minutes; paper: the papers' own sizes, up to an hour")
+    r.add_argument("--out", type=Path, default=Path("claims"), help="output folder for claims.md, claims.csv and the figures")
+    r.add_argument("--no-figures", action="store_true", help="skip the figures")
+    r.add_argument("--record", type=Path, default=None, help="also record the fast tier's values as the tests' expectations (a CSV)")
+    r.add_argument("--readme", type=Path, default=None, help="also rewrite the claims block of this README")
     args = parser.parse_args(argv)
     if args.command == "evaluate":
         return _evaluate(args)
+    if args.command == "reproduce":
+        return _reproduce(args, parser)
     table = demo(args.out, scene=args.scene, size=args.size, samples=args.samples, reference_samples=args.reference_samples)
     width = max(map(len, table))
     for name, m in table.items():
@@ -137,6 +151,32 @@ def _evaluate(args) -> int:
         update_readme(frame, args.readme)
     print(frame[["scene", "light", "method", "rmse", "ssim", "flip", "seconds"]].to_string(index=False, float_format="%.4f"))
     print(f"wrote {page}, results.csv, pareto.png and the comparison grids")
+    return 0
+
+
+def _reproduce(args, parser) -> int:
+    from . import claims
+
+    split = lambda text: None if text is None else [t.strip() for t in text.split(",") if t.strip()]  # noqa: E731
+    if args.record is not None and args.tier != "fast":
+        parser.error("--record: only the fast tier is recorded as the tests' expectations")
+    try:
+        frame = claims.reproduce(split(args.papers), tier=args.tier, ids=split(args.ids), out=args.out,
+                                 figures=not args.no_figures)
+    except ValueError as err:
+        parser.error(str(err))
+    print(frame[["id", "ours", "verdict"]].to_string(index=False, max_colwidth=70))
+    print(f"wrote {args.out / 'claims.md'}, claims.csv and the figures")
+    broken = frame[~frame["verdict"].isin(claims.VERDICTS)]
+    for _, row in broken.iterrows():
+        print(f"error in {row['id']}: {row['note']}")
+    if not broken.empty:
+        return 1
+    if args.record is not None:
+        print(f"recorded {claims.record_expected(frame, args.record)}")
+    if args.readme is not None:
+        claims.update_readme(frame, args.readme)
+        print(f"updated the claims block of {args.readme}")
     return 0
 
 

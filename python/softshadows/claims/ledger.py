@@ -1,0 +1,525 @@
+"""The ledger's machinery: papers, claims, verdict rules, the registry, and the runs.
+
+A :class:`Claim` pairs one sentence of a paper (with the paper's own number and where it is
+stated) with a function that measures the same quantity on this implementation and a
+:class:`Rule` that turns our numbers into one of the four :data:`VERDICTS`. Claims register
+themselves in :data:`CLAIMS` with the :func:`claim` decorator, one module per paper.
+"""
+
+from __future__ import annotations
+
+import abc
+import dataclasses
+import datetime
+import math
+import os
+import platform
+import time
+from pathlib import Path
+from typing import Callable, Mapping
+
+__all__ = [
+    "VERDICTS", "PAPERS", "CLAIMS", "Paper", "Tier", "Measured", "Tol", "Claim", "claim",
+    "Rule", "AtMost", "AtLeast", "Between", "AllOf", "NotMeasurable",
+    "reproduce", "write_report", "record_expected", "compare_expected", "machine", "update_readme",
+]
+
+#: The verdicts, best first. ``holds in kind``: the direction and rough size of the claim hold,
+#: its absolute number belongs to another machine (a GPU, another scene size).
+VERDICTS = ("holds", "holds in kind", "refuted", "not measurable here")
+
+
+@dataclasses.dataclass(frozen=True)
+class Paper:
+    """A paper whose claims the ledger measures."""
+
+    key: str
+    authors: str
+    year: int
+    title: str
+    venue: str
+
+    @property
+    def short(self) -> str:
+        """``First-author et al. year`` (or both names for two authors)."""
+        names = [n.strip() for n in self.authors.replace(" and ", ", ").split(",") if n.strip()]
+        last = lambda n: n.split()[-1]  # noqa: E731
+        lead = f"{last(names[0])} and {last(names[1])}" if len(names) == 2 else f"{last(names[0])} et al."
+        return f"{lead} {self.year}"
+
+    def cite(self) -> str:
+        return f"{self.authors}. {self.title}. {self.venue}, {self.year}."
+
+
+#: The five papers, by the key that starts their claims' ids.
+PAPERS = {
+    p.key: p
+    for p in (
+        Paper("sintorn08", "Erik Sintorn, Elmar Eisemann and Ulf Assarsson", 2008,
+              "Sample Based Visibility for Soft Shadows using Alias-free Shadow Maps", "Eurographics Symposium on Rendering"),
+        Paper("forest09", "Vincent Forest, Loïc Barthe, Gaël Guennebaud and Mathias Paulin", 2009,
+              "Soft Textured Shadow Volume", "Eurographics Symposium on Rendering"),
+        Paper("annen08", "Thomas Annen, Zhao Dong, Tom Mertens, Philippe Bekaert, Hans-Peter Seidel and Jan Kautz", 2008,
+              "Real-time, All-Frequency Shadows in Dynamic Scenes", "ACM SIGGRAPH"),
+        Paper("schwarz08", "Michael Schwarz and Marc Stamminger", 2008,
+              "Quality Scalability of Soft Shadow Mapping", "Graphics Interface"),
+        Paper("marrs18", "Adam Marrs, Benjamin Watson and Christopher G. Healey", 2018,
+              "View-warped Multi-view Soft Shadows for Local Area Lights", "Journal of Computer Graphics Techniques 7(3)"),
+    )
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class Tier:
+    """How big a run is: ``fast`` (small sizes, minutes for the whole ledger, run by the tests) or
+    ``paper`` (the papers' own sizes, up to an hour). ``figures``: draw the claims' pictures."""
+
+    name: str = "fast"
+    figures: bool = False
+
+    def __post_init__(self):
+        if self.name not in ("fast", "paper"):
+            raise ValueError(f"tier: expected 'fast' or 'paper', got {self.name!r}")
+
+    def pick(self, fast, paper):
+        """``fast`` in the fast tier, ``paper`` in the paper tier."""
+        return fast if self.name == "fast" else paper
+
+
+@dataclasses.dataclass
+class Measured:
+    """What a claim's measurement returns: named numbers (the rule reads them, the ledger prints
+    them), optionally a matplotlib figure, and a note on the set-up."""
+
+    values: dict
+    figure: object = None
+    note: str = ""
+
+
+@dataclasses.dataclass(frozen=True)
+class Tol:
+    """How far a re-measured value may drift from its recorded one: within ``rtol * |recorded| +
+    atol``, or, with ``factor``, within ``[recorded / factor, recorded * factor]`` (for times,
+    whose ratios move with the machine's load)."""
+
+    rtol: float = 0.0
+    atol: float = 0.0
+    factor: float | None = None
+
+    def accepts(self, value: float, recorded: float) -> bool:
+        if math.isnan(value) or math.isnan(recorded):
+            return math.isnan(value) and math.isnan(recorded)
+        if self.factor is not None:
+            if recorded == 0 or value == 0 or (value > 0) != (recorded > 0):
+                return abs(value - recorded) <= self.atol
+            return recorded / self.factor <= value <= recorded * self.factor or abs(value - recorded) <= self.atol
+        return abs(value - recorded) <= self.rtol * abs(recorded) + self.atol
+
+
+#: Deterministic quantities (errors, counts, memory) re-measure to the same bits on one machine;
+#: this leaves room for another BLAS or libm.
+DETERMINISTIC = Tol(rtol=0.02, atol=1e-4)
+#: Ratios of seconds measured side by side.
+TIMING = Tol(factor=2.5, atol=0.05)
+
+
+class Rule(abc.ABC):
+    """Turns a claim's measured values into a verdict; :meth:`describe` says how, for the ledger."""
+
+    @abc.abstractmethod
+    def verdict(self, values: Mapping[str, float]) -> str:
+        """One of :data:`VERDICTS`."""
+
+    @abc.abstractmethod
+    def describe(self) -> str:
+        """The rule in words."""
+
+
+def _value(values, key):
+    if key not in values:
+        raise KeyError(f"the rule reads {key!r}, which the measurement did not return (it returned {sorted(values)})")
+    return float(values[key])
+
+
+@dataclasses.dataclass(frozen=True)
+class AtMost(Rule):
+    """``holds`` when ``values[key] <= holds``; ``holds in kind`` when ``<= in_kind``; else
+    ``refuted``."""
+
+    key: str
+    holds: float
+    in_kind: float | None = None
+
+    def verdict(self, values):
+        x = _value(values, self.key)
+        if x <= self.holds:
+            return "holds"
+        return "holds in kind" if self.in_kind is not None and x <= self.in_kind else "refuted"
+
+    def describe(self):
+        kind = f", in kind if ≤ {self.in_kind:g}" if self.in_kind is not None else ""
+        return f"holds if {self.key} ≤ {self.holds:g}{kind}"
+
+
+@dataclasses.dataclass(frozen=True)
+class AtLeast(Rule):
+    """``holds`` when ``values[key] >= holds``; ``holds in kind`` when ``>= in_kind``; else
+    ``refuted``."""
+
+    key: str
+    holds: float
+    in_kind: float | None = None
+
+    def verdict(self, values):
+        x = _value(values, self.key)
+        if x >= self.holds:
+            return "holds"
+        return "holds in kind" if self.in_kind is not None and x >= self.in_kind else "refuted"
+
+    def describe(self):
+        kind = f", in kind if ≥ {self.in_kind:g}" if self.in_kind is not None else ""
+        return f"holds if {self.key} ≥ {self.holds:g}{kind}"
+
+
+@dataclasses.dataclass(frozen=True)
+class Between(Rule):
+    """``holds`` when ``low <= values[key] <= high``; ``holds in kind`` inside ``in_kind`` (a
+    wider ``(low, high)``); else ``refuted``."""
+
+    key: str
+    low: float
+    high: float
+    in_kind: tuple | None = None
+
+    def verdict(self, values):
+        x = _value(values, self.key)
+        if self.low <= x <= self.high:
+            return "holds"
+        if self.in_kind is not None and self.in_kind[0] <= x <= self.in_kind[1]:
+            return "holds in kind"
+        return "refuted"
+
+    def describe(self):
+        kind = f", in kind if in [{self.in_kind[0]:g}, {self.in_kind[1]:g}]" if self.in_kind is not None else ""
+        return f"holds if {self.key} in [{self.low:g}, {self.high:g}]{kind}"
+
+
+@dataclasses.dataclass(frozen=True)
+class AllOf(Rule):
+    """The worst verdict of several rules (``refuted`` < ``holds in kind`` < ``holds``)."""
+
+    rules: tuple
+
+    def __init__(self, *rules: Rule):
+        object.__setattr__(self, "rules", tuple(rules))
+
+    def verdict(self, values):
+        order = ("refuted", "holds in kind", "holds")
+        return min((r.verdict(values) for r in self.rules), key=order.index)
+
+    def describe(self):
+        return "; ".join(r.describe() for r in self.rules)
+
+
+@dataclasses.dataclass(frozen=True)
+class NotMeasurable(Rule):
+    """``not measurable here``, for the ``reason`` given; the measurement still reports what can
+    be measured (ratios, work counters)."""
+
+    reason: str
+
+    def verdict(self, values):
+        return "not measurable here"
+
+    def describe(self):
+        return f"not measurable here: {self.reason}"
+
+
+@dataclasses.dataclass(frozen=True)
+class Claim:
+    """One claim of a paper and how this implementation measures it.
+
+    ``ours`` formats the measured values for the ledger (``str.format`` over them, e.g.
+    ``"{ratio:.2f}x"``); ``tolerance`` maps a value's name to the :class:`Tol` within which a
+    re-measurement must agree with the recorded one (unnamed values: :data:`DETERMINISTIC`).
+    """
+
+    id: str
+    paper: Paper
+    where: str
+    statement: str
+    paper_value: str
+    measure: Callable[[Tier], Measured]
+    rule: Rule
+    ours: str
+    tolerance: Mapping[str, Tol] = dataclasses.field(default_factory=dict)
+
+    def tol(self, key: str) -> Tol:
+        return self.tolerance.get(key, DETERMINISTIC)
+
+
+#: Every registered claim by id, in registration order (paper by paper).
+CLAIMS: dict[str, Claim] = {}
+
+
+def claim(id: str, *, where: str, statement: str, paper_value: str, rule: Rule, ours: str, tolerance=None):
+    """Registers the decorated function ``f(tier) -> Measured`` as the measurement of a claim.
+
+    ``id`` is ``"<paper key>.<name>"``, the paper key one of :data:`PAPERS`.
+    """
+    key = id.split(".", 1)[0]
+    if key not in PAPERS or "." not in id:
+        raise ValueError(f"id: expected '<paper>.<name>' with <paper> in {list(PAPERS)}, got {id!r}")
+    if id in CLAIMS:
+        raise ValueError(f"id: {id!r} is registered twice")
+
+    def register(measure):
+        CLAIMS[id] = Claim(id, PAPERS[key], where, statement, paper_value, measure, rule, ours, dict(tolerance or {}))
+        return measure
+
+    return register
+
+
+def _selected(papers, ids):
+    if papers is not None:
+        if isinstance(papers, str):
+            papers = [p.strip() for p in papers.split(",") if p.strip()]
+        unknown = [p for p in papers if p not in PAPERS]
+        if unknown:
+            raise ValueError(f"papers: unknown {unknown}; expected keys from {list(PAPERS)}")
+    if ids is not None:
+        unknown = [i for i in ids if i not in CLAIMS]
+        if unknown:
+            raise ValueError(f"ids: unknown {unknown}; see softshadows.claims.CLAIMS")
+    return [c for c in CLAIMS.values() if (papers is None or c.paper.key in papers) and (ids is None or c.id in ids)]
+
+
+def _format(template: str, values: Mapping) -> str:
+    try:
+        return template.format(**values)
+    except (KeyError, ValueError, IndexError) as err:
+        return f"{values} (format {template!r}: {err})"
+
+
+def reproduce(papers=None, *, tier: str = "fast", out=None, ids=None, figures: bool | None = None, progress: bool = True):
+    """Measures the claims of the ledger on this implementation.
+
+    Parameters
+    ----------
+    papers : sequence of str or str, optional
+        Paper keys from :data:`PAPERS` (``"sintorn08"``, ...) or a comma-separated string;
+        default all.
+    tier : {"fast", "paper"}
+        ``fast``: small sizes, the whole ledger in minutes; ``paper``: the papers' own sizes.
+    out : path-like, optional
+        Also write ``claims.md``, ``claims.csv`` and the figures (``claims/<id>.png``) there.
+    ids : sequence of str, optional
+        Only these claim ids.
+    figures : bool, optional
+        Draw the claims' figures; default: when ``out`` is given.
+    progress : bool
+        Show a progress bar (on a terminal).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per claim: ``id``, ``paper``, ``where``, ``claim``, ``paper_value``, ``ours``,
+        ``verdict`` (one of :data:`VERDICTS`, or ``error`` with the exception in ``note``),
+        ``rule``, ``values`` (dict), ``note``, ``seconds``; the figures (PNG bytes by claim id) in ``frame.attrs["figures"]``
+        and the run's tier, date and machine in ``frame.attrs["run"]``.
+    """
+    import pandas as pd
+    from tqdm.auto import tqdm
+
+    chosen = _selected(papers, ids)
+    t = Tier(tier, figures=out is not None if figures is None else bool(figures))
+    rows, figs = [], {}
+    bar = tqdm(chosen, desc="claims", unit="claim", disable=None if progress else True)
+    for c in bar:
+        bar.set_description(c.id)
+        start = time.perf_counter()
+        try:
+            m = c.measure(t)
+            values = {k: float(v) for k, v in m.values.items()}
+            verdict, note = c.rule.verdict(values), m.note
+            if m.figure is not None:
+                figs[c.id] = _png(m.figure)
+        except Exception as err:  # a broken measurement is reported in its row, not lost with the run
+            values, verdict, note = {}, "error", f"{type(err).__name__}: {err}"
+        rows.append({
+            "id": c.id, "paper": c.paper.key, "where": c.where, "claim": c.statement, "paper_value": c.paper_value,
+            "ours": _format(c.ours, values) if values else "-", "verdict": verdict, "rule": c.rule.describe(),
+            "values": values, "note": note, "seconds": time.perf_counter() - start,
+        })
+    frame = pd.DataFrame(rows, columns=["id", "paper", "where", "claim", "paper_value", "ours", "verdict", "rule",
+                                        "values", "note", "seconds"])
+    frame.attrs["figures"] = figs
+    frame.attrs["run"] = {"tier": t.name, "date": datetime.date.today().isoformat(), "machine": machine()}
+    if out is not None:
+        write_report(frame, out)
+    return frame
+
+
+def _png(figure) -> bytes:
+    """A figure as PNG bytes: ``frame.attrs`` is deep-copied by every pandas operation, which
+    costs seconds per matplotlib figure and nothing per bytes object."""
+    import io
+
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=110, bbox_inches="tight")
+    return buffer.getvalue()
+
+
+def machine() -> str:
+    """The machine a run was measured on, in one line."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    try:
+        memory = f", {os.sysconf('SC_PAGE_SIZE') * os.sysconf('SC_PHYS_PAGES') / 2**30:.0f} GiB"
+    except (ValueError, OSError, AttributeError):
+        memory = ""
+    return f"{cpu}, {os.cpu_count()} CPU threads{memory}, {platform.system()} {platform.release()}, Python {platform.python_version()}"
+
+
+def _cell(text) -> str:
+    return str(text).replace("|", "\\|").replace("\n", " ")
+
+
+def verdict_counts(frame) -> str:
+    """``3 hold, 1 holds in kind, ...`` for a set of rows."""
+    words = {"holds": ("holds", "hold"), "holds in kind": ("holds in kind", "hold in kind"), "refuted": ("refuted", "refuted"),
+             "not measurable here": ("not measurable here", "not measurable here"), "error": ("error", "errors")}
+    counts = frame["verdict"].value_counts()
+    parts = [f"{counts[v]} {words[v][int(counts[v] != 1)]}" for v in words if v in counts]
+    return ", ".join(parts)
+
+
+def write_report(frame, out) -> Path:
+    """Writes ``claims.md`` (one table per paper, figures below it), ``claims.csv`` and the
+    figures (``claims/<id>.png``) into the folder ``out``; returns the Markdown file's path."""
+    import json
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    figs = frame.attrs.get("figures", {})
+    if figs:
+        (out / "claims").mkdir(exist_ok=True)
+    for cid, png in figs.items():
+        (out / "claims" / f"{cid}.png").write_bytes(png)
+    run = frame.attrs.get("run", {})
+    lines = [
+        "# The claims ledger",
+        "",
+        f"Every headline claim of the five papers, measured on this implementation by "
+        f"`softshadows reproduce --tier {run.get('tier', '?')}` on {run.get('date', '?')}, on {run.get('machine', '?')}.",
+        "",
+        "Verdicts: **holds** (our number meets the paper's); **holds in kind** (the direction and rough size hold, "
+        "the absolute number is another machine's or another scene's); **refuted** (with our numbers); "
+        "**not measurable here** (with the reason, and what could be measured). Times are CPU seconds on the machine "
+        "above, where the papers timed GPUs: a ratio measured side by side in one run is what carries over.",
+        "",
+    ]
+    for key, paper in PAPERS.items():
+        rows = frame[frame["paper"] == key]
+        if rows.empty:
+            continue
+        lines += [f"## {paper.short}: {paper.title}", "", f"{paper.cite()}", "", f"**{verdict_counts(rows)}.**", "",
+                  "| claim | where | the paper | ours | verdict |", "|---|---|---|---|---|"]
+        for _, r in rows.iterrows():
+            lines.append(f"| {_cell(r['claim'])} (`{r['id']}`) | {_cell(r['where'])} | {_cell(r['paper_value'])} | "
+                         f"{_cell(r['ours'])} | **{r['verdict']}** |")
+        notes = [(r["id"], r["note"], r["rule"]) for _, r in rows.iterrows()]
+        lines += ["", "<details><summary>How each verdict is decided</summary>", ""]
+        lines += [f"- `{cid}`: {rule}." + (f" {note}" if note else "") for cid, note, rule in notes]
+        lines += ["", "</details>", ""]
+        for cid in rows["id"]:
+            if cid in figs:
+                lines += [f"![{cid}](claims/{cid}.png)", "", f"*`{cid}`*", ""]
+    path = out / "claims.md"
+    path.write_text("\n".join(lines))
+    flat = frame.drop(columns=["values"]).assign(values=[json.dumps(v, sort_keys=True) for v in frame["values"]])
+    flat.to_csv(out / "claims.csv", index=False)
+    return path
+
+
+#: The README block that quotes one verdict line per paper.
+README_MARKERS = ("<!-- claims:start -->", "<!-- claims:end -->")
+
+
+def update_readme(frame, path) -> None:
+    """Replaces the block between :data:`README_MARKERS` in the file ``path`` with one line per
+    paper: its verdict counts and its headline claims' verdicts."""
+    path = Path(path)
+    text = path.read_text()
+    start, end = README_MARKERS
+    if start not in text or end not in text:
+        raise ValueError(f"path: {path} has no {start} ... {end} block to fill")
+    run = frame.attrs.get("run", {})
+    lines = []
+    for key, paper in PAPERS.items():
+        rows = frame[frame["paper"] == key]
+        if not rows.empty:
+            lines.append(f"- **{paper.short}**, *{paper.title}*: {verdict_counts(rows)}.")
+    note = f"*`softshadows reproduce --tier {run.get('tier', '?')}`, {run.get('date', '?')}; every row in [docs/claims.md](docs/claims.md).*"
+    block = "\n".join([start, *lines, "", note, end])
+    head, rest = text.split(start, 1)
+    path.write_text(head + block + rest.split(end, 1)[1])
+
+
+def record_expected(frame, path) -> Path:
+    """Writes every measured value and verdict of a fast-tier run to the CSV ``path`` (the
+    expectations ``tests/claims`` re-measures against), with a dated header naming the command."""
+    import csv
+
+    run = frame.attrs.get("run", {})
+    if run.get("tier") != "fast":
+        raise ValueError("frame: only a fast-tier run is recorded as the tests' expectations")
+    bad = frame[~frame["verdict"].isin(VERDICTS)]
+    if not bad.empty:
+        raise ValueError(f"frame: these claims have no verdict, fix them before recording: {list(bad['id'])}")
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as f:
+        f.write(f"# written by `softshadows reproduce --tier fast --record {path.name}` on {run.get('date')}, "
+                f"on {run.get('machine')}; never edited by hand\n")
+        w = csv.writer(f)
+        w.writerow(["id", "key", "value", "verdict"])
+        for _, r in frame.iterrows():
+            for key, value in sorted(r["values"].items()):
+                w.writerow([r["id"], key, repr(float(value)), r["verdict"]])
+    return path
+
+
+def compare_expected(frame, path) -> list:
+    """The differences between a fast-tier run and the recorded expectations at ``path``: one
+    message per changed verdict, drifted value, or claim missing from either side."""
+    import pandas as pd
+
+    recorded = pd.read_csv(path, comment="#")
+    problems = []
+    measured = {r["id"]: r for _, r in frame.iterrows()}
+    for cid, rows in recorded.groupby("id", sort=False):
+        if cid not in measured:
+            problems.append(f"{cid}: recorded but not measured (removed from the ledger? record again)")
+            continue
+        r = measured[cid]
+        c = CLAIMS[cid]
+        expected_verdict = rows["verdict"].iloc[0]
+        if r["verdict"] != expected_verdict:
+            problems.append(f"{cid}: verdict {r['verdict']!r} (measured {r['values']}, {r['note']}) but recorded "
+                            f"{expected_verdict!r} (values {dict(zip(rows['key'], rows['value']))})")
+        for key, value in zip(rows["key"], rows["value"]):
+            if key not in r["values"]:
+                problems.append(f"{cid}: value {key!r} recorded ({value}) but no longer measured")
+            elif not c.tol(key).accepts(r["values"][key], float(value)):
+                problems.append(f"{cid}: {key} = {r['values'][key]!r}, recorded {value!r} (tolerance {c.tol(key)})")
+    for cid in measured:
+        if cid not in set(recorded["id"]):
+            problems.append(f"{cid}: measured but never recorded (run `softshadows reproduce --tier fast --record ...`)")
+    return problems
