@@ -1,10 +1,13 @@
-"""Convolution soft shadow maps against PCSS and ray tracing (seed 002), side by side in one run.
+"""Convolution soft shadow maps (Annen et al. 2008) against PCSS, a hard shadow map and ray
+tracing, side by side in one run.
 
-On one scene at 512x512 receivers it times ``cssm`` (order 4 and 16, summed-area table and
-mipmap), ``pcss`` (64 + 96 taps) and ``ray_traced`` (64 Poisson samples) and measures each one's
-RMSE against 1024 ray-traced Sobol samples; it prints seconds and RMSE as ratios to
-``cssm`` (order 4, SAT). Then it grows the light 16x in area (side x1, x2, x4) and prints the
-cost of ``cssm`` and its peers relative to the smallest light (the paper's claim: constant).
+On the parallel-plates case (where the method is exact up to its series) and on one scene, at
+512x512 receivers, it times ``cssm`` (order 4 and 16, summed-area table and mipmap, the default
+ringing suppression), ``pcss`` (64 + 96 taps), ``shadow_map`` (5x5 PCF) and ``ray_traced`` (64
+Poisson samples) and measures each one's RMSE against 1024 ray-traced Sobol samples; it prints
+seconds and RMSE as ratios to ``cssm`` (order 4, SAT). Then it grows the light 16x in area (side
+x1, x2, x4) and prints the cost of ``cssm`` and its peers relative to the smallest light (the
+paper's claim: constant).
 
 Usage: ``python bench/cssm.py [--scene columns] [--size 512] [--repeat 3]``
 """
@@ -32,8 +35,22 @@ def methods(setup, light, gb):
         "cssm M=4 mipmap": lambda: ss.cssm(setup.scene, light, gb, prefilter="mipmap"),
         "cssm M=16 sat": lambda: ss.cssm(setup.scene, light, gb, order=16),
         "pcss": lambda: ss.pcss(setup.scene, light, gb, resolution=512),
+        "shadow_map pcf 5": lambda: ss.shadow_map(setup.scene, light, gb, resolution=512, pcf=5),
         "ray_traced 64": lambda: ss.ray_traced(setup.scene, light, gb, samples=64),
     }
+
+
+def compare(name, setup, gb, repeat):
+    """Seconds and RMSE of every method on one scene, as ratios to cssm (order 4, SAT)."""
+    reference = ss.ray_traced(setup.scene, setup.light, gb, samples=1024, pattern="sobol", seed=1)
+    rows = {}
+    for method, run in methods(setup, setup.light, gb).items():
+        seconds, vis = best_of(repeat, run)
+        rows[method] = (seconds, metrics.rmse(vis, reference, gb.mask))
+    base_s, base_e = rows["cssm M=4 sat"]
+    print(f"\n{name}\n{'method':<17} {'seconds':>8} {'x cssm time':>11} {'RMSE':>7} {'x cssm RMSE':>11}")
+    for method, (s, e) in rows.items():
+        print(f"{method:<17} {s:>8.3f} {s / base_s:>11.2f} {e:>7.4f} {e / base_e:>11.2f}")
 
 
 def scaled(light, k: float):
@@ -46,19 +63,11 @@ def main() -> None:
     parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
-    setup = scenes.get(args.scene, width=args.size, height=args.size)
-    gb = ss.gbuffer(setup.scene, setup.camera)
-    print(f"{os.cpu_count()} CPU threads; {args.scene}, {args.size}^2 receivers; best of {args.repeat}")
-
-    reference = ss.ray_traced(setup.scene, setup.light, gb, samples=1024, pattern="sobol", seed=1)
-    rows = {}
-    for name, run in methods(setup, setup.light, gb).items():
-        seconds, vis = best_of(args.repeat, run)
-        rows[name] = (seconds, metrics.rmse(vis, reference, gb.mask))
-    base_s, base_e = rows["cssm M=4 sat"]
-    print(f"\n{'method':<16} {'seconds':>8} {'x cssm time':>11} {'RMSE':>7} {'x cssm RMSE':>11}")
-    for name, (s, e) in rows.items():
-        print(f"{name:<16} {s:>8.3f} {s / base_s:>11.2f} {e:>7.4f} {e / base_e:>11.2f}")
+    print(f"{os.cpu_count()} CPU threads; {args.size}^2 receivers; best of {args.repeat}")
+    for name in ("parallel_plates", args.scene):
+        setup = scenes.get(name, width=args.size, height=args.size)
+        gb = ss.gbuffer(setup.scene, setup.camera)
+        compare(name, setup, gb, args.repeat)
 
     print("\nlight side x1, x2, x4 (area x1, x4, x16): seconds relative to the x1 light")
     sides = (1.0, 2.0, 4.0)

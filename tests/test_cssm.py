@@ -18,6 +18,50 @@ def case(name, size=128, **options):
     return setup, ss.gbuffer(setup.scene, setup.camera)
 
 
+def parallel_plates(grid=160):
+    """The paper's exact case (``scenes.parallel_plates``: a 2 x 2 plate 1 over the ground, a
+    1 x 1 light 3 above it, penumbrae 1/3 wide) with receivers on a ground grid over [-2, 2]^2
+    and on a line across the edge x = 1 (z = 0)."""
+    setup = ss.scenes.parallel_plates()
+    xs = np.linspace(-2, 2, grid)
+    line = np.linspace(0.5, 1.5, 201)
+    points = np.vstack([np.stack(np.meshgrid(xs, xs), -1).reshape(-1, 2), np.stack([line, np.zeros_like(line)], 1)])
+    rx = ss.Receivers(np.insert(points, 1, 0.0, axis=1), np.tile([0, 1, 0], (len(points), 1)))
+    return setup.scene, setup.light, rx, line
+
+
+def penumbra_width(line, vis):
+    """The 10%-90% width of a penumbra along ``line`` (visibility rising with x), interpolated."""
+    return np.interp(0.9, vis, line) - np.interp(0.1, vis, line)
+
+
+@pytest.mark.parametrize("order", [4, 16])
+def test_parallel_plates_are_nearly_exact(order):
+    """Where CSSM is exact up to the series: RMSE against 1024 ray-traced samples below 0.01 at
+    order 16 (0.02 at order 4, whose step is four times wider), penumbra width within 5%."""
+    scene, light, rx, line = parallel_plates()
+    reference = ss.ray_traced(scene, light, rx, samples=light.samples(1024, pattern="sobol", seed=1))
+    vis = ss.cssm(scene, light, rx, order=order)
+    rmse = ss.metrics.rmse(vis, reference)
+    widths = [penumbra_width(line, v[-len(line):]) for v in (vis, reference)]
+    print(f"M = {order}: RMSE {rmse:.4f}, 10-90% penumbra width {widths[0]:.4f} against {widths[1]:.4f}")
+    assert rmse < (0.01 if order == 16 else 0.02)
+    assert abs(widths[0] / widths[1] - 1) < 0.05, widths
+
+
+def test_the_default_shift_makes_a_receivers_own_surface_test_lit():
+    """The series at the receiver's own depth: with the default shift a receiver's own surface
+    tests exactly 1 (``rust/core/src/methods/cssm.rs`` checks the series), so the penumbra keeps
+    its width; at the step's half width (0.5 / M) it tests 1.09 and the clamp narrows the
+    penumbra."""
+    scene, light, rx, line = parallel_plates(grid=40)
+    reference = ss.ray_traced(scene, light, rx, samples=light.samples(1024, pattern="sobol", seed=1))
+    target = penumbra_width(line, reference[-len(line):])
+    default = penumbra_width(line, ss.cssm(scene, light, rx, order=4)[-len(line):])
+    half_width = penumbra_width(line, ss.cssm(scene, light, rx, order=4, offset=0.5 / 4)[-len(line):])
+    assert abs(default / target - 1) < 0.05 and half_width / target < 0.9, (default, half_width, target)
+
+
 def test_a_point_light_and_a_growing_order_converge_to_the_hard_shadow_map():
     setup, gb = case("columns", size=96)
     point = ss.SphereLight(setup.light.center, 1e-5)
@@ -88,7 +132,8 @@ def test_rectangular_lights_filter_anisotropically():
         ({"order": 65}, "order"),
         ({"prefilter": "box"}, "prefilter"),
         ({"offset": 0.7}, "offset"),
-        ({"scale": 0.5}, "scale"),
+        ({"scale": 0.0}, "scale"),
+        ({"scale": -1.0}, "scale"),
         ({"sharpen_a": -1.0}, "sharpen_a"),
         ({"sharpen_b": float("nan")}, "sharpen_b"),
         ({"near": 0.0}, "near"),

@@ -645,7 +645,7 @@ def test_write_png(outdir, kw):
 # scenes: every procedural builder with adversarial options
 # ----------------------------------------------------------------------------------------------
 
-PROCEDURAL = ["ground_sphere", "columns", "torus_knot", "fence", "fence_mesh", "leaves", "hairball", "sword"]
+PROCEDURAL = ["ground_sphere", "parallel_plates", "columns", "torus_knot", "fence", "fence_mesh", "leaves", "hairball", "sword"]
 CHOICES = {"light": ss.scenes.LIGHT_KINDS, "kind": ("cylinder", "box"), "pattern": ("slats", "grid")}
 
 

@@ -13,13 +13,14 @@ from softshadows import scenes
 HAVE_PYMESHLAB = importlib.util.find_spec("pymeshlab") is not None
 needs_pymeshlab = pytest.mark.skipif(not HAVE_PYMESHLAB, reason='needs pip install "softshadows[models]"')
 
-PROCEDURAL = ["ground_sphere", "columns", "torus_knot", "fence", "fence_mesh", "leaves", "hairball", "sword"]
+PROCEDURAL = ["ground_sphere", "parallel_plates", "columns", "torus_knot", "fence", "fence_mesh", "leaves", "hairball", "sword"]
 MODELS = ["bunny", "bone", "cow"]
 ALL = PROCEDURAL + [pytest.param(m, marks=needs_pymeshlab) for m in MODELS]
 
 # Which occluder meshes are closed, by scene.
 CLOSED = {
     "ground_sphere": {"sphere": True},
+    "parallel_plates": {"plate": False},
     "columns": {"columns": True},
     "torus_knot": {"torus_knot": True},
     "fence": {"fence_0": False, "fence_1": False},

@@ -204,6 +204,67 @@ def ground_sphere(
     )
 
 
+def parallel_plates(
+    *,
+    plate_size: float = 2.0,
+    elevation: float = 1.0,
+    light: str = "rect",
+    light_size: float = 1.0,
+    light_position=None,
+    light_distance: float = 3.0,
+    width: int = 256,
+    height: int = 256,
+    fov_y: float = 40.0,
+    ground_size: float | None = None,
+) -> Setup:
+    """A square plate parallel to the ground under a parallel light: the case where filtered
+    shadow maps are exact.
+
+    Light, blocker and receiver planar and parallel is where the convolution of a shadow test
+    with the light's shape is the exact soft shadow (Soler and Sillion 1998; the exact case of
+    Annen et al. 2008, section 3, and of PCSS's penumbra estimate, Fernando 2005). The default
+    light is straight above the plate with its sides along the plate's, so every edge casts a
+    linear penumbra ``light_size * elevation / light_distance`` wide (1/3 by default).
+
+    Parameters
+    ----------
+    plate_size : float
+        Side of the square plate in world units.
+    elevation : float
+        Height of the plate over the ground.
+    light, light_size, light_position, light_distance, width, height, fov_y, ground_size
+        See the module docstring. The default light is straight above the plate.
+
+    Returns
+    -------
+    Setup
+        Meshes ``ground`` and ``plate`` (2 triangles each, facing up).
+
+    Examples
+    --------
+    >>> from softshadows import scenes
+    >>> setup = scenes.parallel_plates(width=32, height=32)
+    >>> [m.name for m in setup.scene.meshes], setup.light.center.round(6).tolist()
+    (['ground', 'plate'], [0.0, 4.0, 0.0])
+    """
+    half = _length("plate_size", plate_size) / 2
+    elevation = _length("elevation", elevation)
+    plate = Mesh(
+        np.array([[-half, elevation, -half], [half, elevation, -half], [half, elevation, half], [-half, elevation, half]], np.float32),
+        np.array([[0, 2, 1], [0, 3, 2]], dtype=np.uint32),
+        name="plate",
+    )
+    return _assemble(
+        "parallel_plates",
+        [plate],
+        f"A {2 * half:g} x {2 * half:g} plate {elevation:g} over the ground under a parallel light (the exact case of "
+        "filtered shadow maps; Annen et al. 2008, section 3).",
+        light=light, light_size=light_size, light_position=light_position, light_distance=light_distance,
+        light_dir=(0.0, 90.0), camera_dir=(20.0, 55.0),
+        width=width, height=height, fov_y=fov_y, ground_size=ground_size,
+    )
+
+
 def columns(
     *,
     n: int = 5,
@@ -859,6 +920,7 @@ def _model_factory(model: str):
 #: Scene name -> factory taking keyword-only options and returning a :class:`Setup`.
 SCENES = {
     "ground_sphere": ground_sphere,
+    "parallel_plates": parallel_plates,
     "columns": columns,
     "torus_knot": torus_knot,
     "fence": fence,
@@ -876,7 +938,7 @@ def get(name: str, **options) -> Setup:
     Parameters
     ----------
     name : str
-        One of ``SCENES`` (``"ground_sphere"``, ``"columns"``, ``"torus_knot"``, ``"fence"``,
+        One of ``SCENES`` (``"ground_sphere"``, ``"parallel_plates"``, ``"columns"``, ``"torus_knot"``, ``"fence"``,
         ``"fence_mesh"``, ``"leaves"``, ``"hairball"``, ``"sword"``, ``"bunny"``, ``"bone"``, ``"cow"``).
     **options
         Keyword options of that factory, e.g. ``width=128, height=128``.

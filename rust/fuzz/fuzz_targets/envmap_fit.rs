@@ -9,7 +9,7 @@ fuzz_target!(|input: FuzzEnvmap| {
     init();
     let (faces, n, opts) = input.build();
     let Ok(lights) = fit_area_lights(&faces, n, &opts) else { return };
-    assert!(lights.len() <= opts.max_lights, "{} lights for max_lights {}", lights.len(), opts.max_lights);
+    assert!(lights.len() <= opts.max_lights.unwrap_or(usize::MAX), "{} lights for max_lights {:?}", lights.len(), opts.max_lights);
     let total: f64 = faces.iter().map(|&v| f64::from(v)).sum();
     for l in &lights {
         assert!(l.face < 6 && l.i0 < l.i1 && l.i1 <= n && l.j0 < l.j1 && l.j1 <= n, "bad light {l:?} for n = {n}");

@@ -744,7 +744,7 @@ impl FuzzEnvmap {
                 faces[k] = v.get();
             }
         }
-        let opts = FitOptions { threshold: f64::from(self.threshold.get()), max_lights: self.max_lights as usize % 40, square: self.square };
+        let opts = FitOptions { threshold: f64::from(self.threshold.get()), max_lights: (self.max_lights < 200).then_some(self.max_lights as usize % 40), square: self.square };
         (faces, n, opts)
     }
 }

@@ -208,7 +208,7 @@ fn fit_area_lights(
     cube: PyReadonlyArrayDyn<'_, f32>,
     n: usize,
     threshold: f64,
-    max_lights: usize,
+    max_lights: Option<usize>,
     square: bool,
 ) -> PyResult<Vec<FittedTuple>> {
     let values = cube.as_slice().map_err(|_| pyo3::exceptions::PyValueError::new_err("env: expected a contiguous array"))?;

@@ -691,6 +691,7 @@ pub fn backprojection(scene: &Scene, light: &Light, receivers: &Receivers, opts:
 /// [`backprojection`] with the smoothed LOQ map: each receiver's shadow-map level `ℓ`, NaN where
 /// it backprojects nothing (umbra, fully lit, facing away, outside the map; Figure 8).
 pub fn backprojection_levels(scene: &Scene, light: &Light, receivers: &Receivers, opts: &BackprojectionOptions) -> Result<(Vec<f32>, Vec<f32>, Stats)> {
+    super::refuse_textured(light, "backprojection")?;
     opts.validate(receivers.len())?;
     let side = match opts.accumulation {
         Accumulation::Bitmask { side } => side,

@@ -4,21 +4,30 @@
 //!
 //! The map is a cube map of six `N × N` faces; each texel's *energy* is its radiance (RGB) times
 //! its solid angle, and the greedy choices use the luminance `0.2126 R + 0.7152 G + 0.0722 B` of
-//! that energy. Repeatedly, over all faces:
+//! that energy. Each face is decomposed on its own (section 4.2: "decomposing each cube map face
+//! separately"), repeatedly:
 //!
-//! 1. seed a `1 × 1` light at the texel with the most remaining energy (Figure 6a);
+//! 1. seed a `1 × 1` light at the texel with the most remaining energy that no light of the face
+//!    covers yet (Figure 6a; seeding only uncovered texels is what makes every light new);
 //! 2. grow it: try to move each of its four sides out by one texel and accept a move when the
-//!    energy it would add over the energy of the enlarged light exceeds `threshold`; stop when no
-//!    side can move or the light covers the face (Figure 6b–e). With `square = true` (the
+//!    energy it would add over the energy of the enlarged light exceeds the threshold `t`; stop
+//!    when no side can move or the light covers the face (Figure 6b–e). With `square = true` (the
 //!    paper's results) all four sides move together, keeping the light square;
 //! 3. remove its energy from the map but leave a residual, so later lights can blend with the
 //!    surroundings (Figure 6f): every texel of the light keeps the face's mean remaining radiance
-//!    outside the light (or its own value, if lower). The light takes the removed energy.
+//!    outside the light (or its own value, if lower). The light takes the removed energy; where
+//!    the residual would leave it nothing (a light inside a uniform region), it takes all;
 //!
-//! Fitting stops after `max_lights − 6` greedy lights or when every face's remaining energy is
-//! below `1e-3` of the map's; then each face with energy left gets one last light covering the
-//! whole face with all of it (Figure 6i: the lights cover the face). So the lights' energies sum
-//! to the map's exactly (up to rounding), whatever the threshold.
+//! until the lights cover the face (Figure 6i) or no uncovered texel has energy left. `t` alone
+//! sets how many lights a face gets: a uniform face under a small `t` grows one light over the
+//! whole face, each hot spot takes its own. Every light's seed has energy, so no light is empty.
+//! What the residuals leave on a face goes, texel by texel, to the face's lights that cover the
+//! texel (shared equally), so the lights' energies sum to the map's (up to rounding) with no
+//! extra light.
+//!
+//! An optional cap `max_lights` bounds the total: faces then take their lights in turns
+//! (brightest seed first within a face), and when the cap is reached the energy not yet taken on a
+//! face goes to its nearest light (by texel distance to the light's rectangle).
 //!
 //! Cube-map layout: faces `+x, −x, +y, −y, +z, −z`, each row-major with rows `i` and columns `j`;
 //! texel `(i, j)` of a face is the direction of the face point `(u, v) = (2 (j + ½)/N − 1,
@@ -30,8 +39,9 @@ use crate::limits;
 
 /// The luminance weights of the greedy choices (Rec. 709).
 const LUMINANCE: [f64; 3] = [0.2126, 0.7152, 0.0722];
-/// Faces whose remaining energy is below this fraction of the map's get no more greedy lights.
-const DONE_FRACTION: f64 = 1e-3;
+
+/// A rectangle of texels `(i0, i1, j0, j1)`: rows `i0..i1`, columns `j0..j1` of a face.
+type Rect = (usize, usize, usize, usize);
 
 /// One fitted light: a rectangle of texels `[i0, i1) × [j0, j1)` of one face and its energy.
 #[derive(Debug, Clone, PartialEq)]
@@ -50,8 +60,8 @@ pub struct FittedLight {
 pub struct FitOptions {
     /// Growth threshold `t` on added / total energy (the paper's Figure 10: 0.015 to 0.035).
     pub threshold: f64,
-    /// Total number of lights, the six face-covering ones included (>= 6).
-    pub max_lights: usize,
+    /// An optional cap on the number of lights (at least one per face that has energy).
+    pub max_lights: Option<usize>,
     /// Grow all four sides together (square lights, as in the paper's results).
     pub square: bool,
 }
@@ -65,12 +75,17 @@ pub fn texel_solid_angle(n: usize, i: usize, j: usize) -> f64 {
     corner(u1, v1) - corner(u0, v1) - corner(u1, v0) + corner(u0, v0)
 }
 
-/// The remaining energy of one face and its summed-area bookkeeping.
+/// The remaining energy of one face and which of its texels its lights cover.
 struct Face {
     n: usize,
     /// RGB energy per texel.
     energy: Vec<[f64; 3]>,
     solid_angle: Vec<f64>,
+    covered: Vec<bool>,
+    /// The rectangles `(i0, i1, j0, j1)` of the face's emitted lights and their indices in the result.
+    lights: Vec<(Rect, usize)>,
+    /// No uncovered texel has energy left (or the face is covered).
+    done: bool,
 }
 
 impl Face {
@@ -78,21 +93,17 @@ impl Face {
         (0..3).map(|c| LUMINANCE[c] * self.energy[k][c]).sum()
     }
 
-    fn region(&self, (i0, i1, j0, j1): (usize, usize, usize, usize)) -> f64 {
+    fn region(&self, (i0, i1, j0, j1): Rect) -> f64 {
         (i0..i1).flat_map(|i| (j0..j1).map(move |j| (i, j))).map(|(i, j)| self.luminance(i * self.n + j)).sum()
     }
 
-    fn total(&self) -> f64 {
-        (0..self.n * self.n).map(|k| self.luminance(k)).sum()
-    }
-
     /// Grows a light from `seed` by the threshold rule; returns its rectangle.
-    fn grow(&self, seed: (usize, usize), opts: &FitOptions) -> (usize, usize, usize, usize) {
+    fn grow(&self, seed: (usize, usize), opts: &FitOptions) -> Rect {
         let n = self.n;
         let mut r = (seed.0, seed.0 + 1, seed.1, seed.1 + 1);
         loop {
             let current = self.region(r);
-            let candidates: Vec<(usize, usize, usize, usize)> = if opts.square {
+            let candidates: Vec<Rect> = if opts.square {
                 let grown = (r.0.saturating_sub(1), (r.1 + 1).min(n), r.2.saturating_sub(1), (r.3 + 1).min(n));
                 vec![grown]
             } else {
@@ -119,34 +130,78 @@ impl Face {
     }
 
     /// Takes the light's energy out of the rectangle, leaving the mean remaining radiance of the
-    /// rest of the face as residual (`all = true`: leaving nothing).
-    fn take(&mut self, r: (usize, usize, usize, usize), all: bool) -> [f64; 3] {
+    /// rest of the face as residual; or, where that residual would leave the light nothing (a
+    /// light inside a uniform region, whose texels are all at the mean), taking everything.
+    fn take(&mut self, r: Rect) -> [f64; 3] {
         let n = self.n;
         let inside = |k: usize| (r.0..r.1).contains(&(k / n)) && (r.2..r.3).contains(&(k % n));
-        let mut background = [0.0f64; 3];
-        if !all {
-            let (mut sum, mut area) = ([0.0f64; 3], 0.0f64);
-            for k in (0..n * n).filter(|&k| !inside(k)) {
-                sum.iter_mut().zip(self.energy[k]).for_each(|(s, e)| *s += e);
-                area += self.solid_angle[k];
-            }
-            if area > 0.0 {
-                background = sum.map(|s| s / area);
-            }
+        let (mut sum, mut area) = ([0.0f64; 3], 0.0f64);
+        for k in (0..n * n).filter(|&k| !inside(k)) {
+            sum.iter_mut().zip(self.energy[k]).for_each(|(s, e)| *s += e);
+            area += self.solid_angle[k];
         }
+        let background = if area > 0.0 { sum.map(|s| s / area) } else { [0.0; 3] };
+        let keep = |k: usize, c: usize, e: &[[f64; 3]]| (background[c] * self.solid_angle[k]).min(e[k][c]);
+        let leaves_some = (0..n * n).filter(|&k| inside(k)).any(|k| (0..3).any(|c| keep(k, c, &self.energy) < self.energy[k][c]));
         let mut taken = [0.0f64; 3];
         for k in (0..n * n).filter(|&k| inside(k)) {
-            for c in 0..3 {
-                let keep = (background[c] * self.solid_angle[k]).min(self.energy[k][c]);
-                taken[c] += self.energy[k][c] - keep;
-                self.energy[k][c] = keep;
+            let kept: [f64; 3] = std::array::from_fn(|c| if leaves_some { keep(k, c, &self.energy) } else { 0.0 });
+            for ((t, e), kept) in taken.iter_mut().zip(self.energy[k].iter_mut()).zip(kept) {
+                *t += *e - kept;
+                *e = kept;
             }
         }
         taken
     }
 
-    fn brightest(&self) -> (usize, f64) {
-        (0..self.n * self.n).map(|k| (k, self.luminance(k))).fold((0, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a })
+    /// The uncovered texel with the most remaining energy, if it has any.
+    fn seed(&self) -> Option<(usize, usize)> {
+        let (k, e) = (0..self.n * self.n)
+            .filter(|&k| !self.covered[k])
+            .map(|k| (k, self.luminance(k)))
+            .fold((0, 0.0f64), |a, b| if b.1 > a.1 { b } else { a });
+        (e > 0.0).then_some((k / self.n, k % self.n))
+    }
+
+    /// Steps 1-3 of the module documentation once: the next light's rectangle and energy, `None`
+    /// when the face is done.
+    fn next_light(&mut self, opts: &FitOptions) -> Option<(Rect, [f64; 3])> {
+        let Some(seed) = self.seed() else {
+            self.done = true;
+            return None;
+        };
+        let r = self.grow(seed, opts);
+        let energy = self.take(r);
+        for i in r.0..r.1 {
+            self.covered[i * self.n + r.2..i * self.n + r.3].iter_mut().for_each(|c| *c = true);
+        }
+        Some((r, energy))
+    }
+
+    /// Hands the energy left on every texel to the face's lights: shared equally by the lights
+    /// covering the texel, or wholly to the nearest light's rectangle if none covers it.
+    fn distribute_rest(&mut self, lights: &mut [FittedLight]) {
+        let n = self.n;
+        for k in 0..n * n {
+            let (i, j) = (k / n, k % n);
+            let inside = |r: &Rect| (r.0..r.1).contains(&i) && (r.2..r.3).contains(&j);
+            let covering: Vec<usize> = self.lights.iter().filter(|(r, _)| inside(r)).map(|&(_, l)| l).collect();
+            let gap = |r: &Rect| {
+                let di = r.0.saturating_sub(i) + i.saturating_sub(r.1 - 1);
+                let dj = r.2.saturating_sub(j) + j.saturating_sub(r.3 - 1);
+                di * di + dj * dj
+            };
+            let targets = match self.lights.iter().min_by_key(|(r, _)| gap(r)) {
+                _ if !covering.is_empty() => covering,
+                Some(&(_, nearest)) => vec![nearest],
+                None => return,
+            };
+            let share = self.energy[k].map(|e| e / targets.len() as f64);
+            for l in targets {
+                lights[l].energy.iter_mut().zip(share).for_each(|(e, s)| *e += s);
+            }
+            self.energy[k] = [0.0; 3];
+        }
     }
 }
 
@@ -154,7 +209,7 @@ impl Face {
 /// texels (row-major per face, see the module documentation).
 ///
 /// Errors: a wrong length or `n = 0`; negative or non-finite radiance; a threshold outside
-/// (0, 1); fewer than 6 lights; `TooLarge`.
+/// (0, 1); a cap below 6 (a light per face); `TooLarge`.
 pub fn fit_area_lights(faces: &[f32], n: usize, opts: &FitOptions) -> Result<Vec<FittedLight>> {
     if n == 0 || faces.len() != 6 * n * n * 3 {
         return Err(Error::invalid("env", format!("expected 6 faces of {n}x{n} RGB texels ({} values), got {}", 6 * n * n * 3, faces.len())));
@@ -165,10 +220,10 @@ pub fn fit_area_lights(faces: &[f32], n: usize, opts: &FitOptions) -> Result<Vec
     if !(opts.threshold > 0.0 && opts.threshold < 1.0) {
         return Err(Error::invalid("threshold", format!("must be in (0, 1), got {}", opts.threshold)));
     }
-    if opts.max_lights < 6 {
-        return Err(Error::invalid("max_lights", format!("must be >= 6 (one covering light per face), got {}", opts.max_lights)));
+    if let Some(cap) = opts.max_lights.filter(|&cap| cap < 6) {
+        return Err(Error::invalid("max_lights", format!("must be >= 6 (a light for each face with energy), or None, got {cap}")));
     }
-    limits::check_memory("environment fit", limits::bytes(&[6, n as u64, n as u64, 32]))?;
+    limits::check_memory("environment fit", limits::bytes(&[6, n as u64, n as u64, 40]))?;
     let solid_angle: Vec<f64> = (0..n * n).map(|k| texel_solid_angle(n, k / n, k % n)).collect();
     let mut cube: Vec<Face> = (0..6)
         .map(|f| Face {
@@ -180,24 +235,28 @@ pub fn fit_area_lights(faces: &[f32], n: usize, opts: &FitOptions) -> Result<Vec
                 })
                 .collect(),
             solid_angle: solid_angle.clone(),
+            covered: vec![false; n * n],
+            lights: Vec::new(),
+            done: false,
         })
         .collect();
-    let map_energy: f64 = cube.iter().map(Face::total).sum();
+    let cap = opts.max_lights.unwrap_or(usize::MAX);
     let mut lights = Vec::new();
-    while lights.len() + 6 < opts.max_lights && map_energy > 0.0 {
-        let (face, (k, _)) = cube.iter().map(Face::brightest).enumerate().fold((0, (0, f64::NEG_INFINITY)), |a, b| if b.1 .1 > a.1 .1 { b } else { a });
-        if cube[face].total() < DONE_FRACTION * map_energy {
-            break;
+    // Faces take turns, one light each per round: without a cap this is each face decomposed on
+    // its own; with one, every face with energy has its first light before any face its second.
+    while lights.len() < cap && cube.iter().any(|f| !f.done) {
+        for (face, f) in cube.iter_mut().enumerate() {
+            if lights.len() == cap {
+                break;
+            }
+            if let Some((r, energy)) = f.next_light(opts) {
+                f.lights.push((r, lights.len()));
+                lights.push(FittedLight { face, i0: r.0, i1: r.1, j0: r.2, j1: r.3, energy });
+            }
         }
-        let r = cube[face].grow((k / n, k % n), opts);
-        let energy = cube[face].take(r, false);
-        lights.push(FittedLight { face, i0: r.0, i1: r.1, j0: r.2, j1: r.3, energy });
     }
-    for (face, f) in cube.iter_mut().enumerate() {
-        if f.total() > 0.0 {
-            let energy = f.take((0, n, 0, n), true);
-            lights.push(FittedLight { face, i0: 0, i1: n, j0: 0, j1: n, energy });
-        }
+    for f in &mut cube {
+        f.distribute_rest(&mut lights);
     }
     Ok(lights)
 }
@@ -213,20 +272,73 @@ mod tests {
         assert!((total - 4.0 * std::f64::consts::PI).abs() < 1e-9, "{total}");
     }
 
-    #[test]
-    fn energy_is_conserved_and_a_sun_gets_one_light() {
-        let n = 16;
+    fn lights(faces: &[f32], n: usize, threshold: f64, max_lights: Option<usize>) -> Vec<FittedLight> {
+        fit_area_lights(faces, n, &FitOptions { threshold, max_lights, square: true }).unwrap()
+    }
+
+    fn sun_map(n: usize) -> Vec<f32> {
         let mut faces = vec![0.05f32; 6 * n * n * 3];
         for c in 0..3 {
             faces[((2 * n * n) + 5 * n + 9) * 3 + c] = 500.0; // a sun on +y
         }
-        let lights = fit_area_lights(&faces, n, &FitOptions { threshold: 0.03, max_lights: 20, square: true }).unwrap();
+        faces
+    }
+
+    #[test]
+    fn energy_is_conserved_and_a_sun_gets_one_light() {
+        let n = 16;
+        let lights = lights(&sun_map(n), n, 0.03, None);
         let background = f64::from(0.05f32);
         let expected = 4.0 * std::f64::consts::PI * background + (500.0 - background) * texel_solid_angle(n, 5, 9);
         let total: f64 = lights.iter().map(|l| l.energy[1]).sum();
         assert!((total - expected).abs() < 1e-9 * total, "{total} vs {expected}");
         let brightest = lights.iter().max_by(|a, b| a.energy[1].total_cmp(&b.energy[1])).unwrap();
         assert_eq!((brightest.face, brightest.i0, brightest.j0), (2, 5, 9));
-        assert!(lights.len() <= 20);
+        assert!(brightest.energy[1] > 0.5 * total, "the sun's light carries {} of {total}", brightest.energy[1]);
+    }
+
+    #[test]
+    fn a_uniform_face_is_one_light_and_an_unlit_face_none() {
+        let n = 12;
+        let mut faces = vec![0.0f32; 6 * n * n * 3];
+        faces[..n * n * 3].iter_mut().for_each(|v| *v = 1.0); // only +x emits, uniformly
+        let lights = lights(&faces, n, 0.02, None);
+        assert_eq!(lights.len(), 1);
+        assert_eq!((lights[0].face, lights[0].i0, lights[0].i1, lights[0].j0, lights[0].j1), (0, 0, n, 0, n));
+    }
+
+    #[test]
+    fn no_light_repeats_or_is_empty_and_more_lights_follow_a_larger_threshold() {
+        let n = 24;
+        let mut faces = sun_map(n);
+        for (k, v) in faces.iter_mut().enumerate() {
+            *v += ((k / 3) % 17) as f32 * 0.01; // structure for the growth to follow
+        }
+        let counts: Vec<usize> = [0.01, 0.03, 0.1]
+            .iter()
+            .map(|&t| {
+                let lights = lights(&faces, n, t, None);
+                for (a, la) in lights.iter().enumerate() {
+                    assert!(la.energy[1] > 0.0, "empty light {la:?}");
+                    for lb in &lights[a + 1..] {
+                        assert!((la.face, la.i0, la.i1, la.j0, la.j1) != (lb.face, lb.i0, lb.i1, lb.j0, lb.j1), "repeated {la:?}");
+                    }
+                }
+                lights.len()
+            })
+            .collect();
+        assert!(counts[0] <= counts[1] && counts[1] <= counts[2] && counts[0] < counts[2], "{counts:?}");
+    }
+
+    #[test]
+    fn a_cap_bounds_the_lights_and_keeps_the_energy() {
+        let n = 16;
+        let faces: Vec<f32> = (0..6 * n * n * 3).map(|k| 0.1 + ((k * 7919) % 101) as f32 * 0.01).collect();
+        let free = lights(&faces, n, 0.2, None);
+        let capped = lights(&faces, n, 0.2, Some(8));
+        assert!(free.len() > 8, "{}", free.len());
+        assert_eq!(capped.len(), 8);
+        let sum = |ls: &[FittedLight]| ls.iter().map(|l| l.energy[0]).sum::<f64>();
+        assert!((sum(&free) - sum(&capped)).abs() < 1e-9 * sum(&free));
     }
 }

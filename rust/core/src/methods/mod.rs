@@ -11,3 +11,24 @@ pub mod ray_traced;
 pub mod shadow_map;
 pub mod stsv;
 pub mod vwss;
+
+use crate::error::{Error, Result};
+use crate::light::lights::Light;
+
+/// Refuses an emission-textured light for the methods that filter one shadow map seen from the
+/// light's center (`shadow_map`, `pcss`, `cssm`, `backprojection`): they have no light samples
+/// to weight by the texture, and a prefiltered map cannot carry it (Annen et al. 2008, section
+/// 4.2: textured sources are decomposed into uniform lights instead).
+pub(crate) fn refuse_textured(light: &Light, method: &str) -> Result<()> {
+    if light.is_textured() {
+        return Err(Error::invalid(
+            "light",
+            format!(
+                "{method} cannot weight the light's emission texture (it filters one shadow map from the light's center); \
+                 use ray_traced, alias_free, stsv, dcs, penumbra_wedge, mvr or vwss, which weight every light sample by it, \
+                 or a light without emission"
+            ),
+        ));
+    }
+    Ok(())
+}

@@ -163,6 +163,7 @@ impl Lookup<'_> {
 ///
 /// Errors: invalid options; the light's center inside the receivers' bounds; `TooLarge`.
 pub fn pcss(scene: &Scene, light: &Light, receivers: &Receivers, opts: &PcssOptions) -> Result<(Vec<f32>, Stats)> {
+    super::refuse_textured(light, "pcss")?;
     opts.validate()?;
     let mut stats = Stats::default();
     for name in ["depth_map_seconds", "lighting_seconds", "search_near", "no_blocker"] {

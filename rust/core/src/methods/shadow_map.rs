@@ -82,6 +82,7 @@ impl ShadowMapOptions {
 /// Errors: invalid options; no fitting frustum (light inside the receivers' bounds: pass
 /// `frustum`); `TooLarge` past the memory limit.
 pub fn shadow_map(scene: &Scene, light: &Light, receivers: &Receivers, opts: &ShadowMapOptions) -> Result<(Vec<f32>, Stats)> {
+    super::refuse_textured(light, "shadow_map")?;
     opts.validate()?;
     let mut stats = Stats::default();
     let frustum = match (opts.frustum, receivers.bounds()) {
