@@ -486,7 +486,7 @@ def record_expected(frame, path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     with path.open("w", newline="") as f:
-        f.write(f"# written by `softshadows reproduce --tier fast --record {path.name}` on {run.get('date')}, "
+        f.write(f"# written by `softshadows reproduce --tier fast --record {path}` on {run.get('date')}, "
                 f"on {run.get('machine')}; never edited by hand\n")
         w = csv.writer(f)
         w.writerow(["id", "key", "value", "verdict"])

@@ -309,6 +309,8 @@ struct Projection<'a> {
     range: DepthRange,
     footprint: LightFootprint,
     near: f32,
+    /// The ringing-suppression shift, found once per call (a bisection over the series).
+    offset: f32,
     opts: &'a CssmOptions,
 }
 
@@ -324,7 +326,7 @@ impl Projection<'_> {
         if !(s.x >= 0.0 && s.y >= 0.0 && s.x < map.x && s.y < map.y) || s.z <= self.near {
             return Start::Done(1.0);
         }
-        let d = (self.range.normalize(s.z) - f64::from(self.opts.offset())).max(0.0);
+        let d = (self.range.normalize(s.z) - f64::from(self.offset)).max(0.0);
         Start::Look { center: Vec2::new(s.x, s.y), half: self.footprint.through(s.z, self.near), depth: s.z, d }
     }
 
@@ -404,7 +406,7 @@ pub fn cssm(scene: &Scene, light: &Light, receivers: &Receivers, opts: &CssmOpti
     stats.set("search_near", f64::from(near));
     stats.set("depth_min", f64::from(range.lo));
     stats.set("depth_span", f64::from(range.span));
-    let projection = Projection { frustum: &frustum, range, footprint: LightFootprint::new(&frustum, light), near, opts };
+    let projection = Projection { frustum: &frustum, range, footprint: LightFootprint::new(&frustum, light), near, offset: opts.offset(), opts };
     if opts.backend == Backend::Gpu {
         let starts: Vec<Start> = (0..receivers.len())
             .into_par_iter()
