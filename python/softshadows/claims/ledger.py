@@ -142,43 +142,44 @@ def _value(values, key):
 
 
 @dataclasses.dataclass(frozen=True)
-class AtMost(Rule):
-    """``holds`` when ``values[key] <= holds``; ``holds in kind`` when ``<= in_kind``; else
-    ``refuted``."""
+class _Threshold(Rule):
+    """``holds`` when ``values[key]`` is on the good side of ``holds``; ``holds in kind`` when it
+    is on the good side of ``in_kind``; else ``refuted``. Subclasses say which side is good."""
 
     key: str
     holds: float
     in_kind: float | None = None
+    #: The comparison that passes, and its symbol for the ledger.
+    passes = staticmethod(lambda x, limit: True)
+    symbol = ""
 
     def verdict(self, values):
         x = _value(values, self.key)
-        if x <= self.holds:
+        if self.passes(x, self.holds):
             return "holds"
-        return "holds in kind" if self.in_kind is not None and x <= self.in_kind else "refuted"
+        return "holds in kind" if self.in_kind is not None and self.passes(x, self.in_kind) else "refuted"
 
     def describe(self):
-        kind = f", in kind if ≤ {self.in_kind:g}" if self.in_kind is not None else ""
-        return f"holds if {self.key} ≤ {self.holds:g}{kind}"
+        kind = f", in kind if {self.symbol} {self.in_kind:g}" if self.in_kind is not None else ""
+        return f"holds if {self.key} {self.symbol} {self.holds:g}{kind}"
 
 
 @dataclasses.dataclass(frozen=True)
-class AtLeast(Rule):
+class AtMost(_Threshold):
+    """``holds`` when ``values[key] <= holds``; ``holds in kind`` when ``<= in_kind``; else
+    ``refuted``."""
+
+    passes = staticmethod(lambda x, limit: x <= limit)
+    symbol = "≤"
+
+
+@dataclasses.dataclass(frozen=True)
+class AtLeast(_Threshold):
     """``holds`` when ``values[key] >= holds``; ``holds in kind`` when ``>= in_kind``; else
     ``refuted``."""
 
-    key: str
-    holds: float
-    in_kind: float | None = None
-
-    def verdict(self, values):
-        x = _value(values, self.key)
-        if x >= self.holds:
-            return "holds"
-        return "holds in kind" if self.in_kind is not None and x >= self.in_kind else "refuted"
-
-    def describe(self):
-        kind = f", in kind if ≥ {self.in_kind:g}" if self.in_kind is not None else ""
-        return f"holds if {self.key} ≥ {self.holds:g}{kind}"
+    passes = staticmethod(lambda x, limit: x >= limit)
+    symbol = "≥"
 
 
 @dataclasses.dataclass(frozen=True)

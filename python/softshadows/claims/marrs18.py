@@ -919,7 +919,7 @@ def _schedules(tier):
     statement="When a few occluding polygons generate many points, brute-force rasterization is the better "
               "choice.",
     paper_value="MVR better for few polygons generating many points (no number)",
-    rule=AtMost("speedup", 1.0),
+    rule=AtMost("speedup", 0.8, in_kind=1.25),
     ours="VWSS's depth maps {speedup:.2f}x as fast as MVR's ({triangles:.0f} triangles, {points:.0f} points)",
     tolerance={"speedup": TIMING},
 )
@@ -934,5 +934,7 @@ def _few_polygons(tier):
         {"speedup": t_mvr / t_vw, "triangles": setup.occluders[0].faces.shape[0], "points": s_vw["points"]},
         note=f"Sphere over the ground, only the sphere in the maps, {size}² receivers, 24 shared Poisson samples, "
              f"{res}² maps; depth-map seconds (VWSS's point generation included), the least of up to 5 runs. Most of "
-             "VWSS's time here is clearing and copying its 24 atomic maps, which MVR's few triangles undercut.",
+             "VWSS's time here is clearing and copying its 24 atomic maps, which MVR's few triangles undercut. Holds "
+             "when MVR is clearly faster (VWSS at most 0.8x its speed); in kind at parity (up to 1.25x), where the "
+             "two trade places from run to run on an idle machine (0.93-1.03x measured).",
     )
