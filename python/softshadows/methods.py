@@ -454,10 +454,10 @@ def backprojection(
     receivers,
     *,
     occluder: str = "micropatch",
-    extend: bool = False,
+    extend: bool = True,
     accumulation: str = "bitmask",
     bitmask_side: int = 16,
-    accel: str = "hsm",
+    accel: str = "ysm",
     ysm_resolution: int = 256,
     budget=None,
     level: int | None = None,
@@ -493,7 +493,9 @@ def backprojection(
         Texel squares at their depth; texel centers as a quad mesh; or the microrects of section
         5.2 (rectangles of level-0 texels merged greedily level by level).
     extend : bool
-        Grow micropatches over their left and bottom neighbours (closes gaps, Guennebaud 2006).
+        Fill the gaps between a micropatch and its left and bottom neighbours where both occlude
+        the receiver (Guennebaud et al. 2006, section 4.2): the backprojection of the wall between
+        their shared edge's two depths, where it falls outside the micropatch's.
     accumulation : {"bitmask", "area"}
         Occlusion bitmap over ``bitmask_side x bitmask_side`` jittered light samples, or the
         clamped sum of the backprojected areas.

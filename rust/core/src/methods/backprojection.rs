@@ -1,35 +1,45 @@
 //! `backprojection`: soft shadow mapping by backprojecting micro-occluders onto the light, with
-//! budgets and smooth quality scaling (Schwarz and Stamminger 2008, seed 003; after Guennebaud,
-//! Barthe and Paulin 2006).
+//! budgets and smooth quality scaling (Schwarz and Stamminger 2008, "Quality Scalability of Soft
+//! Shadow Mapping"; after Guennebaud, Barthe and Paulin 2006, "Real-time Soft Shadow Mapping by
+//! Backprojection").
 //!
 //! One depth map is rendered from the light's center. Its texels, unprojected into world space,
 //! approximate the occluders; for each receiver `p` (section 3):
 //!
-//! 1. **Search area**: the light's footprint in the map through the nearest stored depth (its
-//!    bounding points projected from `p` onto that depth's plane), refined by intersecting the pyramid from `p` to the light with the
-//!    plane at the area's minimum depth `z_min` (Figure 2b), read from the min/max pyramid (the
-//!    HSM). A receiver nearer than every sample of its area is fully lit; one farther than all of
-//!    them (and than every empty texel, stored at the largest depth) is in umbra; neither
-//!    backprojects anything.
-//! 2. **Level of quality** (section 4.2): with a budget `b_mo` (per receiver, from a scalar or a
-//!    budget map), the fractional shadow-map level `ℓ = log2(s / b_mo)` for an area `s` level-0
-//!    texels wide keeps at most `b_mo × b_mo` micro-occluders at level `⌈ℓ⌉`. The levels form the
-//!    LOQ map, smoothed by a separable box filter (11 × 11 by default) that stops at depth
-//!    discontinuities and at receivers that backproject nothing; the visibilities of levels `⌊ℓ⌋`
-//!    and `⌈ℓ⌉` are blended by the fraction of `ℓ`. The query region is first grown to whole
-//!    level-`⌈ℓ⌉` texels (the "over-precision" fix of Figure 7).
+//! 1. **Search area and level of quality** (sections 3, 4.2 and 6): the light's footprint in the
+//!    map through depth `z` (its bounding points projected from `p` onto that depth's plane),
+//!    starting at the nearest stored depth. With a budget `b_mo` (per receiver, from a scalar or a
+//!    budget map) the area, `s` level-0 texels wide, sets the fractional level
+//!    `ℓ = log2(s / (⌊b_mo⌋ − 1))` (see [`Context::level_of`]); the area is grown to whole texels of
+//!    level `⌈ℓ⌉` (the "over-precision" fix of Figure 7) *before* its depth range is queried from the
+//!    acceleration structure (HSM, MSSM or YSM). A receiver nearer than every sample is fully lit;
+//!    one farther than all of them (and than every empty texel, stored at the largest depth) is in
+//!    umbra; otherwise the pyramid from `p` to the light is intersected with the plane at the
+//!    range's minimum depth (Figure 2b) and the search repeats.
+//! 2. **LOQ map** (section 4.2): the levels are smoothed by a separable filter (11 × 11 by default)
+//!    that stops at depth discontinuities and at receivers that backproject nothing; the
+//!    visibilities of levels `⌊ℓ⌋` and `⌈ℓ⌉` are blended by the fraction of `ℓ`.
 //! 3. **Micro-occluders** of the chosen level nearer than the receiver (its tangent plane,
-//!    [`ReceiverDepth`]): *micropatches* (a texel's square at its minimum depth; optionally
-//!    extended to the left and bottom neighbours' squares, Guennebaud et al. 2006), *microquads*
-//!    (texel centers as the vertices of a quad mesh, used when all four are nearer) or
-//!    *microrects* (section 5.2, [`Microrects`]).
+//!    [`ReceiverDepth`]): *micropatches* (a texel's square at its minimum depth, optionally with
+//!    the gap filling of Guennebaud et al. 2006, [`Context::gap_wall`]), *microquads* (texel
+//!    centers as the vertices of a quad mesh, used when all four are nearer) or *microrects*
+//!    (section 5.2, [`Microrects`]).
 //! 4. **Backprojection** onto the light's plane from `p`; the occluded light is accumulated as the
 //!    sum of the clipped areas (clamped to 1) or in an occlusion bitmap over jittered `k × k`
 //!    light samples (Schwarz and Stamminger 2007).
 //!
+//! **The budget holds per pixel.** At level `⌈ℓ⌉` a receiver processes at most `⌊b_mo⌋²`
+//! micro-occluders and at level `⌊ℓ⌋` at most `(2⌊b_mo⌋)²` (section 8), counted as the texels its
+//! scan reads: an area `s` texels wide at any offset touches at most `⌈s / 2^j⌉ + 1` texels of
+//! level `j`, hence the `− 1` in `ℓ`; and the LOQ map is smoothed after a dilation over the same
+//! window, so smoothing only ever coarsens a receiver's level. The stats `processed_*` and
+//! `backprojected_*` count them. Microrects are those whose reference point (texel) lies in the
+//! area, like micropatches: section 5.2 keeps each extent around its own reference point and
+//! clear of the others' so that the acceleration structure serves them as it is.
+//!
 //! Rectangular and disk lights (the light's plane); a disk's outline is a 64-gon of equal area.
-//! The light behind a receiver's tangent plane is blocked (DESIGN.md section 3): the bitmap starts
-//! with those samples set, and areas and fully lit receivers are scaled by the fraction in front.
+//! The light behind a receiver's tangent plane counts as blocked: the bitmap starts with those
+//! samples set, and areas and fully lit receivers are scaled by the fraction in front.
 
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
@@ -48,7 +58,8 @@ use rayon::prelude::*;
 /// The micro-occluders built from the shadow map (sections 3 and 5).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Occluder {
-    /// A texel's square at its depth; `extend` grows it over its left and bottom neighbours.
+    /// A texel's square at its depth; `extend` fills the gaps to its left and bottom neighbours
+    /// (Guennebaud et al. 2006, [`Context::gap_wall`]).
     Micropatch { extend: bool },
     /// Texel centers as the vertices of a quad mesh.
     Microquad,
@@ -94,8 +105,13 @@ pub enum Budget {
 pub struct BackprojectionOptions {
     /// Shadow-map side in texels (default 1024).
     pub resolution: usize,
+    /// The micro-occluders (default micropatches with the gap filling: at the default unbounded
+    /// budget it lowered the RMSE on every scene measured, by 1.2x to 2.1x; see
+    /// `bench/backprojection.py`).
     pub occluder: Occluder,
+    /// Default: occlusion bitmaps of 16 × 16 jittered samples (the paper's).
     pub accumulation: Accumulation,
+    /// Default: the YSM with a 256² MSSM part, which every result of the paper used (section 8).
     pub acceleration: Acceleration,
     pub budget: Budget,
     /// A fixed shadow-map level for every receiver instead of the budget's.
@@ -112,9 +128,9 @@ impl Default for BackprojectionOptions {
     fn default() -> Self {
         Self {
             resolution: 1024,
-            occluder: Occluder::Micropatch { extend: false },
+            occluder: Occluder::Micropatch { extend: true },
             accumulation: Accumulation::Bitmask { side: 16 },
-            acceleration: Acceleration::Hsm,
+            acceleration: Acceleration::Ysm { resolution: 256 },
             budget: Budget::Infinite,
             level: None,
             blend: true,
@@ -170,7 +186,10 @@ impl Accel {
             Acceleration::Mssm => 0,
             Acceleration::Ysm { resolution } => hsm.levels.iter().position(|l| l.width.max(l.height) <= resolution).unwrap_or(hsm.levels.len() - 1),
         };
-        let multi = MultiScaleMap::from_level(hsm.levels[base].clone())?;
+        let multi = match kind {
+            Acceleration::Mssm => MultiScaleMap::from_level(hsm.levels[0].clone())?,
+            _ => MultiScaleMap::sharing_finest(&hsm.levels[base])?,
+        };
         Ok(Accel { hsm, multi: Some((base, multi)) })
     }
 
@@ -181,7 +200,7 @@ impl Accel {
     fn range(&self, x0: usize, y0: usize, x1: usize, y1: usize) -> Option<(f32, f32)> {
         match &self.multi {
             Some((base, multi)) if self.hsm.region_level(x0, y0, x1, y1) >= *base => {
-                multi.query(x0 >> base, y0 >> base, ((x1 - 1) >> base) + 1, ((y1 - 1) >> base) + 1)
+                multi.query_over(&self.hsm.levels[*base], x0 >> base, y0 >> base, ((x1 - 1) >> base) + 1, ((y1 - 1) >> base) + 1)
             }
             _ => self.hsm.query_region(x0, y0, x1, y1),
         }
@@ -222,14 +241,19 @@ impl Levels {
     }
 }
 
-/// The greedy two-pass construction of microrects (section 5.2, Figures 5 and 6). Level `i + 1`
-/// keeps the reference points of the even texels `(2X, 2Y)` of level `i`; each other level-`i`
-/// microrect merges into one kept neighbour. First pass: a kept microrect `A` takes its `+x`
-/// neighbour `B` when `B`'s depth is nearer to `A`'s than to the next kept one's `C`, likewise its
-/// `+y` neighbour, and its diagonal neighbour when the merged extent already contains it. Second
-/// pass: each kept microrect takes the neighbours in the negative directions not yet merged.
-/// A merge takes the bounding rectangle of the extents and the minimum depth; extents are then
-/// clipped so that no other reference point of the level lies inside.
+/// The construction of microrects (section 5.2, Figures 5 and 6). Level `i + 1` keeps the
+/// reference points of the even texels `(2X, 2Y)` of level `i`; every other level-`i` microrect
+/// merges into one kept neighbour, "that neighbor ... which features the least depth value
+/// difference" (the 1D rule of section 5.2): the `+x` neighbour `B` of a kept `A` into `A` or the
+/// next kept one in `x`, `C` (the paper's first pass, `B-A` against `B-C`, and second pass); the
+/// `+y` neighbour `D` into `A` or `G` likewise; the diagonal neighbour `E` into whichever of its
+/// four kept neighbours `A`, `C`, `G` and `P` lies nearest in depth. The paper's greedy passes
+/// give `E` to `A` when `A`'s merged extent already contains it and otherwise to `P`, whatever
+/// their depths; that hands an occluder's texel to a microrect of the floor behind it (or the
+/// floor's to the occluder's), whose extent then takes the occluder's depth over all the floor it
+/// covers. A merged microrect's extent is the bounding rectangle of its parts' and its depth their
+/// minimum; the extents stay within the open neighbourhood of their reference point by
+/// construction (each part lies within one level-`i` texel of it), as section 5.2 requires.
 struct Microrects;
 
 impl Microrects {
@@ -238,69 +262,47 @@ impl Microrects {
         base.extent = (0..base.height).flat_map(|y| (0..base.width).map(move |x| [x as u32, y as u32, x as u32 + 1, y as u32 + 1])).collect();
         for i in 1..levels.len() {
             let (finer, coarser) = levels.split_at_mut(i);
-            Self::merge(&finer[i - 1], &mut coarser[0], i);
+            let parents = Self::parents(&finer[i - 1], coarser[0].width);
+            Self::aggregate(&finer[i - 1], &parents, &mut coarser[0]);
         }
     }
 
-    fn merge(fine: &Level, out: &mut Level, level: usize) {
+    /// For each microrect of `fine`, the index of the coarser microrect (`width` per row) it merges
+    /// into: itself for the kept ones, the kept neighbour nearest in depth for the others (ties go
+    /// to the paper's first-pass partner `A`).
+    fn parents(fine: &Level, width: usize) -> Vec<u32> {
         let (w, h) = (fine.width, fine.height);
-        let at = |x: usize, y: usize| y * w + x;
-        let depth = |x: usize, y: usize| fine.depth[at(x, y)];
-        // Whether the non-kept microrect at (x, y) merged in the first pass.
-        let mut taken = vec![false; w * h];
-        let mut extent = vec![[0u32; 4]; out.width * out.height];
-        let mut min_depth = vec![EMPTY; out.width * out.height];
-        let union = |a: [u32; 4], b: [u32; 4]| [a[0].min(b[0]), a[1].min(b[1]), a[2].max(b[2]), a[3].max(b[3])];
-        let nearer_to_kept = |b: f32, kept: f32, other: Option<f32>| other.is_none_or(|c| (b - kept).abs() <= (b - c).abs());
-        for oy in 0..out.height {
-            for ox in 0..out.width {
-                let (x, y) = (2 * ox, 2 * oy);
-                let (mut e, mut d) = (fine.extent[at(x, y)], depth(x, y));
-                let mut merged_x = false;
-                let mut merged_y = false;
-                if x + 1 < w && nearer_to_kept(depth(x + 1, y), d, (x + 2 < w).then(|| depth(x + 2, y))) {
-                    (e, d) = (union(e, fine.extent[at(x + 1, y)]), d.min(depth(x + 1, y)));
-                    taken[at(x + 1, y)] = true;
-                    merged_x = true;
-                }
-                if y + 1 < h && nearer_to_kept(depth(x, y + 1), fine.depth[at(x, y)], (y + 2 < h).then(|| depth(x, y + 2))) {
-                    (e, d) = (union(e, fine.extent[at(x, y + 1)]), d.min(depth(x, y + 1)));
-                    taken[at(x, y + 1)] = true;
-                    merged_y = true;
-                }
-                if merged_x && merged_y && x + 1 < w && y + 1 < h {
-                    let diag = fine.extent[at(x + 1, y + 1)];
-                    if union(e, diag) == e {
-                        d = d.min(depth(x + 1, y + 1));
-                        taken[at(x + 1, y + 1)] = true;
+        // The kept coordinates within one texel of `c` (even ones), the smaller first.
+        let kept = |c: usize, n: usize| if c.is_multiple_of(2) { [Some(c), None] } else { [Some(c - 1), (c + 1 < n).then_some(c + 1)] };
+        (0..w * h)
+            .into_par_iter()
+            .map(|k| {
+                let (x, y) = (k % w, k / w);
+                let mut best = (f32::INFINITY, 0u32);
+                for cy in kept(y, h).into_iter().flatten() {
+                    for cx in kept(x, w).into_iter().flatten() {
+                        let gap = (fine.depth[cy * w + cx] - fine.depth[k]).abs();
+                        if gap < best.0 {
+                            best = (gap, ((cy / 2) * width + cx / 2) as u32);
+                        }
                     }
                 }
-                extent[oy * out.width + ox] = e;
-                min_depth[oy * out.width + ox] = d;
-            }
-        }
-        for oy in 0..out.height {
-            for ox in 0..out.width {
-                let (x, y) = (2 * ox, 2 * oy);
-                let k = oy * out.width + ox;
-                for (nx, ny) in [(x.wrapping_sub(1), y), (x, y.wrapping_sub(1)), (x.wrapping_sub(1), y.wrapping_sub(1))] {
-                    if nx < w && ny < h && !taken[at(nx, ny)] {
-                        extent[k] = union(extent[k], fine.extent[at(nx, ny)]);
-                        min_depth[k] = min_depth[k].min(depth(nx, ny));
-                    }
-                }
-                // No other reference point of the level inside: reference points sit at
-                // multiples of 2^level, so the extent stays within the open neighbourhood.
-                let (s, rx, ry) = (1u32 << level, (ox as u32) << level, (oy as u32) << level);
-                let e = &mut extent[k];
-                e[0] = e[0].max((rx + 1).saturating_sub(s));
-                e[1] = e[1].max((ry + 1).saturating_sub(s));
-                e[2] = e[2].min(rx + s);
-                e[3] = e[3].min(ry + s);
-            }
+                best.1
+            })
+            .collect()
+    }
+
+    /// The coarser level's extents (bounding rectangles of their parts') and depths (minimum).
+    fn aggregate(fine: &Level, parents: &[u32], out: &mut Level) {
+        let mut extent = vec![[u32::MAX, u32::MAX, 0, 0]; out.width * out.height];
+        let mut depth = vec![EMPTY; out.width * out.height];
+        for (k, &parent) in parents.iter().enumerate() {
+            let (e, f, m) = (&mut extent[parent as usize], fine.extent[k], &mut depth[parent as usize]);
+            *e = [e[0].min(f[0]), e[1].min(f[1]), e[2].max(f[2]), e[3].max(f[3])];
+            *m = m.min(fine.depth[k]);
         }
         out.extent = extent;
-        out.depth = min_depth;
+        out.depth = depth;
     }
 }
 
@@ -442,6 +444,9 @@ struct Context<'a> {
     near: f32,
 }
 
+/// A rectangle `[x0, x1) × [y0, y1)` of level-0 texels.
+type Rect = (usize, usize, usize, usize);
+
 /// What the search of step 1 found for one receiver.
 #[derive(Debug, Clone, Copy)]
 enum Search {
@@ -449,8 +454,28 @@ enum Search {
     Fixed(f32),
     Lit,
     Umbra,
-    /// The refined search area `[x0, x1) × [y0, y1)` in level-0 texels.
-    Area { x0: usize, y0: usize, x1: usize, y1: usize },
+    /// The refined search area, grown to whole texels of level `⌈level⌉`, and the fractional
+    /// level `ℓ` its budget gives (before smoothing).
+    Area { area: Rect, level: f32 },
+}
+
+/// The micro-occluders one receiver's scan of one level read, and those it backprojected.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+struct Counts {
+    processed: u32,
+    backprojected: u32,
+}
+
+impl std::ops::Add for Counts {
+    type Output = Counts;
+    fn add(self, o: Counts) -> Counts {
+        Counts { processed: self.processed + o.processed, backprojected: self.backprojected + o.backprojected }
+    }
+}
+
+/// The side of a light-coordinate point relative to the directed line `a → b`.
+fn side(a: DVec2, b: DVec2, q: DVec2) -> f64 {
+    (b - a).perp_dot(q - a)
 }
 
 impl Context<'_> {
@@ -461,11 +486,10 @@ impl Context<'_> {
         inside.then(|| ReceiverDepth::new(&self.frustum, p, n, s, self.bias))
     }
 
-    /// The search area of receiver `p` (`rd`) through linear depth `z` (step 1): the bounding box,
-    /// in level-0 texels, of the light's bounding points projected from `p` onto the plane at
-    /// depth `z` (exact for a light tilted against the map), grown to the support of the
-    /// level-`level` micro-occluders it partly covers (the over-precision fix of Figure 7).
-    fn area(&self, p: Vec3, rd: &ReceiverDepth, z: f32, level: usize) -> (usize, usize, usize, usize) {
+    /// The search area of receiver `p` (`rd`) through linear depth `z`: the bounding box, in
+    /// level-0 texels, of the light's bounding points projected from `p` onto the plane at depth
+    /// `z` (exact for a light tilted against the map).
+    fn footprint(&self, p: Vec3, rd: &ReceiverDepth, z: f32) -> Rect {
         let f = &self.frustum;
         let zp = rd.depth();
         let (mut lo, mut hi) = (rd.texel_coords(), rd.texel_coords());
@@ -480,22 +504,31 @@ impl Context<'_> {
         }
         let (w, h) = (f.width, f.height);
         let clamp = |v: f32, n: usize| (v.max(0.0) as usize).min(n);
-        let s = 1usize << level;
-        // Microrects reach up to one level texel past their own (section 5.2): grow by their support.
-        let reach = if level > 0 && self.opts.occluder == Occluder::Microrect { s } else { 0 };
-        let (x0, y0) = ((clamp(lo.x.floor(), w) / s * s).saturating_sub(reach), (clamp(lo.y.floor(), h) / s * s).saturating_sub(reach));
-        let (x1, y1) = (clamp(hi.x.ceil() + 1.0, w).div_ceil(s) * s + reach, clamp(hi.y.ceil() + 1.0, h).div_ceil(s) * s + reach);
-        (x0, y0, x1.min(w).max(x0 + 1), y1.min(h).max(y0 + 1))
+        let (x0, y0) = (clamp(lo.x.floor(), w), clamp(lo.y.floor(), h));
+        let (x1, y1) = (clamp(hi.x.ceil() + 1.0, w), clamp(hi.y.ceil() + 1.0, h));
+        (x0.min(w - 1), y0.min(h - 1), x1.max(x0 + 1).min(w), y1.max(y0 + 1).min(h))
     }
 
-    /// Step 1: the refined search area and the umbra / lit classification, the query region
-    /// grown to whole texels of `level` (the level the budget will use, 0 without one).
-    fn search(&self, p: Vec3, rd: &ReceiverDepth, level: usize) -> Search {
+    /// `area` grown to whole texels of `level` (the "over-precision" fix of Figure 7).
+    fn aligned(&self, (x0, y0, x1, y1): Rect, level: usize) -> Rect {
+        let s = 1usize << level;
+        (x0 / s * s, y0 / s * s, (x1.div_ceil(s) * s).min(self.frustum.width), (y1.div_ceil(s) * s).min(self.frustum.height))
+    }
+
+    /// Step 1: the refined search area and the umbra / lit classification. Each round takes the
+    /// level the budget gives the current area and grows the area to that level's texels before
+    /// querying its depth range (section 6: "we determine the level j from the current search area
+    /// and budget b_mo, and grow the area before querying its depth range").
+    fn search(&self, p: Vec3, rd: &ReceiverDepth, budget: Option<f32>) -> Search {
         // Occluders must be nearer than the receiver's tangent plane at its own texel.
         let threshold = rd.at(rd.texel_coords().x as i64, rd.texel_coords().y as i64);
         let mut z = self.near;
-        let mut area = self.area(p, rd, z, level);
+        let mut found = None;
         for _ in 0..4 {
+            let footprint = self.footprint(p, rd, z);
+            let level = self.opts.level.map_or_else(|| self.level_of(footprint, budget), |l| l.min(self.top()) as f32);
+            let j = level.ceil() as usize;
+            let area = self.aligned(footprint, j);
             let Some((lo, hi)) = self.accel.range(area.0, area.1, area.2, area.3) else { return Search::Lit };
             if lo >= threshold {
                 return Search::Lit;
@@ -503,76 +536,69 @@ impl Context<'_> {
             if hi < threshold {
                 return Search::Umbra;
             }
+            found = Some(Search::Area { area, level });
             if lo <= z {
                 break;
             }
             z = lo;
-            area = self.area(p, rd, z, level);
         }
-        Search::Area { x0: area.0, y0: area.1, x1: area.2, y1: area.3 }
+        found.unwrap_or(Search::Lit)
     }
 
-    /// The budget level `ℓ` of an area (section 4.2), 0 without a budget.
-    fn level_of(&self, area: (usize, usize, usize, usize), budget: Option<f32>) -> f32 {
+    /// The coarsest micro-occluder level.
+    fn top(&self) -> usize {
+        self.levels.levels.len() - 1
+    }
+
+    /// The fractional level `ℓ` of a search area `s` level-0 texels wide under budget `b_mo`
+    /// (section 4.2), 0 without a budget: `log2(s / (⌊b_mo⌋ − 1))`, so that at level `⌈ℓ⌉` the scan
+    /// reads at most `⌊b_mo⌋` texels per axis wherever the area lies (see the module
+    /// documentation).
+    fn level_of(&self, area: Rect, budget: Option<f32>) -> f32 {
+        let Some(b) = budget else { return 0.0 };
         let side = (area.2 - area.0).max(area.3 - area.1) as f32;
-        let top = (self.levels.levels.len() - 1) as f32;
-        match budget {
-            Some(b) => (side / b).log2().clamp(0.0, top),
-            None => 0.0,
+        let allowed = b.floor() - 1.0;
+        let top = self.top() as f32;
+        if allowed < 1.0 {
+            return top;
         }
+        (side / allowed).log2().clamp(0.0, top)
     }
 
     /// Steps 3 and 4 at integer level `level`: the visibility of receiver `p` (`rd`) from the
-    /// micro-occluders of the area, and how many it backprojected.
-    fn visibility(&self, (p, n): (DVec3, DVec3), rd: &ReceiverDepth, area: (usize, usize, usize, usize), level: usize) -> (f32, u32) {
-        let lv = &self.levels.levels[level.min(self.levels.levels.len() - 1)];
+    /// micro-occluders of `area`, and how many the scan read and backprojected.
+    fn visibility(&self, (p, n): (DVec3, DVec3), rd: &ReceiverDepth, area: Rect, level: usize) -> (f32, Counts) {
+        let level = level.min(self.top());
+        let lv = &self.levels.levels[level];
         let s = 1usize << level;
         let (mut bits, front) = self.light.behind(p, n);
         let mut covered = 0.0f64;
-        let mut count = 0u32;
-        // Microrects reach up to one level texel beyond their own: widen the scan by one.
-        let grow = usize::from(self.opts.occluder == Occluder::Microrect);
-        let (tx0, ty0) = ((area.0 / s).saturating_sub(grow), (area.1 / s).saturating_sub(grow));
-        let (tx1, ty1) = ((area.2.div_ceil(s) + grow).min(lv.width), (area.3.div_ceil(s) + grow).min(lv.height));
-        let mut add = |quad: [DVec3; 4]| {
-            let Some(q) = project_quad(self.light, p, quad) else { return };
-            count += 1;
-            match self.opts.accumulation {
-                Accumulation::Area => covered += self.light.covered_fraction(&q),
-                Accumulation::Bitmask { .. } => {
-                    for (k, sample) in self.light.samples.iter().enumerate() {
-                        if in_quad(&q, *sample) {
-                            bits[k / 64] |= 1 << (k % 64);
-                        }
+        let (tx0, ty0) = (area.0 / s, area.1 / s);
+        let (tx1, ty1) = (area.2.div_ceil(s).min(lv.width), area.3.div_ceil(s).min(lv.height));
+        let mut counts = Counts { processed: ((tx1 - tx0) * (ty1 - ty0)) as u32, backprojected: 0 };
+        let mut occlude = |q: [DVec2; 4]| match self.opts.accumulation {
+            Accumulation::Area => covered += self.light.covered_fraction(&q),
+            Accumulation::Bitmask { .. } => {
+                for (k, sample) in self.light.samples.iter().enumerate() {
+                    if in_quad(&q, *sample) {
+                        bits[k / 64] |= 1 << (k % 64);
                     }
                 }
             }
         };
+        let cell = |tx: usize, ty: usize| (tx * s, ty * s, tx * s + s, ty * s + s);
+        let f = &self.frustum;
         for ty in ty0..ty1 {
             for tx in tx0..tx1 {
                 let d = lv.depth[ty * lv.width + tx];
                 if d == EMPTY {
                     continue;
                 }
-                match self.opts.occluder {
-                    Occluder::Micropatch { extend } => {
-                        let (x0, y0) = (tx * s, ty * s);
-                        if d >= plane_min(rd, (x0, y0, x0 + s, y0 + s)) {
-                            continue;
-                        }
-                        let (x0, y0, x1, y1) = (x0 as f32, y0 as f32, (x0 + s) as f32, (y0 + s) as f32);
-                        let (x0, y1) = if extend { (x0 - s as f32, y1 + s as f32) } else { (x0, y1) };
-                        add(self.rect((x0, y0, x1, y1), d));
-                    }
+                let (rect, d) = match self.opts.occluder {
+                    Occluder::Micropatch { .. } => (cell(tx, ty), d),
                     Occluder::Microrect => {
-                        let e = lv.extent[ty * lv.width + tx];
-                        if (e[2] as usize) <= area.0 || (e[0] as usize) >= area.2 || (e[3] as usize) <= area.1 || (e[1] as usize) >= area.3 {
-                            continue;
-                        }
-                        if d >= plane_min(rd, (e[0] as usize, e[1] as usize, e[2] as usize, e[3] as usize)) {
-                            continue;
-                        }
-                        add(self.rect((e[0] as f32, e[1] as f32, e[2] as f32, e[3] as f32), d));
+                        let e = lv.extent[ty * lv.width + tx].map(|v| v as usize);
+                        ((e[0], e[1], e[2], e[3]), d)
                     }
                     Occluder::Microquad => {
                         if tx + 1 >= lv.width || ty + 1 >= lv.height {
@@ -580,11 +606,26 @@ impl Context<'_> {
                         }
                         let corners = [(tx, ty), (tx + 1, ty), (tx + 1, ty + 1), (tx, ty + 1)];
                         let depths = corners.map(|(x, y)| lv.depth[y * lv.width + x]);
-                        let nearer = corners.iter().zip(&depths).all(|(&(x, y), &dz)| dz != EMPTY && dz < plane_min(rd, (x * s, y * s, x * s + s, y * s + s)));
-                        if nearer {
-                            let f = &self.frustum;
-                            add(corners.map(|(x, y)| f.unproject(((x * s) as f32) + 0.5 * s as f32, ((y * s) as f32) + 0.5 * s as f32, lv.depth[y * lv.width + x]).as_dvec3()));
+                        if !corners.iter().zip(&depths).all(|(&(x, y), &dz)| dz != EMPTY && dz < plane_min(rd, cell(x, y))) {
+                            continue;
                         }
+                        let quad = [0, 1, 2, 3].map(|i| f.unproject(((corners[i].0 * s) as f32) + 0.5 * s as f32, ((corners[i].1 * s) as f32) + 0.5 * s as f32, depths[i]).as_dvec3());
+                        if let Some(q) = project_quad(self.light, p, quad) {
+                            counts.backprojected += 1;
+                            occlude(q);
+                        }
+                        continue;
+                    }
+                };
+                if d >= plane_min(rd, rect) {
+                    continue;
+                }
+                let Some(q) = project_quad(self.light, p, self.rect(rect, d)) else { continue };
+                counts.backprojected += 1;
+                occlude(q);
+                if self.opts.occluder == (Occluder::Micropatch { extend: true }) {
+                    for wall in [self.gap_wall(p, rd, lv, level, (tx, ty), &q, Neighbour::Left), self.gap_wall(p, rd, lv, level, (tx, ty), &q, Neighbour::Bottom)] {
+                        wall.map(&mut occlude);
                     }
                 }
             }
@@ -593,14 +634,63 @@ impl Context<'_> {
             Accumulation::Area => front * (1.0 - covered.min(1.0)),
             Accumulation::Bitmask { .. } => 1.0 - bits.iter().map(|b| b.count_ones()).sum::<u32>() as f64 / self.light.samples.len() as f64,
         };
-        (visible as f32, count)
+        (visible as f32, counts)
     }
 
-    /// The world quad of the level-0 texel rectangle `(x0, y0, x1, y1)` at linear depth `d`.
-    fn rect(&self, (x0, y0, x1, y1): (f32, f32, f32, f32), d: f32) -> [DVec3; 4] {
+    /// The gap filling of Guennebaud et al. 2006 (section 4.2, "gaps and overlapping"): seen from
+    /// `p`, adjacent micropatches at different depths leave a gap (or overlap) between their
+    /// backprojections, since their shared edge lies at two depths along the same light ray. The
+    /// micropatch at texel `(tx, ty)` of `level`, backprojected as `patch`, closes the gap to its
+    /// left or bottom neighbour by the backprojection of the wall between the two copies of the
+    /// shared edge (at its own depth and at the neighbour's), when the neighbour occludes `p` too
+    /// and its copy of the edge falls outside `patch`. Each edge has one owner, so every gap
+    /// between two occluding micropatches closes once, and no wall reaches a texel that no
+    /// occluder covers: an empty neighbour, or one behind `p`, gets none.
+    #[allow(clippy::too_many_arguments)]
+    fn gap_wall(&self, p: DVec3, rd: &ReceiverDepth, lv: &Level, level: usize, (tx, ty): (usize, usize), patch: &[DVec2; 4], side_: Neighbour) -> Option<[DVec2; 4]> {
+        let s = 1usize << level;
+        let (nx, ny) = match side_ {
+            Neighbour::Left => (tx.checked_sub(1)?, ty),
+            Neighbour::Bottom => (tx, ty + 1),
+        };
+        if ny >= lv.height {
+            return None;
+        }
+        let dn = lv.depth[ny * lv.width + nx];
+        if dn == EMPTY || dn >= plane_min(rd, (nx * s, ny * s, nx * s + s, ny * s + s)) {
+            return None;
+        }
+        // The shared edge in level-0 texel coordinates: the patch's corners 3 → 0 (left) or 2 → 3
+        // (bottom) of `rect`'s winding.
+        let (x0, y0, x1, y1) = ((tx * s) as f32, (ty * s) as f32, ((tx + 1) * s) as f32, ((ty + 1) * s) as f32);
+        let (a, b, (ia, ib)) = match side_ {
+            Neighbour::Left => ((x0, y1), (x0, y0), (3, 0)),
+            Neighbour::Bottom => ((x1, y1), (x0, y1), (2, 3)),
+        };
         let f = &self.frustum;
+        let far = [self.light.project(p, f.unproject(a.0, a.1, dn).as_dvec3())?, self.light.project(p, f.unproject(b.0, b.1, dn).as_dvec3())?];
+        let (ea, eb) = (patch[ia], patch[ib]);
+        let centroid = (patch[0] + patch[1] + patch[2] + patch[3]) * 0.25;
+        let mid = (far[0] + far[1]) * 0.5;
+        (side(ea, eb, centroid) * side(ea, eb, mid) < 0.0).then_some([ea, eb, far[1], far[0]])
+    }
+
+    /// The world quad of the level-0 texel rectangle `(x0, y0, x1, y1)` at linear depth `d`, wound
+    /// `(x0, y0), (x1, y0), (x1, y1), (x0, y1)`.
+    fn rect(&self, (x0, y0, x1, y1): Rect, d: f32) -> [DVec3; 4] {
+        let f = &self.frustum;
+        let (x0, y0, x1, y1) = (x0 as f32, y0 as f32, x1 as f32, y1 as f32);
         [(x0, y0), (x1, y0), (x1, y1), (x0, y1)].map(|(x, y)| f.unproject(x, y, d).as_dvec3())
     }
+}
+
+/// The neighbours whose gaps a micropatch fills ([`Context::gap_wall`]).
+#[derive(Debug, Clone, Copy)]
+enum Neighbour {
+    /// `−x` in the map.
+    Left,
+    /// `+y` in the map.
+    Bottom,
 }
 
 /// The nearest depth of the receiver's tangent plane over the level-0 texels `[x0, x1) × [y0, y1)`
@@ -618,41 +708,55 @@ fn project_quad(light: &LightPlane, p: DVec3, quad: [DVec3; 4]) -> Option<[DVec2
     Some(q)
 }
 
-/// Smooths the LOQ map (section 4.2): a separable box filter of `side` texels over the receiver
+/// Smooths the LOQ map (section 4.2): per axis, a box filter of `side` texels over the receiver
 /// grid, each run stopping at a depth discontinuity (linear light depths differing by more than
-/// 2%) and at receivers without a level (`None`: no backprojection).
+/// 2%) and at receivers without a level (`None`: no backprojection). Each box follows a maximum
+/// over the same runs: a run around `x` holds `y` exactly when the run around `y` holds `x`, so
+/// every term of `x`'s mean is at least its own level and smoothing never lowers a level below
+/// the one its budget needs (the budget's bound holds at every pixel), while the box still turns
+/// the steps of the raw map into ramps.
 fn smooth_levels(levels: &[Option<f32>], depth: &[f32], (w, h): (usize, usize), side: usize) -> Vec<Option<f32>> {
     let r = side / 2;
     let joined = |a: usize, b: usize| levels[b].is_some() && (depth[a] - depth[b]).abs() <= 0.02 * depth[a].abs().max(depth[b].abs());
-    let pass = |input: &[Option<f32>], step: (usize, usize)| -> Vec<Option<f32>> {
+    // The run around `i` along `step`: `i` and the joined receivers within `r` on either side.
+    let run = |i: usize, step: (usize, usize), visit: &mut dyn FnMut(usize)| {
+        visit(i);
+        let (x, y) = (i % w, i / w);
+        for dir in [-1i64, 1] {
+            let mut prev = i;
+            for k in 1..=r as i64 {
+                let (nx, ny) = (x as i64 + dir * k * step.0 as i64, y as i64 + dir * k * step.1 as i64);
+                if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
+                    break;
+                }
+                let j = ny as usize * w + nx as usize;
+                if !joined(prev, j) {
+                    break;
+                }
+                visit(j);
+                prev = j;
+            }
+        }
+    };
+    let filter = |input: &[Option<f32>], step: (usize, usize), mean: bool| -> Vec<Option<f32>> {
         (0..w * h)
             .into_par_iter()
             .map(|i| {
-                let v = input[i]?;
-                let (x, y) = (i % w, i / w);
-                let (mut sum, mut n) = (v, 1.0f32);
-                for dir in [-1i64, 1] {
-                    let mut prev = i;
-                    for k in 1..=r as i64 {
-                        let (nx, ny) = (x as i64 + dir * k * step.0 as i64, y as i64 + dir * k * step.1 as i64);
-                        if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
-                            break;
-                        }
-                        let j = ny as usize * w + nx as usize;
-                        if !joined(prev, j) {
-                            break;
-                        }
-                        sum += input[j].unwrap_or(v);
-                        n += 1.0;
-                        prev = j;
-                    }
-                }
-                Some(sum / n)
+                input[i]?;
+                let (mut sum, mut max, mut n) = (0.0f32, f32::NEG_INFINITY, 0.0f32);
+                run(i, step, &mut |j| {
+                    let v = input[j].unwrap_or(f32::NEG_INFINITY);
+                    (sum, max, n) = (sum + v, max.max(v), n + 1.0);
+                });
+                Some(if mean { sum / n } else { max })
             })
             .collect()
     };
-    let across = pass(levels, (1, 0));
-    pass(&across, (0, 1))
+    let mut out = levels.to_vec();
+    for step in [(1, 0), (0, 1)] {
+        out = filter(&filter(&out, step, false), step, true);
+    }
+    out
 }
 
 /// The memory of [`backprojection_levels`] for `receivers` receivers and a `w × h` shadow map:
@@ -666,8 +770,16 @@ fn peak(scene: &Scene, receivers: usize, (w, h): (usize, usize), opts: &Backproj
         Acceleration::Mssm => hsm.and(MultiScaleMap::peak(w, h)),
         Acceleration::Ysm { resolution } => hsm.and(MultiScaleMap::peak(w.min(resolution), h.min(resolution))),
     };
-    let per_texel = if opts.occluder == Occluder::Microrect { 4 + 16 + 1 + 16 + 4 } else { 4 };
-    let per_receiver = std::mem::size_of::<(Search, Option<ReceiverDepth>, Option<f32>)>() + 3 * 8 + 4 + 8 + 4 + 4;
+    // Microrects: the level's depths and extents, and the merge's parents, extents and depths.
+    let per_texel = if opts.occluder == Occluder::Microrect { 4 + 16 + 4 + 16 + 4 } else { 4 };
+    // The search, the raw and smoothed levels and the two of each filter pass, the depths, the
+    // result, and the visibility and level returned.
+    let per_receiver = std::mem::size_of::<(Search, Option<ReceiverDepth>)>()
+        + 4 * std::mem::size_of::<Option<f32>>()
+        + 4
+        + std::mem::size_of::<(f32, Option<Counts>)>()
+        + 4
+        + 4;
     raster_peak(scene, w, h)
         .buffer(&[w as u64, h as u64, 4])
         .and(accel)
@@ -679,9 +791,11 @@ fn peak(scene: &Scene, receivers: usize, (w, h): (usize, usize), opts: &Backproj
 /// doc). Returns the visibility (receivers' order) and stats: `depth_map_seconds`,
 /// `acceleration_seconds` (HSM and micro-occluder levels), `acceleration_bytes`,
 /// `search_seconds`, `smoothing_seconds`, `backprojection_seconds`, `backprojecting_percent`
-/// (valid receivers that backproject), `occluders_mean` and `occluders_std` (micro-occluders
-/// processed per backprojecting receiver, Table 2), `level_mean` (mean LOQ level `ℓ`), `umbra`
-/// and `lit` (receivers classified so).
+/// (valid receivers that backproject), `processed_mean`, `processed_std` and `processed_max`
+/// (micro-occluders read per backprojecting receiver, both levels when blending: Table 2's
+/// count), `backprojected_mean`, `_std` and `_max` (those of them in front of the receiver that
+/// project onto the light), `level_mean` (mean LOQ level `ℓ`), `umbra` and `lit` (receivers
+/// classified so).
 ///
 /// Errors: invalid options; a light that is not a rectangle or a disk; `TooLarge`.
 pub fn backprojection(scene: &Scene, light: &Light, receivers: &Receivers, opts: &BackprojectionOptions) -> Result<(Vec<f32>, Stats)> {
@@ -699,7 +813,7 @@ pub fn backprojection_levels(scene: &Scene, light: &Light, receivers: &Receivers
     };
     let plane = LightPlane::new(light, side)?;
     let mut stats = Stats::default();
-    for name in ["depth_map_seconds", "acceleration_seconds", "microrects_seconds", "search_seconds", "smoothing_seconds", "backprojection_seconds", "backprojecting_percent", "occluders_mean", "occluders_std", "level_mean", "umbra", "lit"] {
+    for name in ["depth_map_seconds", "acceleration_seconds", "microrects_seconds", "search_seconds", "smoothing_seconds", "backprojection_seconds", "backprojecting_percent", "processed_mean", "processed_std", "processed_max", "backprojected_mean", "backprojected_std", "backprojected_max", "level_mean", "umbra", "lit"] {
         stats.set(name, 0.0);
     }
     let n = receivers.len();
@@ -719,54 +833,45 @@ pub fn backprojection_levels(scene: &Scene, light: &Light, receivers: &Receivers
         Budget::Uniform(b) => Some(*b),
         Budget::Map(m) => Some(m[i]),
     };
-    // Step 1 and the raw LOQ map: the query region grown to the budget's integer level.
-    let searched: Vec<(Search, Option<ReceiverDepth>, Option<f32>)> = stats.time("search", || {
+    // Step 1 and the raw LOQ map.
+    let searched: Vec<(Search, Option<ReceiverDepth>)> = stats.time("search", || {
         (0..n)
             .into_par_iter()
             .map(|i| {
                 let (p, nrm) = (receivers.points[i], receivers.normals[i]);
                 if !receivers.valid[i] || nrm.dot(light.center() - p) <= 0.0 {
-                    return (Search::Fixed(0.0), None, None);
+                    return (Search::Fixed(0.0), None);
                 }
-                let Some(rd) = ctx.receiver(p, nrm) else { return (Search::Fixed(1.0), None, None) };
-                let first = ctx.search(p, &rd, 0);
-                let level = match (first, opts.level) {
-                    (Search::Area { x0, y0, x1, y1 }, None) => ctx.level_of((x0, y0, x1, y1), budget(i)),
-                    (_, Some(l)) => l as f32,
-                    _ => 0.0,
-                };
-                let search = if level > 0.0 { ctx.search(p, &rd, level.ceil() as usize) } else { first };
-                let level = matches!(search, Search::Area { .. }).then_some(level);
-                (search, Some(rd), level)
+                let Some(rd) = ctx.receiver(p, nrm) else { return (Search::Fixed(1.0), None) };
+                (ctx.search(p, &rd, budget(i)), Some(rd))
             })
             .collect()
     });
-    let raw: Vec<Option<f32>> = searched.iter().map(|s| s.2).collect();
+    let raw: Vec<Option<f32>> = searched.iter().map(|s| if let Search::Area { level, .. } = s.0 { Some(level) } else { None }).collect();
     let smoothed = if matches!(opts.budget, Budget::Infinite) || opts.level.is_some() || opts.smoothing == 1 {
         raw
     } else {
         let depth: Vec<f32> = searched.iter().map(|s| s.1.map_or(0.0, |rd| rd.depth())).collect();
         stats.time("smoothing", || smooth_levels(&raw, &depth, (receivers.width, receivers.height), opts.smoothing))
     };
-    let results: Vec<(f32, Option<u32>)> = stats.time("backprojection", || {
+    let results: Vec<(f32, Option<Counts>)> = stats.time("backprojection", || {
         searched
             .par_iter()
             .zip(&smoothed)
             .enumerate()
-            .map(|(i, ((search, rd, _), level))| match (search, rd, level) {
+            .map(|(i, ((search, rd), level))| match (search, rd, level) {
                 (Search::Fixed(v), _, _) => (*v, None),
                 (Search::Lit, _, _) => (ctx.light.behind(receivers.points[i].as_dvec3(), receivers.normals[i].as_dvec3()).1 as f32, None),
                 (Search::Umbra, _, _) => (0.0, None),
-                (Search::Area { x0, y0, x1, y1 }, Some(rd), Some(l)) => {
-                    let area = (*x0, *y0, *x1, *y1);
+                (Search::Area { area, .. }, Some(rd), Some(l)) => {
                     let p = (receivers.points[i].as_dvec3(), receivers.normals[i].as_dvec3());
                     let (lo, hi) = (l.floor() as usize, l.ceil() as usize);
                     if !opts.blend || lo == hi {
-                        let (v, c) = ctx.visibility(p, rd, area, hi);
+                        let (v, c) = ctx.visibility(p, rd, *area, hi);
                         return (v, Some(c));
                     }
                     let alpha = l - l.floor();
-                    let ((v0, c0), (v1, c1)) = (ctx.visibility(p, rd, area, lo), ctx.visibility(p, rd, area, hi));
+                    let ((v0, c0), (v1, c1)) = (ctx.visibility(p, rd, *area, lo), ctx.visibility(p, rd, *area, hi));
                     ((1.0 - alpha) * v0 + alpha * v1, Some(c0 + c1))
                 }
                 _ => (1.0, None),
@@ -774,18 +879,28 @@ pub fn backprojection_levels(scene: &Scene, light: &Light, receivers: &Receivers
             .collect()
     });
     let valid = searched.iter().filter(|s| s.1.is_some()).count().max(1) as f64;
-    let counts: Vec<f64> = results.iter().filter_map(|r| r.1).map(f64::from).collect();
-    let mean = counts.iter().sum::<f64>() / counts.len().max(1) as f64;
-    let var = counts.iter().map(|c| (c - mean).powi(2)).sum::<f64>() / counts.len().max(1) as f64;
+    let counts: Vec<Counts> = results.iter().filter_map(|r| r.1).collect();
     stats.set("backprojecting_percent", 100.0 * counts.len() as f64 / valid);
-    stats.set("occluders_mean", mean);
-    stats.set("occluders_std", var.sqrt());
+    for (name, values) in [("processed", counts.iter().map(|c| c.processed).collect::<Vec<_>>()), ("backprojected", counts.iter().map(|c| c.backprojected).collect())] {
+        let (mean, std, max) = moments(&values);
+        stats.set(&format!("{name}_mean"), mean);
+        stats.set(&format!("{name}_std"), std);
+        stats.set(&format!("{name}_max"), max);
+    }
     let levels_used: Vec<f32> = smoothed.iter().flatten().copied().collect();
     stats.set("level_mean", levels_used.iter().map(|&l| f64::from(l)).sum::<f64>() / levels_used.len().max(1) as f64);
     stats.set("umbra", searched.iter().filter(|s| matches!(s.0, Search::Umbra)).count() as f64);
     stats.set("lit", searched.iter().filter(|s| matches!(s.0, Search::Lit)).count() as f64);
     let levels = smoothed.iter().map(|l| l.unwrap_or(f32::NAN)).collect();
     Ok((results.into_iter().map(|r| r.0).collect(), levels, stats))
+}
+
+/// The mean, standard deviation and maximum of `values` (zeros when empty).
+fn moments(values: &[u32]) -> (f64, f64, f64) {
+    let n = values.len().max(1) as f64;
+    let mean = values.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
+    let var = values.iter().map(|&v| (f64::from(v) - mean).powi(2)).sum::<f64>() / n;
+    (mean, var.sqrt(), values.iter().copied().max().map_or(0.0, f64::from))
 }
 
 #[cfg(test)]
@@ -797,32 +912,86 @@ mod tests {
         (0..w * h).map(|i| if i % w < w / 3 { 2.0 } else if (i / w) % 7 == 3 { EMPTY } else { 5.0 + (i % w) as f32 * 0.01 }).collect()
     }
 
+    /// For every level, the level-0 texels each microrect holds (following the merges down).
+    fn members(levels: &Levels) -> Vec<Vec<Vec<usize>>> {
+        let base = &levels.levels[0];
+        let mut owner: Vec<usize> = (0..base.width * base.height).collect();
+        let mut out = vec![(0..owner.len()).map(|k| vec![k]).collect::<Vec<_>>()];
+        for i in 1..levels.levels.len() {
+            let parents = Microrects::parents(&levels.levels[i - 1], levels.levels[i].width);
+            owner.iter_mut().for_each(|o| *o = parents[*o] as usize);
+            let mut sets = vec![Vec::new(); levels.levels[i].depth.len()];
+            for (texel, &o) in owner.iter().enumerate() {
+                sets[o].push(texel);
+            }
+            out.push(sets);
+        }
+        out
+    }
+
     #[test]
-    fn microrects_cover_their_level_and_keep_minimum_depths() {
+    fn each_microrect_is_the_bounding_rectangle_and_minimum_depth_of_the_texels_it_replaces() {
         let (w, h) = (37, 29);
         let depth = map(w, h);
-        let hsm = MinMaxPyramid::new(w, h, &depth).unwrap();
-        let levels = Levels::new(&hsm, true);
-        for (i, lv) in levels.levels.iter().enumerate() {
+        let levels = Levels::new(&MinMaxPyramid::new(w, h, &depth).unwrap(), true);
+        for (i, (lv, sets)) in levels.levels.iter().zip(members(&levels)).enumerate() {
             let s = 1u32 << i;
-            // Every level-0 texel lies in some microrect of every level, whose depth is at most its own.
-            for y in 0..h as u32 {
-                for x in 0..w as u32 {
-                    let holders: Vec<usize> = (0..lv.extent.len()).filter(|&k| {
-                        let e = lv.extent[k];
-                        e[0] <= x && x < e[2] && e[1] <= y && y < e[3]
-                    }).collect();
-                    assert!(!holders.is_empty(), "level {i}: texel ({x}, {y}) uncovered");
-                    assert!(holders.iter().any(|&k| lv.depth[k] <= depth[(y * w as u32 + x) as usize]), "level {i}: texel ({x}, {y})");
+            for (k, texels) in sets.iter().enumerate() {
+                // Every texel merges into exactly one microrect per level (the sets partition the
+                // map), which keeps its reference point.
+                let (rx, ry) = ((k % lv.width) as u32 * s, (k / lv.width) as u32 * s);
+                assert!(texels.contains(&((ry as usize) * w + rx as usize)), "level {i}, microrect {k} lost its reference texel");
+                let (xs, ys) = (texels.iter().map(|&t| (t % w) as u32), texels.iter().map(|&t| (t / w) as u32));
+                let bounds = [xs.clone().min().unwrap(), ys.clone().min().unwrap(), xs.max().unwrap() + 1, ys.max().unwrap() + 1];
+                assert_eq!(lv.extent[k], bounds, "level {i}, microrect {k}: extent is not its texels' bounding rectangle");
+                let nearest = texels.iter().map(|&t| depth[t]).fold(EMPTY, f32::min);
+                assert_eq!(lv.depth[k], nearest, "level {i}, microrect {k}: depth is not its texels' minimum");
+                // Section 5.2's constraints: no other reference point of the level inside.
+                let e = lv.extent[k];
+                assert!(e[0] + s > rx && e[2] <= rx + s && e[1] + s > ry && e[3] <= ry + s, "level {i}, microrect {k}: {e:?}");
+            }
+            assert_eq!(sets.iter().map(Vec::len).sum::<usize>(), w * h);
+        }
+    }
+
+    #[test]
+    fn microrects_merge_into_the_kept_neighbour_nearest_in_depth() {
+        let mut rng = Rng::new(11);
+        let (w, h) = (33, 26);
+        let depth: Vec<f32> = (0..w * h).map(|i| if rng.next_f32() < 0.1 { EMPTY } else { (i % 5) as f32 + rng.next_f32() }).collect();
+        let levels = Levels::new(&MinMaxPyramid::new(w, h, &depth).unwrap(), true);
+        for i in 1..levels.levels.len() {
+            let (fine, coarse) = (&levels.levels[i - 1], &levels.levels[i]);
+            let parents = Microrects::parents(fine, coarse.width);
+            for (k, &parent) in parents.iter().enumerate() {
+                let (x, y) = (k % fine.width, k / fine.width);
+                let gap = |px: usize, py: usize| (fine.depth[2 * py * fine.width + 2 * px] - fine.depth[k]).abs();
+                let (px, py) = (parent as usize % coarse.width, parent as usize / coarse.width);
+                assert!((2 * px).abs_diff(x) <= 1 && (2 * py).abs_diff(y) <= 1, "level {i}: {k} merged into a far microrect");
+                for cy in [y.wrapping_sub(1), y, y + 1].into_iter().filter(|&c| c < fine.height && c.is_multiple_of(2)) {
+                    for cx in [x.wrapping_sub(1), x, x + 1].into_iter().filter(|&c| c < fine.width && c.is_multiple_of(2)) {
+                        assert!(gap(px, py) <= gap(cx / 2, cy / 2), "level {i}: texel ({x}, {y}) skipped a nearer kept neighbour");
+                    }
                 }
             }
-            // Each extent holds its own reference point and no other.
-            for (k, e) in lv.extent.iter().enumerate() {
-                let (rx, ry) = ((k % lv.width) as u32 * s, (k / lv.width) as u32 * s);
-                assert!(e[0] <= rx && rx < e[2] && e[1] <= ry && ry < e[3], "level {i}, microrect {k}: {e:?}");
-                assert!(e[2] - e[0] < 2 * s && e[3] - e[1] < 2 * s);
-            }
         }
+    }
+
+    #[test]
+    fn an_occluder_texel_diagonal_to_the_floor_stays_with_the_occluder() {
+        // Level 0 of a 4 x 4 map: the floor (depth 9) at the kept texel A = (0, 0) and its +x
+        // and +y neighbours B and D, an occluder (depth 2) at the diagonal E = (1, 1) and at the
+        // next kept P = (2, 2). The paper's first pass would give E to A, whose extent A + B + D
+        // contains it, and set the floor's microrect to the occluder's depth.
+        let mut depth = vec![9.0f32; 16];
+        for (x, y) in [(1, 1), (2, 2), (3, 2), (2, 3), (3, 3)] {
+            depth[y * 4 + x] = 2.0;
+        }
+        let levels = Levels::new(&MinMaxPyramid::new(4, 4, &depth).unwrap(), true);
+        let level1 = &levels.levels[1];
+        assert_eq!(level1.depth[0], 9.0);
+        assert_eq!(level1.depth[3], 2.0);
+        assert_eq!(level1.extent[3], [1, 1, 4, 4]);
     }
 
     #[test]

@@ -202,6 +202,16 @@ impl MultiScaleMap {
         Ok(Self { width, height, scales })
     }
 
+    /// The MSSM of an HSM level that does not keep its own finest scale: that scale is `base`
+    /// itself, which the HSM holds already (the Y shadow map of Schwarz and Stamminger 2008,
+    /// section 6: "MSSM level 0 and HSM level n − 1 are identical and hence MSSM level 0 is not
+    /// explicitly stored"). Query it with [`MultiScaleMap::query_over`] and that level.
+    pub fn sharing_finest(base: &MinMaxLevel) -> Result<Self> {
+        let mut map = Self::from_level(base.clone())?;
+        map.scales[0] = MinMaxLevel { width: base.width, height: base.height, min: Vec::new(), max: Vec::new() };
+        Ok(map)
+    }
+
     /// The `(min, max)` of the squares twice as large as those of `prev` (side `2 half`).
     fn coarser(prev: &MinMaxLevel, half: usize) -> MinMaxLevel {
         let (width, height) = (prev.width, prev.height);
@@ -224,13 +234,19 @@ impl MultiScaleMap {
     /// Exact `(min, max)` over the drawn texels of `[x0, x1) × [y0, y1)` (clamped to the image);
     /// `None` when it holds none.
     pub fn query(&self, x0: usize, y0: usize, x1: usize, y1: usize) -> Option<(f32, f32)> {
+        self.query_over(&self.scales[0], x0, y0, x1, y1)
+    }
+
+    /// [`MultiScaleMap::query`] reading its finest scale from `finest` (a map built by
+    /// [`MultiScaleMap::sharing_finest`] from that level).
+    pub fn query_over(&self, finest: &MinMaxLevel, x0: usize, y0: usize, x1: usize, y1: usize) -> Option<(f32, f32)> {
         let (x1, y1) = (x1.min(self.width), y1.min(self.height));
         if x0 >= x1 || y0 >= y1 {
             return None;
         }
         let side = (x1 - x0).min(y1 - y0);
         let k = ((usize::BITS - 1 - side.leading_zeros()) as usize).min(self.scales.len() - 1);
-        let (s, level) = (1usize << k, &self.scales[k]);
+        let (s, level) = (1usize << k, if k == 0 { finest } else { &self.scales[k] });
         // Squares from a grid of step s, the last one flush with the far edge: they cover the
         // rectangle exactly (at most 2 per axis for a squarish one).
         let starts = |a: usize, b: usize| (a..b).step_by(s).map(move |v| v.min(b.saturating_sub(s).max(a)));
@@ -247,7 +263,7 @@ impl MultiScaleMap {
 
     /// Bytes held.
     pub fn memory_bytes(&self) -> usize {
-        self.scales.len() * self.width * self.height * 8
+        self.scales.iter().map(|l| l.min.len() * 8).sum()
     }
 }
 
