@@ -131,21 +131,21 @@ def test_classification_is_never_wrong_on_the_ground_and_finer_structures_classi
     assert classified["hsm"] <= classified["ysm"] <= classified["mssm"], classified
 
 
-@pytest.mark.parametrize("options", [{}, {"occluder": "microrect"}, {"accel": "mssm"}, {"smoothing": 1}, {"budget_offset": 0.5}])
+@pytest.mark.parametrize("options", [{}, {"occluder": "microrect"}, {"accel": "mssm"}, {"smoothing": 1}, {"accumulation": "area"}])
 def test_no_pixel_processes_more_micro_occluders_than_its_budget_allows(options):
     # Level ceil(l) reads at most floor(b)^2 micro-occluders and level floor(l) at most
-    # (2 floor(b))^2 (section 8); a fractional budget allows what its floor does.
+    # (2 floor(b))^2 (section 8), pixel by pixel, for uniform budgets and a budget map.
     setup = ss.scenes.get("columns", width=128, height=128)
     gb = ss.gbuffer(setup.scene, setup.camera)
-    options = dict(options)
-    offset = options.pop("budget_offset", 0.0)
-    for budget in (5, 12):
-        b = budget + offset
+    x = np.linspace(-1, 1, gb.shape[1], dtype=np.float32)[None, :].repeat(gb.shape[0], axis=0)
+    for budget in (5, 12, 12.5, 12 - 7 * np.abs(x)):
         for blend in (False, True):
-            _, stats = ss.backprojection(setup.scene, setup.light, gb, resolution=512, budget=b, blend=blend, return_stats=True, **options)
-            allowed = budget**2 + blend * (2 * budget) ** 2
-            assert 0 < stats["processed_max"] <= allowed, (b, blend, stats["processed_max"])
-            assert stats["backprojected_max"] <= stats["processed_max"]
+            _, counts, stats = ss.backprojection(setup.scene, setup.light, gb, resolution=512, budget=budget, blend=blend,
+                                                 return_counts=True, return_stats=True, **options)
+            b = np.floor(np.broadcast_to(budget, gb.shape))
+            allowed = b**2 + blend * (2 * b) ** 2
+            assert counts.max() > 0 and np.all(counts <= allowed), (budget, blend, (counts - allowed).max())
+            assert stats["processed_max"] == counts.max() and stats["backprojected_max"] <= stats["processed_max"]
 
 
 def test_budgets_lower_the_micro_occluders_and_budget_maps_vary_them():

@@ -5,7 +5,7 @@ import importlib
 
 import pytest
 
-MODULES = ["softshadows.claims", "softshadows.envmap", "softshadows.scenes"]
+MODULES = ["softshadows.claims", "softshadows.envmap", "softshadows.methods", "softshadows.scenes"]
 
 
 @pytest.mark.parametrize("name", MODULES)

@@ -207,7 +207,7 @@ def backprojection(
     blend: bool,
     smoothing: int,
     bias: float | None,
-) -> tuple[_F32, _F32, dict[str, float]]: ...
+) -> tuple[_F32, _F32, npt.NDArray[np.uint32], dict[str, float]]: ...
 def alias_free(
     scene: NativeScene,
     light: NativeLight,

@@ -467,17 +467,20 @@ def backprojection(
     bias: float | None = None,
     casters=None,
     return_levels: bool = False,
+    return_counts: bool = False,
     return_stats: bool = False,
 ):
-    """Backprojection soft shadow mapping with budgets and smooth quality scaling (seed 003).
+    """Backprojection soft shadow mapping with budgets and smooth quality scaling (Schwarz and Stamminger 2008).
 
     Micro-occluders built from one depth map at the light's center are backprojected from each
-    receiver onto the light's plane (Guennebaud et al. 2006; Schwarz and Stamminger 2008). A
-    min/max pyramid (HSM) refines each receiver's search area and skips receivers in umbra or
-    fully lit; a budget bounds the micro-occluders per light axis by choosing a coarser level,
-    whose fractional value is smoothed across the image and blended between two levels. Stats
-    report each acceleration structure's construction time and memory (Table 1) and the share of
-    receivers that backproject with the mean and deviation of micro-occluders processed (Table 2).
+    receiver onto the light's plane (Guennebaud et al. 2006; Schwarz and Stamminger 2008). An
+    acceleration structure (by default the Y shadow map of section 6) refines each receiver's
+    search area and skips receivers in umbra or fully lit; a budget bounds the micro-occluders per
+    light axis by choosing a coarser level, whose fractional value is smoothed across the image
+    and blended between two levels. No receiver processes more than ``floor(b)**2`` micro-occluders
+    at level ``ceil(l)`` and ``(2 floor(b))**2`` at ``floor(l)``. Stats report each acceleration
+    structure's construction time and memory (Table 1) and the share of receivers that backproject
+    with the micro-occluders they process (Table 2).
 
     Parameters
     ----------
@@ -526,14 +529,36 @@ def backprojection(
     return_levels : bool
         Also return the smoothed LOQ map: each receiver's fractional shadow-map level, NaN where it
         backprojects nothing (umbra, fully lit, facing away; the level maps of Figure 8).
+    return_counts : bool
+        Also return the micro-occluders each receiver processed (uint32, both levels when
+        blending, 0 where it backprojects nothing).
     return_stats : bool
-        Also return ``{"backprojecting_percent", "occluders_mean", "occluders_std",
-        "level_mean", "umbra", "lit", "acceleration_bytes", ... seconds per stage}`` (Tables 1-2).
+        Also return ``{"backprojecting_percent", "processed_mean", "processed_std",
+        "processed_max", "backprojected_mean", "backprojected_std", "backprojected_max",
+        "level_mean", "umbra", "lit", "acceleration_bytes", ... seconds per stage}`` (Tables 1-2):
+        micro-occluders processed (read) and backprojected (in front of the receiver, projecting
+        onto the light) per backprojecting receiver.
 
     Returns
     -------
-    ndarray, float32, the receivers' shape; then the level map if ``return_levels`` and the stats
-    dict if ``return_stats``, as a tuple.
+    ndarray, float32, the receivers' shape; then the level map if ``return_levels``, the counts if
+    ``return_counts`` and the stats dict if ``return_stats``, as a tuple.
+
+    References
+    ----------
+    M. Schwarz and M. Stamminger, "Quality Scalability of Soft Shadow Mapping", Graphics Interface
+    2008. G. Guennebaud, L. Barthe and M. Paulin, "Real-time Soft Shadow Mapping by
+    Backprojection", Eurographics Symposium on Rendering 2006.
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> setup = ss.scenes.get("columns", width=32, height=32)
+    >>> gb = ss.gbuffer(setup.scene, setup.camera)
+    >>> vis, counts, stats = ss.backprojection(setup.scene, setup.light, gb, resolution=256, budget=5,
+    ...                                        return_counts=True, return_stats=True)
+    >>> bool(counts.max() <= 5**2 + 10**2), bool(stats["processed_max"] == counts.max())
+    (True, True)
     """
     receivers, inputs = _inputs(scene, light, receivers, casters)
     if budget is not None:
@@ -559,7 +584,7 @@ def backprojection(
         v.positive_int("smoothing", smoothing),
         None if bias is None else v.positive("bias", bias, allow_zero=True),
     )
-    vis, levels, stats = out
+    vis, levels, counts, stats = out
     vis, stats = vis.reshape(receivers.shape), dict(stats)
     if getattr(receivers, "sample_depths", None) is not None:
         start = time.perf_counter()
@@ -570,6 +595,8 @@ def backprojection(
     result = (vis,)
     if return_levels:
         result += (levels.reshape(receivers.shape),)
+    if return_counts:
+        result += (counts.reshape(receivers.shape),)
     if return_stats:
         result += (stats,)
     return result if len(result) > 1 else result[0]

@@ -8,8 +8,9 @@ fuzz_target!(|input: (FuzzScene, FuzzBackprojectionOptions)| {
     init();
     let (fuzz, options) = input;
     let Ok(x) = fuzz.build() else { return };
-    if let Ok((vis, levels, _)) = backprojection_levels(&x.scene, &x.light, &x.receivers, &options.build(x.receivers.len())) {
-        check_visibility("backprojection", &vis, &x.receivers);
+    if let Ok(out) = backprojection_levels(&x.scene, &x.light, &x.receivers, &options.build(x.receivers.len())) {
+        let (vis, levels) = (&out.visibility, &out.levels);
+        check_visibility("backprojection", vis, &x.receivers);
         assert_eq!(levels.len(), vis.len(), "backprojection: one level per receiver");
         // NaN where a receiver backprojects nothing, else a non-negative level.
         assert!(levels.iter().all(|l| l.is_nan() || (l.is_finite() && *l >= 0.0)), "backprojection: levels {levels:?}");

@@ -343,8 +343,8 @@ fn stsv_volumes<'py>(
     Ok((ids.into_pyarray(py), corners.into_pyarray(py).reshape([volumes.len() * 6, 3])?))
 }
 
-/// Visibility (N,), LOQ levels (N,) and stats.
-type LevelsOutput<'py> = (Bound<'py, PyArray1<f32>>, Bound<'py, PyArray1<f32>>, Bound<'py, PyDict>);
+/// Visibility (N,), LOQ levels (N,), micro-occluders processed (N,) and stats.
+type LevelsOutput<'py> = (Bound<'py, PyArray1<f32>>, Bound<'py, PyArray1<f32>>, Bound<'py, PyArray1<u32>>, Bound<'py, PyDict>);
 
 /// Backprojection soft shadow mapping with micro-occluders, budgets and LOQ blending.
 #[pyfunction]
@@ -376,9 +376,9 @@ fn backprojection<'py>(
         Some(b) => Budget::Map(b),
     };
     let opts = BackprojectionOptions { resolution, occluder, accumulation, acceleration, budget, level, blend, smoothing, bias };
-    let (vis, levels, stats) = crate::threads::detached(py, || backprojection_levels(&scene.scene, &light.light, &receivers.receivers, &opts)).or_raise()?;
-    let (vis, stats) = output(py, (vis, stats))?;
-    Ok((vis, levels.into_pyarray(py), stats))
+    let out = crate::threads::detached(py, || backprojection_levels(&scene.scene, &light.light, &receivers.receivers, &opts)).or_raise()?;
+    let (vis, stats) = output(py, (out.visibility, out.stats))?;
+    Ok((vis, out.levels.into_pyarray(py), out.processed.into_pyarray(py), stats))
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

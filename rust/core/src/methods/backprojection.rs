@@ -799,12 +799,24 @@ fn peak(scene: &Scene, receivers: usize, (w, h): (usize, usize), opts: &Backproj
 ///
 /// Errors: invalid options; a light that is not a rectangle or a disk; `TooLarge`.
 pub fn backprojection(scene: &Scene, light: &Light, receivers: &Receivers, opts: &BackprojectionOptions) -> Result<(Vec<f32>, Stats)> {
-    backprojection_levels(scene, light, receivers, opts).map(|(vis, _, stats)| (vis, stats))
+    backprojection_levels(scene, light, receivers, opts).map(|out| (out.visibility, out.stats))
 }
 
-/// [`backprojection`] with the smoothed LOQ map: each receiver's shadow-map level `ℓ`, NaN where
-/// it backprojects nothing (umbra, fully lit, facing away, outside the map; Figure 8).
-pub fn backprojection_levels(scene: &Scene, light: &Light, receivers: &Receivers, opts: &BackprojectionOptions) -> Result<(Vec<f32>, Vec<f32>, Stats)> {
+/// What [`backprojection_levels`] returns, per receiver (receivers' order) and in all.
+#[derive(Debug, Clone)]
+pub struct Backprojected {
+    pub visibility: Vec<f32>,
+    /// The smoothed LOQ map: each receiver's shadow-map level `ℓ`, NaN where it backprojects
+    /// nothing (umbra, fully lit, facing away, outside the map; Figure 8).
+    pub levels: Vec<f32>,
+    /// The micro-occluders each receiver processed (both levels when blending; 0 where it
+    /// backprojects nothing): Table 2's count, per pixel.
+    pub processed: Vec<u32>,
+    pub stats: Stats,
+}
+
+/// [`backprojection`] with the LOQ map and the micro-occluders processed per receiver.
+pub fn backprojection_levels(scene: &Scene, light: &Light, receivers: &Receivers, opts: &BackprojectionOptions) -> Result<Backprojected> {
     super::refuse_textured(light, "backprojection")?;
     opts.validate(receivers.len())?;
     let side = match opts.accumulation {
@@ -817,7 +829,7 @@ pub fn backprojection_levels(scene: &Scene, light: &Light, receivers: &Receivers
         stats.set(name, 0.0);
     }
     let n = receivers.len();
-    let Some(bounds) = receivers.bounds() else { return Ok((vec![0.0; n], vec![f32::NAN; n], stats)) };
+    let Some(bounds) = receivers.bounds() else { return Ok(Backprojected { visibility: vec![0.0; n], levels: vec![f32::NAN; n], processed: vec![0; n], stats }) };
     let frustum = LightFrustum::for_light_aligned(light, bounds, opts.resolution)?;
     peak(scene, n, (frustum.width, frustum.height), opts).check("backprojection", &mut stats)?;
     let map = stats.time("depth_map", || rasterize_depth(scene, &frustum, &RasterOptions::default()))?;
@@ -892,7 +904,8 @@ pub fn backprojection_levels(scene: &Scene, light: &Light, receivers: &Receivers
     stats.set("umbra", searched.iter().filter(|s| matches!(s.0, Search::Umbra)).count() as f64);
     stats.set("lit", searched.iter().filter(|s| matches!(s.0, Search::Lit)).count() as f64);
     let levels = smoothed.iter().map(|l| l.unwrap_or(f32::NAN)).collect();
-    Ok((results.into_iter().map(|r| r.0).collect(), levels, stats))
+    let processed = results.iter().map(|r| r.1.map_or(0, |c| c.processed)).collect();
+    Ok(Backprojected { visibility: results.into_iter().map(|r| r.0).collect(), levels, processed, stats })
 }
 
 /// The mean, standard deviation and maximum of `values` (zeros when empty).
