@@ -497,7 +497,7 @@ def backprojection(
         5.2 (rectangles of level-0 texels merged greedily level by level).
     extend : bool
         Fill the gaps between a micropatch and its left and bottom neighbours where both occlude
-        the receiver (Guennebaud et al. 2006, section 4.2): the backprojection of the wall between
+        the receiver (Guennebaud et al. 2006; Schwarz and Stamminger 2008, section 3): the backprojection of the wall between
         their shared edge's two depths, where it falls outside the micropatch's.
     accumulation : {"bitmask", "area"}
         Occlusion bitmap over ``bitmask_side x bitmask_side`` jittered light samples, or the

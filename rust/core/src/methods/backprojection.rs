@@ -637,7 +637,8 @@ impl Context<'_> {
         (visible as f32, counts)
     }
 
-    /// The gap filling of Guennebaud et al. 2006 (section 4.2, "gaps and overlapping"): seen from
+    /// The gap filling of Guennebaud et al. 2006, as Schwarz and Stamminger 2008 (section 3) sum it
+    /// up: "extending a micropatch to its left and bottom neighbors in texture space". Seen from
     /// `p`, adjacent micropatches at different depths leave a gap (or overlap) between their
     /// backprojections, since their shared edge lies at two depths along the same light ray. The
     /// micropatch at texel `(tx, ty)` of `level`, backprojected as `patch`, closes the gap to its
@@ -647,9 +648,9 @@ impl Context<'_> {
     /// between two occluding micropatches closes once, and no wall reaches a texel that no
     /// occluder covers: an empty neighbour, or one behind `p`, gets none.
     #[allow(clippy::too_many_arguments)]
-    fn gap_wall(&self, p: DVec3, rd: &ReceiverDepth, lv: &Level, level: usize, (tx, ty): (usize, usize), patch: &[DVec2; 4], side_: Neighbour) -> Option<[DVec2; 4]> {
+    fn gap_wall(&self, p: DVec3, rd: &ReceiverDepth, lv: &Level, level: usize, (tx, ty): (usize, usize), patch: &[DVec2; 4], towards: Neighbour) -> Option<[DVec2; 4]> {
         let s = 1usize << level;
-        let (nx, ny) = match side_ {
+        let (nx, ny) = match towards {
             Neighbour::Left => (tx.checked_sub(1)?, ty),
             Neighbour::Bottom => (tx, ty + 1),
         };
@@ -663,7 +664,7 @@ impl Context<'_> {
         // The shared edge in level-0 texel coordinates: the patch's corners 3 → 0 (left) or 2 → 3
         // (bottom) of `rect`'s winding.
         let (x0, y0, x1, y1) = ((tx * s) as f32, (ty * s) as f32, ((tx + 1) * s) as f32, ((ty + 1) * s) as f32);
-        let (a, b, (ia, ib)) = match side_ {
+        let (a, b, (ia, ib)) = match towards {
             Neighbour::Left => ((x0, y1), (x0, y0), (3, 0)),
             Neighbour::Bottom => ((x1, y1), (x0, y1), (2, 3)),
         };
