@@ -135,3 +135,23 @@ def test_a_request_too_large_raises_memory_error_before_allocating(ground):
             light.samples(1 << 40)
     finally:
         ss.set_memory_limit(None)
+
+
+@pytest.mark.parametrize("call", [
+    lambda s, gb: ss.backprojection(s.scene, s.light, gb, extend="False"),
+    lambda s, gb: ss.backprojection(s.scene, s.light, gb, blend="no"),
+    lambda s, gb: ss.stsv(s.scene, s.light, gb, two_sided="False"),
+    lambda s, gb: ss.Mesh(np.eye(3, dtype=np.float32), np.uint32([[0, 1, 2]]), closed="False"),
+])
+def test_strings_are_not_booleans(call):
+    # bool("False") is True: a string where a flag is expected is refused by name.
+    setup = ss.scenes.get("ground_sphere", width=8, height=8)
+    with pytest.raises(ValueError, match="expected True or False"):
+        call(setup, ss.gbuffer(setup.scene, setup.camera))
+
+
+@pytest.mark.parametrize("value", ["0.01", b"1", True])
+def test_strings_and_bools_are_not_numbers(value):
+    setup = ss.scenes.get("ground_sphere", width=8, height=8)
+    with pytest.raises(ValueError, match="bias"):
+        ss.backprojection(setup.scene, setup.light, ss.gbuffer(setup.scene, setup.camera), bias=value)

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import errno
+import os
+
 import numpy as np
 import pytest
 
@@ -97,3 +100,25 @@ def test_read_environment_cube_strip(tmp_path):
     out = io.read_environment(tmp_path / "cube.exr", layout="cube")
     assert out.shape == (6, 4, 4, 3)
     np.testing.assert_array_equal(out, faces)  # face k is rows 4k..4k+3 of the strip
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full (Linux)")
+def test_a_failed_write_raises_oserror_naming_the_path():
+    # /dev/full fails every write with ENOSPC, like a full disk; OpenEXR alone returned normally.
+    with pytest.raises(OSError, match="/dev/full") as info:
+        io.write_exr("/dev/full", np.ones((8, 8), np.float32))
+    assert info.value.errno == errno.ENOSPC
+
+
+def test_a_nul_in_the_path_is_refused_not_cut_short(tmp_path):
+    with pytest.raises(ValueError, match="NUL"):
+        io.write_exr(str(tmp_path / "a\0b.exr"), np.ones((8, 8), np.float32))
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs named pipes")
+def test_reading_a_pipe_is_refused_instead_of_blocking(tmp_path):
+    fifo = tmp_path / "pipe.exr"
+    os.mkfifo(fifo)
+    with pytest.raises(ValueError, match="not a regular file"):
+        io.read_exr(fifo)

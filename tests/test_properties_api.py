@@ -152,7 +152,7 @@ def test_mesh_constructor(kw):
     if isinstance(uvs, str):  # "match": one (u, v) per vertex, out of [0, 1] (they wrap)
         uvs = np.linspace(-5, 5, 2 * len(vertices)).reshape(-1, 2) if isinstance(vertices, np.ndarray) and vertices.ndim else None
     mesh = result_or_refusal(lambda: ss.Mesh(vertices, faces, uvs=uvs, alpha=alpha, closed=closed, name=name),
-                             {"vertices", "faces", "uvs", "alpha"}, label="Mesh")
+                             {"vertices", "faces", "uvs", "alpha", "closed"}, label="Mesh")
     if mesh is REFUSED:
         return
     assert mesh.vertices.dtype == np.float32 and mesh.vertices.flags.c_contiguous and finite(mesh.vertices)

@@ -248,9 +248,11 @@ def test_cache_hit_returns_the_stored_array_without_tracing(cache_dir, monkeypat
     pts, normals = ground_receivers(100)
     rx = Receivers(pts, normals)
     first = reference.mitsuba_visibility(scene, LIGHT, rx, light_samples(8))
-    files = sorted(cache_dir.glob("visibility-*.npy"))
+    files = sorted(cache_dir.glob("visibility-*.npz"))
     assert len(files) == 1
-    np.testing.assert_array_equal(np.load(files[0]), first)
+    with np.load(files[0]) as entry:
+        np.testing.assert_array_equal(entry["value"], first)
+        assert str(entry["key"]) == files[0].stem
 
     def fail(*args, **kwargs):
         raise AssertionError("a cache hit must not trace rays")
@@ -281,6 +283,105 @@ def test_cache_key_depends_on_every_input():
     ]
     assert base == reference._cache_key("visibility", scene, LIGHT, rx.points, rx.normals, rx.mask, s, 1e-3, None)
     assert len({base, *variants}) == 6
+
+
+def test_cache_key_holds_every_light_attribute():
+    from softshadows.lights import EllipsoidLight
+
+    scene, rx, s = Scene([GROUND]), Receivers(*ground_receivers(10)), light_samples(4)
+    keys = {reference._cache_key("visibility", scene, EllipsoidLight([0, 0, 3], np.diag(d)), rx.points, rx.normals, rx.mask, s, 1e-3, None)
+            for d in ([0.5, 0.5, 0.5], [0.5, 0.2, 0.5])}
+    assert len(keys) == 2
+
+
+def small_case():
+    scene = Scene([GROUND, quad([0, 0, 1.0], [0.5, 0, 0], [0, 0.5, 0])])
+    return scene, Receivers(*ground_receivers(100)), light_samples(8)
+
+
+@pytest.mark.parametrize("entry", ["wrong shape", "wrong dtype", "nan", "out of range", "other key", "empty file", "not a zip"])
+def test_a_cache_entry_that_is_not_what_its_key_promises_is_recomputed(cache_dir, entry):
+    scene, rx, s = small_case()
+    truth = reference.mitsuba_visibility(scene, LIGHT, rx, s, cache=False)
+    points, normals, mask = reference._receiver_arrays(rx)
+    key = reference._cache_key("visibility", scene, LIGHT, points, normals, mask, reference._light_samples(LIGHT, s), scene.epsilon, None)
+    path = reference._cache_path(key)
+    path.parent.mkdir(parents=True)
+    key, value = path.stem, truth.copy()
+    if entry == "wrong shape":
+        value = value[:10]
+    elif entry == "wrong dtype":
+        value = value.astype(np.float64)
+    elif entry == "nan":
+        value[3] = np.nan
+    elif entry == "out of range":
+        value[3] = 2.0
+    elif entry == "other key":
+        key, value = "visibility-0000", 1 - value
+    if entry == "empty file":
+        path.write_bytes(b"")
+    elif entry == "not a zip":
+        np.save(path.with_suffix(".tmp.npy"), value)
+        path.with_suffix(".tmp.npy").rename(path)
+    else:
+        with open(path, "wb") as f:
+            np.savez(f, key=np.array(key), value=value)
+    with pytest.warns(RuntimeWarning, match="ignoring the reference cache entry"):
+        again = reference.mitsuba_visibility(scene, LIGHT, rx, s)
+    np.testing.assert_array_equal(again, truth)
+    # The recomputed entry replaced the bad one and now hits.
+    np.testing.assert_array_equal(reference.mitsuba_visibility(scene, LIGHT, rx, s), truth)
+
+
+def test_threads_writing_one_cache_entry_never_collide(cache_dir):
+    from concurrent.futures import ThreadPoolExecutor
+
+    value = np.linspace(0, 1, 1000, dtype=np.float32)
+    with ThreadPoolExecutor(8) as pool:
+        list(pool.map(lambda _: reference._cache_write("visibility-shared", value), range(64)))
+    assert [p.name for p in cache_dir.iterdir()] == ["visibility-shared.npz"]
+    np.testing.assert_array_equal(reference._cache_read("visibility-shared", value.shape, unit=True), value)
+
+
+def test_an_unwritable_cache_folder_fails_before_any_work(tmp_path, monkeypatch):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    monkeypatch.setenv("SOFTSHADOWS_CACHE", str(blocker / "reference"))
+
+    def fail(*args, **kwargs):
+        raise AssertionError("no reference may be computed before the cache folder is checked")
+
+    monkeypatch.setattr(reference, "_Tracer", fail)
+    scene, rx, s = small_case()
+    with pytest.raises(OSError, match=str(blocker)):
+        reference.mitsuba_visibility(scene, LIGHT, rx, s)
+
+
+def test_threads_making_the_first_mitsuba_calls_all_succeed():
+    # A fresh process: four threads ask for the variant and a cache key at once.
+    import subprocess
+    import sys
+
+    code = """
+import threading, numpy as np
+from softshadows import reference
+from softshadows.lights import RectLight
+from softshadows.scene import Mesh, Scene
+ground = Mesh(np.float32([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]), np.uint32([[0, 1, 2], [0, 2, 3]]))
+light = RectLight([0, 0, 3], [0.5, 0, 0], [0, 0.5, 0])
+errors, barrier = [], threading.Barrier(4)
+def call():
+    barrier.wait()
+    try:
+        reference._cache_key("visibility", Scene([ground]), light, np.zeros(3))
+    except Exception as exc:
+        errors.append(repr(exc))
+threads = [threading.Thread(target=call) for _ in range(4)]
+[t.start() for t in threads]; [t.join() for t in threads]
+print(errors)
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0 and out.stdout.strip() == "[]", out.stdout + out.stderr
 
 
 # ----------------------------------------------------------------------------- scene dict and renders
@@ -339,7 +440,7 @@ def test_render_cache_and_seed(cache_dir):
     c = reference.mitsuba_render(Scene([GROUND]), light, cam, spp=4, seed=1)
     np.testing.assert_array_equal(a, b)
     assert not np.array_equal(a, c)
-    assert len(list(cache_dir.glob("render-*.npy"))) == 2
+    assert len(list(cache_dir.glob("render-*.npz"))) == 2
     with pytest.raises(ValueError, match="integrator"):
         reference.mitsuba_render(Scene([GROUND]), light, cam, integrator="bdpt")
 

@@ -56,10 +56,25 @@ def vec3(name: str, value) -> np.ndarray:
     return array(name, value, np.float32, (3,))
 
 
+def _real(name: str, value, what: str) -> float:
+    """``value`` as a float: a real number, not a string, bytes or a bool (``float("1e3")`` and
+    ``float(True)`` would pass silently)."""
+    if isinstance(value, (str, bytes, bool, np.bool_)):
+        raise ValueError(f"{name}: expected {what}, got {value!r}")
+    return float(value)
+
+
+def flag(name: str, value) -> bool:
+    """A bool (or numpy bool); ``"False"`` is refused, where ``bool("False")`` is True."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name}: expected True or False, got {value!r}")
+    return bool(value)
+
+
 def number(name: str, value) -> float:
-    """A finite float (an int beyond the float range, a string or None is refused by name)."""
+    """A finite float (an int beyond the float range, a string, a bool or None is refused by name)."""
     try:
-        v = float(value)
+        v = _real(name, value, "a finite number")
     except (TypeError, ValueError, OverflowError):
         raise ValueError(f"{name}: expected a finite number, got {value!r}") from None
     if not np.isfinite(v):
@@ -68,9 +83,9 @@ def number(name: str, value) -> float:
 
 
 def positive(name: str, value, *, allow_zero: bool = False, maximum: float | None = None) -> float:
-    """A finite positive float, at most ``maximum`` when given."""
+    """A finite positive float (not a string or a bool), at most ``maximum`` when given."""
     try:
-        v = float(value)
+        v = _real(name, value, "a number")
     except (TypeError, ValueError, OverflowError):  # OverflowError: float(10**400)
         raise ValueError(f"{name}: expected a number, got {value!r}") from None
     if not np.isfinite(v) or v < 0 or (v == 0 and not allow_zero):

@@ -286,7 +286,7 @@ def fit_area_lights(env, *, threshold: float = 0.025, max_lights: int | None = N
     if not np.all(np.isfinite(cube)) or cube.min() < 0:
         raise ValueError("env: radiance must be finite and >= 0")
     n = cube.shape[1]
-    fitted = _core.fit_area_lights(np.ascontiguousarray(cube), n, threshold, max_lights, bool(square))
+    fitted = _core.fit_area_lights(np.ascontiguousarray(cube), n, threshold, max_lights, v.flag("square", square))
     solid = _core.cube_solid_angles(n)
     lights = []
     for face, i0, i1, j0, j1, energy in fitted:

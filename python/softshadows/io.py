@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import errno
 import os
+import stat
+import tempfile
 
 import numpy as np
 
@@ -41,11 +43,27 @@ def write_exr(path, image) -> None:
     name = "Y" if a.ndim == 2 else ("RGB" if a.shape[2] == 3 else "RGBA")
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     _writable(path)
-    with OpenEXR.File(header, {name: a}) as f:
-        try:
-            f.write(path)
-        except RuntimeError as exc:  # OpenEXR reports I/O failures as RuntimeError
-            raise OSError(f"path: cannot write {path} ({exc})") from None
+    # OpenEXR does not report a short write (a full disk leaves a 0-byte file, /dev/full returns
+    # normally): encode to a temporary file, then write its bytes with Python's own I/O, which
+    # raises OSError on every failed or short write.
+    with tempfile.TemporaryDirectory() as tmp:
+        encoded = os.path.join(tmp, "image.exr")
+        with OpenEXR.File(header, {name: a}) as f:
+            try:
+                f.write(encoded)
+            except RuntimeError as exc:  # OpenEXR reports I/O failures as RuntimeError
+                raise OSError(f"path: cannot encode {path} ({exc})") from None
+        with open(encoded, "rb") as f:
+            data = f.read()
+    try:
+        with open(path, "wb") as out:
+            if out.write(data) != len(data):
+                raise OSError(errno.EIO, "short write")
+            out.flush()
+            if os.path.isfile(path):
+                os.fsync(out.fileno())
+    except OSError as exc:
+        raise OSError(exc.errno, f"path: cannot write {path} ({exc.strerror or exc})", path) from None
 
 
 def read_exr(path) -> np.ndarray:
@@ -68,6 +86,8 @@ def read_exr(path) -> np.ndarray:
         raise FileNotFoundError(errno.ENOENT, "path: no such file", path)
     if os.path.isdir(path):
         raise IsADirectoryError(errno.EISDIR, "path: is a directory, not an OpenEXR file", path)
+    if not stat.S_ISREG(os.stat(path).st_mode):  # a FIFO or a device would block the reader
+        raise ValueError(f"path: {path} is not a regular file (a pipe, socket or device), not an OpenEXR file")
     try:
         with OpenEXR.File(path) as f:
             channels = {k: np.asarray(c.pixels) for k, c in f.channels().items()}
@@ -159,11 +179,17 @@ def write_png(path, image, *, vmin: float = 0.0, vmax: float = 1.0, cmap: str | 
 
 
 def _path(path) -> str:
-    """``path`` as a str, or a TypeError naming the argument."""
+    """``path`` as a str, or a TypeError naming the argument (a ValueError for a NUL in it, where
+    OpenEXR would cut the path short)."""
     try:
-        return os.fspath(path)
+        path = os.fspath(path)
     except TypeError:
         raise TypeError(f"path: expected a str or os.PathLike, got {type(path).__name__}") from None
+    if isinstance(path, bytes):
+        path = os.fsdecode(path)
+    if "\0" in path:
+        raise ValueError(f"path: contains a NUL character: {path!r}")
+    return path
 
 
 def _image(image) -> np.ndarray:

@@ -372,8 +372,8 @@ def vwss(
         str(mode),
         str(parallel),
         v.positive_int("views_per_pass", views_per_pass),
-        bool(cull_backfaces),
-        bool(layered),
+        v.flag("cull_backfaces", cull_backfaces),
+        v.flag("layered", layered),
         str(precision),
         v.positive("point_density", point_density),
         source,
@@ -573,14 +573,14 @@ def backprojection(
         *inputs,
         v.positive_int("resolution", resolution),
         str(occluder),
-        bool(extend),
+        v.flag("extend", extend),
         str(accumulation),
         v.positive_int("bitmask_side", bitmask_side),
         str(accel),
         v.positive_int("ysm_resolution", ysm_resolution),
         budget,
         None if level is None else v.nonneg_int("level", level),
-        bool(blend),
+        v.flag("blend", blend),
         v.positive_int("smoothing", smoothing),
         None if bias is None else v.positive("bias", bias, allow_zero=True),
     )
@@ -832,7 +832,7 @@ def alias_free(
         scene.epsilon if bias is None else v.positive("bias", bias, allow_zero=True),
         None if lut is None else v.positive_int("lut", lut),
         v.positive_int("hull_degree", hull_degree),
-        bool(restrict_to_penumbra),
+        v.flag("restrict_to_penumbra", restrict_to_penumbra),
         resolve_backend(backend, "alias_free"),
     )
     return _finish(receivers, out, return_stats)
@@ -1034,7 +1034,7 @@ def stsv(
     receivers, args = _object_inputs(scene, light, receivers, samples=samples, pattern=pattern, seed=seed, rotate=rotate,
                                      interleaved=interleaved, frame=frame, epsilon=epsilon, resolution=resolution,
                                      hull_degree=hull_degree)
-    return _finish(receivers, _core.stsv(*args, opaque, bool(two_sided)), return_stats)
+    return _finish(receivers, _core.stsv(*args, opaque, v.flag("two_sided", two_sided)), return_stats)
 
 
 def stsv_volumes(scene, light, receivers, *, two_sided: bool = False, hull_degree: int = 6):
@@ -1064,7 +1064,7 @@ def stsv_volumes(scene, light, receivers, *, two_sided: bool = False, hull_degre
     hull_degree = v.positive_int("hull_degree", hull_degree)
     if not 3 <= hull_degree <= 64:
         raise ValueError(f"hull_degree: must be in 3..=64, got {hull_degree}")
-    faces, corners = _core.stsv_volumes(*inputs, hull_degree, bool(two_sided))
+    faces, corners = _core.stsv_volumes(*inputs, hull_degree, v.flag("two_sided", two_sided))
     return faces, corners.reshape(-1, 6, 3)
 
 

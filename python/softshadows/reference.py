@@ -57,17 +57,22 @@ Choices made here (where the design is silent)
   Mitsuba 3.9 (64 spp, a fully transparent mask quad between a rect light and a lit floor):
   ``path``/``direct`` 0.0011 (as dark as an opaque quad), ``volpath`` 0.0528 against 0.0532
   without the quad (noise level), and ``volpath`` shadow rays are stopped by opaque texels.
-* **Cache.** Results are ``.npy`` files in ``$SOFTSHADOWS_CACHE`` (default
+* **Cache.** Results are ``.npz`` files in ``$SOFTSHADOWS_CACHE`` (default
   ``~/.cache/softshadows/reference``), named by a SHA-256 of every input: geometry and texture
-  bytes, the light, receivers, samples, options, the Mitsuba version, the variant and
-  :data:`CACHE_VERSION`. Files are written atomically and never edited; delete the directory to
-  clear it.
+  bytes, every attribute of the light, receivers, samples, options, the Mitsuba version, the
+  variant and :data:`CACHE_VERSION`. Each file holds its key beside the result; an entry whose key,
+  shape, dtype or values (finite, and in [0, 1] for visibility) are not what the call expects is
+  ignored with a ``RuntimeWarning`` and recomputed. Files are written atomically (a temporary name
+  per process and thread) and never edited; the folder is checked before any work, and a folder
+  that cannot be written raises ``OSError`` naming it. Delete the directory to clear it.
 """
 
 from __future__ import annotations
 
 import hashlib
 import os
+import threading
+import uuid
 import warnings
 from pathlib import Path
 
@@ -113,8 +118,18 @@ def variant() -> str:
     return _selected
 
 
+#: Serializes Mitsuba's import and variant selection: threads making a process's first calls
+#: at once otherwise see a half-initialized module (no ``__version__``) or each other's variant.
+_MITSUBA_LOCK = threading.RLock()
+
+
 def _mitsuba():
-    """Imports Mitsuba with our variant set, choosing it the first time."""
+    """Imports Mitsuba with our variant set, choosing it the first time (one thread at a time)."""
+    with _MITSUBA_LOCK:
+        return _select_variant()
+
+
+def _select_variant():
     global _selected
     import mitsuba as mi
 
@@ -350,8 +365,9 @@ def mitsuba_visibility(scene: Scene, light, receivers, samples, *, epsilon: floa
     points, normals, mask = _receiver_arrays(rx)
     key = None
     if cache:
+        _check_cache_dir()
         key = _cache_key("visibility", scene, light, points, normals, mask, pts, eps, weights)
-        hit = _cache_read(key)
+        hit = _cache_read(key, rx.shape, unit=True)
         if hit is not None:
             return hit
     mi = _mitsuba()
@@ -614,8 +630,9 @@ def mitsuba_render(scene: Scene, light, camera: Camera, *, spp: int = 64, integr
         integrator = "volpath" if any(m.alpha is not None for m in scene.meshes) else "path"
     key = None
     if cache:
+        _check_cache_dir()
         key = _cache_key("render", scene, light, _camera_array(camera), spp, integrator, albedo, intensity, int(seed))
-        hit = _cache_read(key)
+        hit = _cache_read(key, (camera.height, camera.width, 3))
         if hit is not None:
             return hit
     mi = _mitsuba()
@@ -663,8 +680,9 @@ def mitsuba_environment_render(scene: Scene, env, camera: Camera, *, spp: int = 
     integrator = "volpath" if any(m.alpha is not None for m in scene.meshes) else "path"
     key = None
     if cache:
+        _check_cache_dir()
         key = _cache_key("envrender", scene, None, env, _camera_array(camera), spp, integrator, albedo, int(seed))
-        hit = _cache_read(key)
+        hit = _cache_read(key, (camera.height, camera.width, 3))
         if hit is not None:
             return hit
     mi = _mitsuba()
@@ -687,8 +705,7 @@ def cache_dir() -> Path:
 
 
 def _cache_key(kind: str, scene: Scene, light, *parts) -> str:
-    import mitsuba as mi
-
+    mi = _mitsuba()
     h = hashlib.sha256()
 
     def add(x):
@@ -706,34 +723,70 @@ def _cache_key(kind: str, scene: Scene, light, *parts) -> str:
         for x in (m.vertices, m.faces, m.uvs, m.alpha):
             add(x)
     add(type(light).__name__)
-    for attr in ("position", "center", "u", "v", "normal", "radius", "emission"):
-        value = getattr(light, attr, None)
-        add(np.asarray(value) if value is not None and not isinstance(value, float) else value)
+    # Every attribute, by name: a light type's own (an ellipsoid's axes) can never be left out.
+    for attr, value in sorted(vars(light).items() if light is not None else ()):
+        add(attr)
+        add(value)
     for x in parts:
         add(np.asarray(x) if isinstance(x, (list, tuple)) else x)
     return f"{kind}-{h.hexdigest()}"
 
 
 def _cache_path(key: str) -> Path:
-    return cache_dir() / f"{key}.npy"
+    return cache_dir() / f"{key}.npz"
 
 
-def _cache_read(key: str):
+def _check_cache_dir() -> None:
+    """Makes sure the cache folder exists and can be written, before a reference is computed."""
+    folder = cache_dir()
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OSError(f"reference cache: cannot create {folder} ({exc.strerror or exc}); set SOFTSHADOWS_CACHE to a "
+                      "writable folder or pass cache=False") from None
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise OSError(f"reference cache: {folder} is not writable; set SOFTSHADOWS_CACHE to a writable folder or "
+                      "pass cache=False")
+
+
+def _cache_read(key: str, shape: tuple, *, unit: bool = False):
+    """The cached float32 array of ``key`` and ``shape`` (values in [0, 1] with ``unit``, else
+    finite and >= 0), or None: missing, unreadable (a crash, a 0-byte file) or not what the key
+    promises (a warning says why, and the caller recomputes and overwrites it)."""
     path = _cache_path(key)
     if not path.exists():
         return None
     try:
-        return np.load(path, allow_pickle=False)
-    except (OSError, ValueError):  # a truncated file from a crash: recompute and overwrite
-        return None
+        with np.load(path, allow_pickle=False) as entry:
+            stored, value = str(entry["key"]), entry["value"]
+    except Exception as exc:  # noqa: BLE001  np.load raises EOFError, ValueError, BadZipFile, KeyError, OSError
+        problem = f"unreadable ({type(exc).__name__})"
+    else:
+        low, high = (0.0, 1.0) if unit else (0.0, np.inf)
+        finite = value.dtype == np.float32 and bool(np.isfinite(value).all())
+        problem = ("it holds another key" if stored != key else
+                   f"shape {value.shape}, expected {tuple(shape)}" if value.shape != tuple(shape) else
+                   f"dtype {value.dtype}, expected float32" if value.dtype != np.float32 else
+                   "non-finite values" if not finite else
+                   f"values outside [{low:g}, {high:g}]" if value.size and (value.min() < low or value.max() > high) else None)
+        if problem is None:
+            return value
+    warnings.warn(f"ignoring the reference cache entry {path}: {problem}; recomputing it", RuntimeWarning, stacklevel=3)
+    return None
 
 
 def _cache_write(key: str, value: np.ndarray) -> None:
     path = _cache_path(key)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f"{path.stem}.{os.getpid()}.tmp.npy")
-    np.save(tmp, value, allow_pickle=False)
-    os.replace(tmp, path)  # atomic: readers never see a partial file
+    # A name of its own per process, thread and call: concurrent writers of one entry never share
+    # a temporary file, and the last rename wins with a whole file.
+    tmp = path.with_name(f"{path.stem}.{os.getpid()}.{threading.get_ident()}.{uuid.uuid4().hex}.tmp.npz")
+    try:
+        with open(tmp, "wb") as f:
+            np.savez(f, key=np.array(key), value=value)
+        os.replace(tmp, path)  # atomic: readers never see a partial file
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 # ----------------------------------------------------------------------------- validation

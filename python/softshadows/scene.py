@@ -46,7 +46,7 @@ class Mesh:
         self.alpha = None if alpha is None else v.array("alpha", alpha, np.float32, (None, None))
         if self.alpha is not None and self.alpha.size == 0:
             raise ValueError(f"alpha: expected a non-empty (H, W) texture, got shape {self.alpha.shape}")
-        self.closed = bool(closed)
+        self.closed = v.flag("closed", closed)
         self.name = name
 
     @property
