@@ -155,3 +155,38 @@ def test_strings_and_bools_are_not_numbers(value):
     setup = ss.scenes.get("ground_sphere", width=8, height=8)
     with pytest.raises(ValueError, match="bias"):
         ss.backprojection(setup.scene, setup.light, ss.gbuffer(setup.scene, setup.camera), bias=value)
+
+
+def test_an_eye_far_from_its_target_is_not_told_they_coincide():
+    # 1e30 away: a camera (its squared distance overflowed float32 and read as "the same point").
+    camera = ss.Camera.look_at((1e30, 0, 0), (0, 0, 0), fov_y=40, width=8, height=8)
+    assert camera.width == 8
+    with pytest.raises(ValueError, match="^eye: .*too far apart"):
+        ss.Camera.look_at((3e38, 0, 0), (-3e38, 0, 0), fov_y=40, width=8, height=8)
+    with pytest.raises(ValueError, match="^target: must differ"):
+        ss.Camera.look_at((1, 2, 3), (1, 2, 3), fov_y=40, width=8, height=8)
+
+
+@pytest.mark.parametrize("method", ["dcs", "stsv", "penumbra_wedge"])
+def test_an_offset_longer_than_the_scene_blames_epsilon_not_the_light(method):
+    setup = ss.scenes.get("ground_sphere", width=8, height=8)
+    with pytest.raises(ValueError, match="^epsilon: must be at most the size of the scene"):
+        getattr(ss, method)(setup.scene, setup.light, ss.gbuffer(setup.scene, setup.camera), epsilon=1e30)
+
+
+def test_alpha_outside_the_unit_interval_is_refused():
+    verts, faces, uvs = np.eye(3, dtype=np.float32), np.uint32([[0, 1, 2]]), np.zeros((3, 2), np.float32)
+    with pytest.raises(ValueError, match=r"^alpha: values must be in \[0, 1\]"):
+        ss.Mesh(verts, faces, uvs=uvs, alpha=np.full((2, 2), 255.0))
+
+
+def test_the_memory_limit_takes_exact_integers_and_no_bools():
+    try:
+        ss.set_memory_limit(2**64 - 1)  # the documented maximum (float(2**64 - 1) is 2**64)
+        assert ss.memory_limit() == 2**64 - 1
+        with pytest.raises(ValueError, match="bytes"):
+            ss.set_memory_limit(True)
+        with pytest.raises(ValueError, match="bytes"):
+            ss.set_memory_limit(2**64)
+    finally:
+        ss.set_memory_limit(None)

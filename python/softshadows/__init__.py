@@ -13,6 +13,8 @@ See DESIGN.md for the data model and the definition of visibility.
 
 import os as _os
 
+import numpy as _np
+
 from . import _core, _validate, envmap, evaluation, io, metrics, plot, reference, scenes, shading
 from .camera import Camera, GBuffer, Receivers, gbuffer
 from .envmap import environment
@@ -36,8 +38,11 @@ def set_memory_limit(bytes: int | None) -> None:
     if bytes is None:
         _core.set_memory_limit(0)
         return
-    value = _validate.positive("bytes", bytes)
-    if not 1 <= value < 2.0**64:
+    if isinstance(bytes, (int, _np.integer)) and not isinstance(bytes, (bool, _np.bool_)):
+        value = int(bytes)  # exact: float(2**64 - 1) rounds up to 2**64
+    else:
+        value = _validate.positive("bytes", bytes)  # refuses strings and bools (True is not 1 byte)
+    if not 1 <= value < 2**64:
         raise ValueError(f"bytes: must be in [1, 2**64 - 1], got {bytes!r}")
     _core.set_memory_limit(int(value))
 

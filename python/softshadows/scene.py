@@ -46,6 +46,9 @@ class Mesh:
         self.alpha = None if alpha is None else v.array("alpha", alpha, np.float32, (None, None))
         if self.alpha is not None and self.alpha.size == 0:
             raise ValueError(f"alpha: expected a non-empty (H, W) texture, got shape {self.alpha.shape}")
+        if self.alpha is not None and (self.alpha.min() < 0 or self.alpha.max() > 1):
+            raise ValueError(f"alpha: values must be in [0, 1], got [{self.alpha.min():g}, {self.alpha.max():g}]; "
+                             "rescale an 8-bit texture by 1/255")
         self.closed = v.flag("closed", closed)
         self.name = name
 

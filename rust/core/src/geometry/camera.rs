@@ -52,9 +52,16 @@ impl Camera {
             return Err(Error::invalid("fov_y", format!("must be in (0, 180) degrees, got {fov_y_degrees}")));
         }
         let view = target - eye;
-        let forward = view.normalize_or_zero();
-        if forward == Vec3::ZERO {
+        if view == Vec3::ZERO {
             return Err(Error::invalid("target", format!("must differ from eye, both are {eye}")));
+        }
+        // A view 1e20 long overflows its squared length: normalize it scaled down instead.
+        let forward = match view.normalize_or_zero() {
+            Vec3::ZERO if view.is_finite() => (view / view.abs().max_element()).normalize_or_zero(),
+            forward => forward,
+        };
+        if forward == Vec3::ZERO {
+            return Err(Error::invalid("eye", format!("eye {eye} and target {target} are too far apart for float32 arithmetic")));
         }
         let right = forward.cross(up.normalize_or_zero());
         // Below ~1e-6 (sin of the angle) the frame would be dominated by rounding.

@@ -121,7 +121,7 @@ pub(crate) fn visible_fraction(origins: &Origins, counts: &[i32]) -> Vec<f32> {
 /// `wedges_seconds` (the per-sample updates), `silhouette_edges`, `wedge_tests` (receiver and
 /// silhouette pairs updated), `receivers` (those facing the light), `light_samples`.
 pub fn dcs(scene: &Scene, bvh: &Bvh, light: &Light, receivers: &Receivers, samples: &SampleSet, opts: &ObjectOptions) -> Result<(Vec<f32>, Stats)> {
-    opts.validate()?;
+    opts.validate(scene, receivers)?;
     bvh.check_scene(scene)?;
     let mut stats = Stats::default();
     for name in ["reference_seconds", "silhouettes_seconds", "wedges_seconds", "silhouette_edges", "wedge_tests", "receivers"] {

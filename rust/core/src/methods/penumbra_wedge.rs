@@ -35,7 +35,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 /// shadow), `silhouettes_seconds`, `wedges_seconds`, `silhouette_edges`, `wedge_tests`,
 /// `receivers`, `light_samples`.
 pub fn penumbra_wedge(scene: &Scene, bvh: &Bvh, light: &Light, receivers: &Receivers, samples: &SampleSet, opts: &ObjectOptions) -> Result<(Vec<f32>, Stats)> {
-    opts.validate()?;
+    opts.validate(scene, receivers)?;
     bvh.check_scene(scene)?;
     let mut stats = Stats::default();
     for name in ["hard_seconds", "silhouettes_seconds", "wedges_seconds", "silhouette_edges", "wedge_tests", "receivers"] {

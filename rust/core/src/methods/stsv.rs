@@ -295,7 +295,7 @@ fn perforated_masks(scene: &Scene, origins: &Origins, opts: &StsvOptions, words:
 /// `receivers_tested` and `receivers_inside` (receiver and volume pairs), `light_samples`, and
 /// the opaque method's own.
 pub fn stsv(scene: &Scene, bvh: &Bvh, light: &Light, receivers: &Receivers, samples: &SampleSet, opts: &StsvOptions) -> Result<(Vec<f32>, Stats)> {
-    opts.object.validate()?;
+    opts.object.validate(scene, receivers)?;
     bvh.check_scene(scene)?;
     let s = samples.count();
     if s > crate::methods::alias_free::MAX_SAMPLES {

@@ -15,6 +15,7 @@
 //! lists of its texels. [`Origins`] are the receivers of the object-based methods in such lists.
 
 use crate::error::{Error, Result};
+use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::{tangent_frame, Light, Shape};
 use crate::light::sampling::SampleSet;
@@ -38,9 +39,21 @@ pub struct ObjectOptions {
 }
 
 impl ObjectOptions {
-    pub fn validate(&self) -> Result<()> {
+    /// Ranges, and an `epsilon` of at most the diagonal of the bounds of `scene` and `receivers`:
+    /// a longer offset moves every shadow-ray origin out of the scene (and then the light's
+    /// frustum, whose error would blame the light).
+    pub fn validate(&self, scene: &Scene, receivers: &Receivers) -> Result<()> {
         if !(self.epsilon.is_finite() && self.epsilon >= 0.0) {
             return Err(Error::invalid("epsilon", format!("must be finite and >= 0, got {}", self.epsilon)));
+        }
+        let (lo, hi) = scene.bounds();
+        let (lo, hi) = receivers.bounds().map_or((lo, hi), |(a, b)| (lo.min(a), hi.max(b)));
+        let diagonal = (hi - lo).length();
+        if diagonal.is_finite() && self.epsilon > diagonal.max(f32::MIN_POSITIVE) {
+            return Err(Error::invalid(
+                "epsilon",
+                format!("must be at most the size of the scene and receivers (their bounds' diagonal, {diagonal}), got {}; it offsets shadow-ray origins, typically by 1e-4 of that", self.epsilon),
+            ));
         }
         if !(1..=crate::raster::depth::MAX_RESOLUTION).contains(&self.resolution) {
             return Err(Error::invalid("resolution", format!("must be in 1..=65536, got {}", self.resolution)));
