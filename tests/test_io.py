@@ -102,7 +102,7 @@ def test_read_environment_cube_strip(tmp_path):
     np.testing.assert_array_equal(out, faces)  # face k is rows 4k..4k+3 of the strip
 
 
-@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full (Linux)")
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="/dev/full, the device that fails every write like a full disk, exists on Linux only")
 def test_a_failed_write_raises_oserror_naming_the_path():
     # /dev/full fails every write with ENOSPC, like a full disk; OpenEXR alone returned normally.
     with pytest.raises(OSError, match="/dev/full") as info:
@@ -116,7 +116,7 @@ def test_a_nul_in_the_path_is_refused_not_cut_short(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
-@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs named pipes")
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="named pipes (os.mkfifo) do not exist on Windows")
 def test_reading_a_pipe_is_refused_instead_of_blocking(tmp_path):
     fifo = tmp_path / "pipe.exr"
     os.mkfifo(fifo)

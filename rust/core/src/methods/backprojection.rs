@@ -944,10 +944,10 @@ mod tests {
     }
 
     #[test]
-    fn each_microrect_is_the_bounding_rectangle_and_minimum_depth_of_the_texels_it_replaces() {
+    fn each_microrect_is_the_bounding_rectangle_and_minimum_depth_of_the_texels_it_replaces() -> Result<()> {
         let (w, h) = (37, 29);
         let depth = map(w, h);
-        let levels = Levels::new(&MinMaxPyramid::new(w, h, &depth).unwrap(), true);
+        let levels = Levels::new(&MinMaxPyramid::new(w, h, &depth)?, true);
         for (i, (lv, sets)) in levels.levels.iter().zip(members(&levels)).enumerate() {
             let s = 1u32 << i;
             for (k, texels) in sets.iter().enumerate() {
@@ -955,8 +955,10 @@ mod tests {
                 // map), which keeps its reference point.
                 let (rx, ry) = ((k % lv.width) as u32 * s, (k / lv.width) as u32 * s);
                 assert!(texels.contains(&((ry as usize) * w + rx as usize)), "level {i}, microrect {k} lost its reference texel");
-                let (xs, ys) = (texels.iter().map(|&t| (t % w) as u32), texels.iter().map(|&t| (t / w) as u32));
-                let bounds = [xs.clone().min().unwrap(), ys.clone().min().unwrap(), xs.max().unwrap() + 1, ys.max().unwrap() + 1];
+                let bounds = texels.iter().fold([u32::MAX, u32::MAX, 0, 0], |b, &t| {
+                    let (x, y) = ((t % w) as u32, (t / w) as u32);
+                    [b[0].min(x), b[1].min(y), b[2].max(x + 1), b[3].max(y + 1)]
+                });
                 assert_eq!(lv.extent[k], bounds, "level {i}, microrect {k}: extent is not its texels' bounding rectangle");
                 let nearest = texels.iter().map(|&t| depth[t]).fold(EMPTY, f32::min);
                 assert_eq!(lv.depth[k], nearest, "level {i}, microrect {k}: depth is not its texels' minimum");
@@ -966,14 +968,15 @@ mod tests {
             }
             assert_eq!(sets.iter().map(Vec::len).sum::<usize>(), w * h);
         }
+        Ok(())
     }
 
     #[test]
-    fn microrects_merge_into_the_kept_neighbour_nearest_in_depth() {
+    fn microrects_merge_into_the_kept_neighbour_nearest_in_depth() -> Result<()> {
         let mut rng = Rng::new(11);
         let (w, h) = (33, 26);
         let depth: Vec<f32> = (0..w * h).map(|i| if rng.next_f32() < 0.1 { EMPTY } else { (i % 5) as f32 + rng.next_f32() }).collect();
-        let levels = Levels::new(&MinMaxPyramid::new(w, h, &depth).unwrap(), true);
+        let levels = Levels::new(&MinMaxPyramid::new(w, h, &depth)?, true);
         for i in 1..levels.levels.len() {
             let (fine, coarse) = (&levels.levels[i - 1], &levels.levels[i]);
             let parents = Microrects::parents(fine, coarse.width);
@@ -989,10 +992,11 @@ mod tests {
                 }
             }
         }
+        Ok(())
     }
 
     #[test]
-    fn an_occluder_texel_diagonal_to_the_floor_stays_with_the_occluder() {
+    fn an_occluder_texel_diagonal_to_the_floor_stays_with_the_occluder() -> Result<()> {
         // Level 0 of a 4 x 4 map: the floor (depth 9) at the kept texel A = (0, 0) and its +x
         // and +y neighbours B and D, an occluder (depth 2) at the diagonal E = (1, 1) and at the
         // next kept P = (2, 2). The paper's first pass would give E to A, whose extent A + B + D
@@ -1001,11 +1005,12 @@ mod tests {
         for (x, y) in [(1, 1), (2, 2), (3, 2), (2, 3), (3, 3)] {
             depth[y * 4 + x] = 2.0;
         }
-        let levels = Levels::new(&MinMaxPyramid::new(4, 4, &depth).unwrap(), true);
+        let levels = Levels::new(&MinMaxPyramid::new(4, 4, &depth)?, true);
         let level1 = &levels.levels[1];
         assert_eq!(level1.depth[0], 9.0);
         assert_eq!(level1.depth[3], 2.0);
         assert_eq!(level1.extent[3], [1, 1, 4, 4]);
+        Ok(())
     }
 
     #[test]
