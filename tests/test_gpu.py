@@ -3,9 +3,14 @@
 forced-low limits are checked in ``rust/core/tests/gpu.rs``."""
 
 import os
+import pickle
+import select
+import signal
 import subprocess
 import sys
 import textwrap
+import time
+import warnings
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -160,6 +165,78 @@ def test_gpu_calls_from_8_threads_at_once_equal_serial_calls(adapter):
         concurrent = list(pool.map(lambda call: call(), calls))
     for a, b in zip(serial, concurrent):
         assert np.array_equal(a, b)
+
+
+def _every_gpu_method():
+    s = ss.scenes.get("columns").with_size(32, 32)
+    gb = ss.gbuffer(s.scene, s.camera)
+    return {
+        "vwss": lambda: ss.vwss(s.scene, s.light, gb, backend="gpu", resolution=128, views=6),
+        "mvr": lambda: ss.mvr(s.scene, s.light, gb, backend="gpu", resolution=128, views=6),
+        "cssm": lambda: ss.cssm(s.scene, s.light, gb, backend="gpu", resolution=128),
+        "pcss": lambda: ss.pcss(s.scene, s.light, gb, backend="gpu", resolution=128),
+        "alias_free": lambda: ss.alias_free(s.scene, s.light, gb, backend="gpu", resolution=64, samples=32),
+    }
+
+
+def _fork_and_run(calls):
+    """Forks; the child runs ``calls`` and pickles their results (or its error's repr) into a
+    pipe, then exits. Returns the child's payload, or ``None`` when the child has not closed the
+    pipe after :data:`_FORK_TIMEOUT` seconds (it is then killed)."""
+    reader, writer = os.pipe()
+    with warnings.catch_warnings():
+        # Python 3.12+ warns that forking a process with threads may deadlock the child: the
+        # very case under test.
+        warnings.filterwarnings("ignore", message=".*fork.*", category=DeprecationWarning)
+        pid = os.fork()
+    if pid == 0:
+        try:
+            os.close(reader)
+            try:
+                payload = {"info": ss.gpu_info(), **{name: call() for name, call in calls.items()}}
+            except BaseException as error:
+                payload = repr(error)
+            with os.fdopen(writer, "wb") as out:
+                pickle.dump(payload, out)
+        finally:
+            os._exit(0)  # never back into the parent's pytest
+    os.close(writer)
+    try:
+        data = _read_until_closed(reader, time.monotonic() + _FORK_TIMEOUT)
+    finally:
+        os.close(reader)
+        if data is None:
+            os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+    return None if data is None else pickle.loads(data)
+
+
+_FORK_TIMEOUT = 60.0
+
+
+def _read_until_closed(reader, deadline):
+    """Every byte from ``reader`` until the writer closes it, or ``None`` past ``deadline``."""
+    chunks = []
+    while (left := deadline - time.monotonic()) > 0:
+        if select.select([reader], [], [], left)[0]:
+            chunk = os.read(reader, 1 << 16)
+            if not chunk:
+                return b"".join(chunks)
+            chunks.append(chunk)
+    return None
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs os.fork")
+def test_a_forked_child_builds_its_own_gpu_context_and_gets_the_parents_results(adapter):
+    calls = _every_gpu_method()
+    # The parent's context and every method's pipelines exist before the fork.
+    parent = {name: call() for name, call in calls.items()}
+    child = _fork_and_run(calls)
+    assert child is not None, f"the forked child's GPU calls did not return within {_FORK_TIMEOUT:.0f} s"
+    assert isinstance(child, dict), f"the forked child's GPU calls failed: {child}"
+    assert child["info"] == adapter
+    for name in calls:
+        assert np.array_equal(child[name], parent[name]), name
 
 
 def test_unbuffered_mode_is_refused_on_the_gpu(adapter):

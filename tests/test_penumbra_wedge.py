@@ -55,3 +55,13 @@ def test_perforated_meshes_are_left_to_stsv():
     setup = ss.scenes.fence(width=16, height=16)
     with pytest.raises(ValueError, match="stsv"):
         ss.penumbra_wedge(setup.scene, setup.light, ss.gbuffer(setup.scene, setup.camera))
+
+
+def test_unlit_receivers_get_positive_zero():
+    # Rust's f64 sum starts from -0.0: a receiver with no sample in front of its tangent plane
+    # got -0.0 (3 of the ground_sphere's 24x24 pixels under its sphere light).
+    setup = ss.scenes.ground_sphere(width=24, height=24, light="sphere")
+    gb = ss.gbuffer(setup.scene, setup.camera)
+    vis = ss.penumbra_wedge(setup.scene, setup.light, gb)
+    assert np.any(vis[gb.mask] == 0) and not np.signbit(vis).any()
+    assert not np.signbit(ss.stsv(setup.scene, setup.light, gb, opaque="penumbra_wedge")).any()

@@ -103,3 +103,50 @@ def test_emission_texture_orientation_matches_the_docstring(v):
     ab = np.random.default_rng(0).uniform(-0.98, 0.98, (500, 2))
     points = light.center + ab[:, :1] * light.u + ab[:, 1:] * light.v
     np.testing.assert_array_equal(light.weights(points), documented_weights(light, ab))
+
+
+MASK64 = 2**64 - 1
+
+
+def splitmix64(state):
+    """One step of the core's SplitMix64 generator (``Rng`` in rust/core/src/light/sampling.rs):
+    the new state and the output."""
+    state = (state + 0x9E3779B97F4A7C15) & MASK64
+    z = ((state ^ (state >> 30)) * 0xBF58476D1CE4E5B9) & MASK64
+    z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & MASK64
+    return state, z ^ (z >> 31)
+
+
+def pattern_seed(seed, j):
+    """The seed of interleaved pattern ``j`` of ``seed``: stream ``j`` of the generator (its first
+    output skipped), as ``SampleSet`` draws it, for ``light.samples`` to build the pattern alone."""
+    state, _ = splitmix64(seed ^ ((0x9E3779B97F4A7C15 * (j + 1)) & MASK64))
+    return splitmix64(state)[1]
+
+
+@pytest.fixture
+def small_penumbra():
+    """A 7 x 5 image of a sphere's soft shadow, a third of its pixels partly lit."""
+    setup = ss.scenes.ground_sphere(width=7, height=5, light_size=3.0)
+    yield setup, ss.gbuffer(setup.scene, setup.camera)
+    ss.set_memory_limit(None)
+
+
+@pytest.mark.parametrize("rotate", [None, "per_receiver"])
+def test_interleaving_builds_only_the_patterns_of_the_pixels(small_penumbra, rotate):
+    setup, gb = small_penumbra
+    native = ss._core.NativeSamples.generate(
+        setup.light.native(), 16, "poisson", 7, 1000, rotate is not None, 0, ss.methods._native_receivers(gb)
+    )
+    assert native.patterns == 7 * 5
+    assert ss._core.NativeSamples.generate(setup.light.native(), 16, "poisson", 7, 3, False, 0).patterns == 9
+    # 10^6 patterns of 16 samples would need 192 MB; the 35 the pixels use, a few kB.
+    ss.set_memory_limit(1 << 20)
+    vis = ss.ray_traced(setup.scene, setup.light, gb, samples=16, seed=7, interleaved=1000, rotate=rotate)
+    assert np.sum((vis > 0) & (vis < 1)) >= 10
+    for y in range(5):
+        for x in range(7):
+            # Pixel (x, y) uses pattern x + 1000 y: built alone, then shared by every receiver.
+            own = setup.light.samples(16, pattern="poisson", seed=pattern_seed(7, x + 1000 * y))
+            expected = ss.ray_traced(setup.scene, setup.light, gb, samples=own, seed=7, rotate=rotate)
+            assert vis[y, x] == expected[y, x], (x, y)

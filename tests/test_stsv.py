@@ -13,9 +13,9 @@ def case(name, size=96, **options):
     return setup, ss.gbuffer(setup.scene, setup.camera)
 
 
-def mixed(size=96):
+def mixed(size=96, **options):
     """The columns (opaque, closed) with the fence's two perforated quads among them."""
-    columns, fence = ss.scenes.get("columns", width=size, height=size), ss.scenes.get("fence")
+    columns, fence = ss.scenes.get("columns", width=size, height=size, **options), ss.scenes.get("fence")
     scene = ss.Scene(columns.scene.meshes + [m for m in fence.scene.meshes if m.perforated])
     return columns.light, scene, ss.gbuffer(scene, columns.camera)
 
@@ -131,3 +131,16 @@ def test_bad_options_name_the_argument(options, match):
     setup, gb = case("fence", size=16)
     with pytest.raises(ValueError, match=match):
         ss.stsv(setup.scene, setup.light, gb, **options)
+
+
+@pytest.mark.parametrize("opaque", ["bitmask", "dcs"])
+@pytest.mark.parametrize("kind", ["rect", "disk", "sphere"])
+def test_samples_off_the_light_give_the_oracles_bits(opaque, kind):
+    # Samples of a light twice as large: the volumes, their influence regions and the opaque
+    # part's regions bounded the light, not the samples given (hundreds of pixels differed).
+    light, scene, gb = mixed(size=32, light=kind)
+    center = np.asarray(light.center, np.float32)
+    samples = center + 2 * (light.samples(32, seed=3) - center)
+    exact = ss.ray_traced(scene, light, gb, samples=samples)
+    vis = ss.stsv(scene, light, gb, samples=samples, opaque=opaque, two_sided=True)
+    np.testing.assert_array_equal(vis, exact)

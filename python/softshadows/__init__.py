@@ -52,6 +52,50 @@ def memory_limit() -> int:
     return int(_core.memory_limit())
 
 
+#: Raised by a call whose estimated work is above :func:`work_limit` (a ``RuntimeError``).
+WorkLimitError = _core.WorkLimitError
+
+
+def set_work_limit(operations: int | None) -> None:
+    """Caps the work a call may plan to do (``None`` restores the default of 10**12 operations).
+
+    Every method estimates its work before starting, as the sum of its main loops: a ray-scene
+    query counts 100 operations, a triangle set up for rasterization 50, a depth-map texel, a
+    receiver-sample pair or a receiver's look-up in one view 1. The default is on the order of a
+    quarter of an hour of one core (a 1024 x 1024 image with 1024 ray-traced samples per pixel is
+    about 10**11). A call above the limit raises :class:`WorkLimitError` naming its estimate
+    before it computes anything. ``operations`` must be an int in [1, 2**64 - 1].
+
+    Long calls can also be stopped: Ctrl-C (any signal handler that raises) stops a running
+    method within a fraction of a second and raises the handler's exception.
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> ss.set_work_limit(10**13)
+    >>> ss.work_limit()
+    10000000000000
+    >>> ss.set_work_limit(None)
+    >>> ss.work_limit()
+    1000000000000
+    """
+    if operations is None:
+        _core.set_work_limit(0)
+        return
+    if isinstance(operations, (int, _np.integer)) and not isinstance(operations, (bool, _np.bool_)):
+        value = int(operations)
+    else:
+        value = _validate.positive("operations", operations)
+    if not 1 <= value < 2**64:
+        raise ValueError(f"operations: must be in [1, 2**64 - 1], got {operations!r}")
+    _core.set_work_limit(int(value))
+
+
+def work_limit() -> int:
+    """The current work limit in operations (see :func:`set_work_limit`)."""
+    return int(_core.work_limit())
+
+
 #: The most worker threads ``set_num_threads`` takes: a pool of 10^5 threads takes minutes to
 #: start and can exhaust the system's thread limit, which then fails other processes too.
 MAX_THREADS = 1024
@@ -71,8 +115,8 @@ def num_threads() -> int:
     return int(_core.num_threads())
 
 
-# A forked child has none of the parent's worker threads: it builds its own pool on first use
-# (as Hugging Face's tokenizers does after fork).
+# A forked child has none of the parent's worker threads, nor its GPU driver's: it builds its own
+# pool (as Hugging Face's tokenizers does after fork) and GPU context on first use.
 if hasattr(_os, "register_at_fork"):
     _os.register_at_fork(after_in_child=_core.after_fork_in_child)
 
@@ -116,6 +160,9 @@ __all__ = [
     "ray_traced",
     "set_memory_limit",
     "set_num_threads",
+    "set_work_limit",
+    "work_limit",
+    "WorkLimitError",
     "num_threads",
     "shadow_map",
     "vwss",

@@ -27,6 +27,9 @@ __all__ = [
     "ray_traced",
     "set_memory_limit",
     "set_num_threads",
+    "set_work_limit",
+    "work_limit",
+    "WorkLimitError",
     "shadow_map",
     "stsv",
     "stsv_volumes",
@@ -76,18 +79,32 @@ class NativeReceivers:
 class NativeSamples:
     @staticmethod
     def generate(
-        light: NativeLight, n: int, pattern: str, seed: int, interleave: int, rotate: bool, frame: int
+        light: NativeLight,
+        n: int,
+        pattern: str,
+        seed: int,
+        interleave: int,
+        rotate: bool,
+        frame: int,
+        receivers: NativeReceivers | None = None,
     ) -> NativeSamples: ...
     @staticmethod
     def explicit(samples: _F32, rotate_seed: int | None = None) -> NativeSamples: ...
     @property
     def count(self) -> int: ...
+    @property
+    def patterns(self) -> int: ...
 
 def set_num_threads(threads: int) -> None: ...
 def num_threads() -> int: ...
 def after_fork_in_child() -> None: ...
 def set_memory_limit(bytes: int) -> None: ...
 def memory_limit() -> int: ...
+def set_work_limit(operations: int) -> None: ...
+def work_limit() -> int: ...
+
+class WorkLimitError(RuntimeError): ...
+
 def gpu_info() -> list[tuple[str, str]]: ...
 def ray_traced(
     scene: NativeScene, light: NativeLight, receivers: NativeReceivers, samples: NativeSamples, epsilon: float

@@ -12,6 +12,10 @@ pub enum Error {
     TooLarge { what: String, bytes: u64, limit: u64 },
     /// A resource outside the input is missing (no GPU adapter, ...).
     Unavailable(String),
+    /// The request's estimated work is above the configured limit; nothing was computed.
+    TooMuchWork { what: String, operations: u64, limit: u64 },
+    /// The call was stopped through its [`crate::interrupt::Cancel`] token.
+    Interrupted,
 }
 
 /// `Result` with the core [`Error`].
@@ -36,6 +40,14 @@ impl fmt::Display for Error {
                 human_bytes(*limit)
             ),
             Error::Unavailable(message) => write!(f, "{message}"),
+            Error::TooMuchWork { what, operations, limit } => write!(
+                f,
+                "{what} needs about {operations:.3e} operations, above the work limit of {limit:.3e} \
+                 (lower the resolution, sample count or view count, or raise softshadows.set_work_limit)",
+                operations = *operations as f64,
+                limit = *limit as f64
+            ),
+            Error::Interrupted => write!(f, "interrupted"),
         }
     }
 }

@@ -8,6 +8,7 @@
 pub mod error;
 pub mod geometry;
 pub mod gpu;
+pub mod interrupt;
 pub mod light;
 pub mod limits;
 pub mod methods;

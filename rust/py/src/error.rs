@@ -1,9 +1,17 @@
-//! The one mapping from core errors to Python exceptions (DESIGN.md section 7):
-//! bad input → ValueError, a request too large → MemoryError, a missing resource → RuntimeError.
+//! The one mapping from core errors to Python exceptions: bad input → ValueError, a request too
+//! large → MemoryError, too much work → WorkLimitError (a RuntimeError), a missing resource →
+//! RuntimeError, an interrupted call → KeyboardInterrupt.
 
-use pyo3::exceptions::{PyMemoryError, PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyKeyboardInterrupt, PyMemoryError, PyRuntimeError, PyValueError};
 use pyo3::PyErr;
 use softshadows_core::Error;
+
+pyo3::create_exception!(
+    _core,
+    WorkLimitError,
+    PyRuntimeError,
+    "A call's estimated work is above softshadows.work_limit(); raise it with softshadows.set_work_limit."
+);
 
 /// Turns a core [`Error`] into the matching Python exception.
 pub fn to_py(err: Error) -> PyErr {
@@ -12,6 +20,8 @@ pub fn to_py(err: Error) -> PyErr {
         Error::InvalidInput { .. } => PyValueError::new_err(message),
         Error::TooLarge { .. } => PyMemoryError::new_err(message),
         Error::Unavailable(_) => PyRuntimeError::new_err(message),
+        Error::TooMuchWork { .. } => WorkLimitError::new_err(message),
+        Error::Interrupted => PyKeyboardInterrupt::new_err(message),
     }
 }
 

@@ -19,7 +19,7 @@ use softshadows_core::geometry::gbuffer::gbuffer;
 use softshadows_core::geometry::mesh::{AlphaTexture, Mesh, Scene};
 use softshadows_core::geometry::receivers::Receivers;
 use softshadows_core::light::lights::{EmissionTexture, Light};
-use softshadows_core::light::sampling::{light_samples, Pattern, SampleSet};
+use softshadows_core::light::sampling::{light_samples, Interleave, Pattern, SampleSet};
 
 /// A scene and its BVH, built once.
 #[pyclass(frozen, module = "softshadows._core")]
@@ -35,7 +35,7 @@ impl NativeScene {
         if let Some(bvh) = self.bvh.get() {
             return Ok(bvh);
         }
-        let built = threads::detached(py, || Bvh::build(&self.scene)).or_raise()?;
+        let built = threads::detached(py, || Bvh::build(&self.scene))?;
         Ok(self.bvh.get_or_init(|| built))
     }
 }
@@ -91,7 +91,7 @@ impl NativeScene {
         Bound<'py, PyArray1<f32>>,
     )> {
         let bvh = self.bvh(py)?;
-        let gb = threads::detached(py, || gbuffer(&self.scene, bvh, &camera.camera, msaa)).or_raise()?;
+        let gb = threads::detached(py, || gbuffer(&self.scene, bvh, &camera.camera, msaa))?;
         let n = gb.positions.len();
         let as2 = |v: Vec<f32>| v.into_pyarray(py).reshape([n, 3]);
         Ok((
@@ -161,7 +161,7 @@ impl NativeLight {
     fn samples<'py>(&self, py: Python<'py>, n: usize, pattern: &str, seed: u64, frame: u64) -> PyResult<Bound<'py, PyArray2<f32>>> {
         let pattern = Pattern::parse(pattern).or_raise()?;
         softshadows_core::limits::check_memory("light samples", softshadows_core::limits::bytes(&[n as u64, 12])).or_raise()?;
-        let pts = threads::detached(py, || light_samples(&self.light, n, pattern, seed, frame));
+        let pts = threads::detached(py, || Ok(light_samples(&self.light, n, pattern, seed, frame)))?;
         convert::flat3(&pts).into_pyarray(py).reshape([n, 3])
     }
 
@@ -226,9 +226,11 @@ pub struct NativeSamples {
 
 #[pymethods]
 impl NativeSamples {
-    /// `n` samples of `pattern` per receiver, `interleave x interleave` patterns over the screen.
+    /// `n` samples of `pattern` per receiver, `interleave x interleave` patterns over the screen:
+    /// only those the pixels of `receivers` use, or every one without `receivers`.
     #[staticmethod]
     #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (light, n, pattern, seed, interleave, rotate, frame, receivers=None))]
     fn generate(
         py: Python<'_>,
         light: &NativeLight,
@@ -238,11 +240,19 @@ impl NativeSamples {
         interleave: usize,
         rotate: bool,
         frame: u64,
+        receivers: Option<&NativeReceivers>,
     ) -> PyResult<Self> {
         let pattern = Pattern::parse(pattern).or_raise()?;
-        let total = softshadows_core::limits::bytes(&[n as u64, interleave as u64, interleave as u64, 12]);
+        let tile = match receivers {
+            Some(r) => Interleave::for_grid(interleave, r.receivers.width, r.receivers.height),
+            None => Interleave::full(interleave),
+        };
+        if let Some(r) = receivers {
+            SampleSet::refuse_more_pairs_than_the_work_limit(r.receivers.len(), n).or_raise()?;
+        }
+        let total = SampleSet::estimated_bytes(&light.light, n, pattern, tile);
         softshadows_core::limits::check_memory("light sample patterns", total).or_raise()?;
-        let samples = threads::detached(py, || SampleSet::generate(&light.light, n, pattern, seed, interleave, rotate, frame)).or_raise()?;
+        let samples = threads::detached(py, || SampleSet::generate_for(&light.light, n, pattern, seed, tile, rotate, frame))?;
         Ok(Self { samples })
     }
 
@@ -256,6 +266,12 @@ impl NativeSamples {
     #[getter]
     fn count(&self) -> usize {
         self.samples.count()
+    }
+
+    /// The number of patterns built.
+    #[getter]
+    fn patterns(&self) -> usize {
+        self.samples.pattern_count()
     }
 }
 
@@ -271,10 +287,22 @@ fn memory_limit() -> u64 {
     softshadows_core::limits::memory_limit()
 }
 
+/// Sets the work limit in operations (0 restores the default of 10^12).
+#[pyfunction]
+fn set_work_limit(operations: u64) {
+    softshadows_core::limits::set_work_limit(operations);
+}
+
+/// The work limit in operations.
+#[pyfunction]
+fn work_limit() -> u64 {
+    softshadows_core::limits::work_limit()
+}
+
 /// The GPU adapter as `(name, value)` pairs (creates the device on first use).
 #[pyfunction]
 fn gpu_info(py: Python<'_>) -> PyResult<Vec<(String, String)>> {
-    threads::detached(py, softshadows_core::gpu::info).or_raise()
+    threads::detached(py, softshadows_core::gpu::info)
 }
 
 #[pymodule]
@@ -286,6 +314,9 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<NativeSamples>()?;
     m.add_function(wrap_pyfunction!(set_memory_limit, m)?)?;
     m.add_function(wrap_pyfunction!(memory_limit, m)?)?;
+    m.add_function(wrap_pyfunction!(set_work_limit, m)?)?;
+    m.add_function(wrap_pyfunction!(work_limit, m)?)?;
+    m.add("WorkLimitError", m.py().get_type::<error::WorkLimitError>())?;
     m.add_function(wrap_pyfunction!(gpu_info, m)?)?;
     m.add_function(wrap_pyfunction!(threads::set_num_threads, m)?)?;
     m.add_function(wrap_pyfunction!(threads::num_threads, m)?)?;

@@ -58,8 +58,7 @@ fn ray_traced<'py>(
 ) -> PyResult<Output<'py>> {
     let opts = RayTracedOptions { epsilon };
     let bvh = scene.bvh(py)?;
-    let out = crate::threads::detached(py, || ray_traced_core(&scene.scene, bvh, &light.light, &receivers.receivers, &samples.samples, &opts))
-        .or_raise()?;
+    let out = crate::threads::detached(py, || ray_traced_core(&scene.scene, bvh, &light.light, &receivers.receivers, &samples.samples, &opts))?;
     output(py, out)
 }
 
@@ -77,7 +76,7 @@ fn shadow_map<'py>(
     backend: &str,
 ) -> PyResult<Output<'py>> {
     let opts = ShadowMapOptions { resolution, bias, pcf, frustum: None, backend: parse_backend(backend).or_raise()? };
-    let out = crate::threads::detached(py, || shadow_map_core(&scene.scene, &light.light, &receivers.receivers, &opts)).or_raise()?;
+    let out = crate::threads::detached(py, || shadow_map_core(&scene.scene, &light.light, &receivers.receivers, &opts))?;
     output(py, out)
 }
 
@@ -96,8 +95,7 @@ fn mvr<'py>(
     backend: &str,
 ) -> PyResult<Output<'py>> {
     let opts = MultiViewOptions { resolution, pcf, bias, backend: parse_backend(backend).or_raise()? };
-    let out = crate::threads::detached(py, || mvr_core(&scene.scene, &light.light, &receivers.receivers, &samples.samples, &opts))
-        .or_raise()?;
+    let out = crate::threads::detached(py, || mvr_core(&scene.scene, &light.light, &receivers.receivers, &samples.samples, &opts))?;
     output(py, out)
 }
 
@@ -147,8 +145,7 @@ fn vwss<'py>(
         point_density,
         source_resolution,
     };
-    let out = crate::threads::detached(py, || vwss_core(&scene.scene, &light.light, &receivers.receivers, &samples.samples, &opts))
-        .or_raise()?;
+    let out = crate::threads::detached(py, || vwss_core(&scene.scene, &light.light, &receivers.receivers, &samples.samples, &opts))?;
     output(py, out)
 }
 
@@ -169,7 +166,7 @@ fn pcss<'py>(
     backend: &str,
 ) -> PyResult<Output<'py>> {
     let opts = PcssOptions { resolution, blocker_samples, filter_samples, bias, near, seed, backend: parse_backend(backend).or_raise()? };
-    let out = crate::threads::detached(py, || pcss_core(&scene.scene, &light.light, &receivers.receivers, &opts)).or_raise()?;
+    let out = crate::threads::detached(py, || pcss_core(&scene.scene, &light.light, &receivers.receivers, &opts))?;
     output(py, out)
 }
 
@@ -194,7 +191,7 @@ fn cssm<'py>(
     let prefilter = choice("prefilter", prefilter, &[("sat", Prefilter::Sat), ("mipmap", Prefilter::Mipmap)]).or_raise()?;
     let backend = parse_backend(backend).or_raise()?;
     let opts = CssmOptions { resolution, order, prefilter, near, offset, scale, sharpen_a, sharpen_b, backend };
-    let out = crate::threads::detached(py, || cssm_core(&scene.scene, &light.light, &receivers.receivers, &opts)).or_raise()?;
+    let out = crate::threads::detached(py, || cssm_core(&scene.scene, &light.light, &receivers.receivers, &opts))?;
     output(py, out)
 }
 
@@ -213,7 +210,7 @@ fn fit_area_lights(
 ) -> PyResult<Vec<FittedTuple>> {
     let values = cube.as_slice().map_err(|_| pyo3::exceptions::PyValueError::new_err("env: expected a contiguous array"))?;
     let opts = FitOptions { threshold, max_lights, square };
-    let lights = crate::threads::detached(py, || fit_core(values, n, &opts)).or_raise()?;
+    let lights = crate::threads::detached(py, || fit_core(values, n, &opts))?;
     Ok(lights.into_iter().map(|l| (l.face, l.i0, l.i1, l.j0, l.j1, (l.energy[0], l.energy[1], l.energy[2]))).collect())
 }
 
@@ -243,8 +240,7 @@ fn alias_free<'py>(
 ) -> PyResult<Output<'py>> {
     let casters = choice("casters", casters, &[("backfacing", Casters::Backfacing), ("all", Casters::All)]).or_raise()?;
     let opts = AliasFreeOptions { resolution, casters, bias, lut, hull_degree, restrict_to_penumbra, backend: parse_backend(backend).or_raise()? };
-    let out = crate::threads::detached(py, || alias_free_core(&scene.scene, &light.light, &receivers.receivers, &samples.samples, &opts))
-        .or_raise()?;
+    let out = crate::threads::detached(py, || alias_free_core(&scene.scene, &light.light, &receivers.receivers, &samples.samples, &opts))?;
     output(py, out)
 }
 
@@ -264,7 +260,7 @@ fn object_method<'py>(
 ) -> PyResult<Output<'py>> {
     let opts = ObjectOptions { epsilon, resolution, hull_degree };
     let bvh = scene.bvh(py)?;
-    let out = crate::threads::detached(py, || method(&scene.scene, bvh, &light.light, &receivers.receivers, &samples.samples, &opts)).or_raise()?;
+    let out = crate::threads::detached(py, || method(&scene.scene, bvh, &light.light, &receivers.receivers, &samples.samples, &opts))?;
     output(py, out)
 }
 
@@ -318,7 +314,7 @@ fn stsv<'py>(
     let opaque = choice("opaque", opaque, &[("bitmask", Opaque::Bitmask), ("dcs", Opaque::Dcs), ("penumbra_wedge", Opaque::PenumbraWedge)]).or_raise()?;
     let opts = StsvOptions { object: ObjectOptions { epsilon, resolution, hull_degree }, opaque, two_sided };
     let bvh = scene.bvh(py)?;
-    let out = crate::threads::detached(py, || stsv_core(&scene.scene, bvh, &light.light, &receivers.receivers, &samples.samples, &opts)).or_raise()?;
+    let out = crate::threads::detached(py, || stsv_core(&scene.scene, bvh, &light.light, &receivers.receivers, &samples.samples, &opts))?;
     output(py, out)
 }
 
@@ -337,7 +333,7 @@ fn stsv_volumes<'py>(
 ) -> PyResult<Volumes<'py>> {
     let rx = &receivers.receivers;
     let points: Vec<_> = rx.points.iter().zip(&rx.valid).filter(|(_, &v)| v).map(|(p, _)| *p).collect();
-    let volumes = crate::threads::detached(py, || stsv_volumes_core(&scene.scene, &light.light, hull_degree, two_sided, &points)).or_raise()?;
+    let volumes = crate::threads::detached(py, || stsv_volumes_core(&scene.scene, &light.light, hull_degree, two_sided, &points))?;
     let ids: Vec<u32> = volumes.iter().map(|(id, _)| *id).collect();
     let corners: Vec<f32> = volumes.iter().flat_map(|(_, c)| c.iter().flat_map(|p| p.to_array())).collect();
     Ok((ids.into_pyarray(py), corners.into_pyarray(py).reshape([volumes.len() * 6, 3])?))
@@ -376,7 +372,7 @@ fn backprojection<'py>(
         Some(b) => Budget::Map(b),
     };
     let opts = BackprojectionOptions { resolution, occluder, accumulation, acceleration, budget, level, blend, smoothing, bias };
-    let out = crate::threads::detached(py, || backprojection_levels(&scene.scene, &light.light, &receivers.receivers, &opts)).or_raise()?;
+    let out = crate::threads::detached(py, || backprojection_levels(&scene.scene, &light.light, &receivers.receivers, &opts))?;
     let (vis, stats) = output(py, (out.visibility, out.stats))?;
     Ok((vis, out.levels.into_pyarray(py), out.processed.into_pyarray(py), stats))
 }

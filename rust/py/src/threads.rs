@@ -1,5 +1,5 @@
 //! The thread pool every heavy call runs on, sized by `set_num_threads` and rebuilt in a forked
-//! child.
+//! child, and the wait that lets Ctrl-C stop a call.
 //!
 //! Calls run on a rayon pool of our own rather than rayon's global one, for two reasons: its size
 //! can change at run time (the global pool is fixed once started), and a forked child can get a
@@ -8,8 +8,23 @@
 //! [`after_fork_in_child`], which drops the reference to the parent's pool (without joining its
 //! threads, which do not exist) so the next call builds a new pool in the child.
 
+//!
+//! Python runs signal handlers (Ctrl-C's `KeyboardInterrupt`) only on the main thread, between
+//! bytecodes, so a call that keeps its thread in Rust would ignore Ctrl-C until it returns. Each
+//! call therefore runs as a job on the pool under a [`Cancel`] token while its own thread waits,
+//! with the GIL released, and asks Python for pending signals every [`SIGNAL_POLL`]. When a
+//! handler raises, the token is raised, the core stops at its next check between rounds of work
+//! (`softshadows_core::interrupt`), and the handler's exception is raised in place of a result.
+
+use crate::error::to_py;
 use pyo3::prelude::*;
+use softshadows_core::interrupt::Cancel;
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
 use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+/// How often a waiting call asks Python for pending signals.
+const SIGNAL_POLL: Duration = Duration::from_millis(50);
 
 /// The configured pool (`None`: not built yet) and its requested size (0: one per core).
 struct State {
@@ -35,12 +50,49 @@ fn pool() -> PyResult<Arc<rayon::ThreadPool>> {
     Ok(pool)
 }
 
-/// Runs `f` with the GIL released, on the configured pool (on rayon's global pool if ours
-/// cannot start: the results are the same, only the thread count differs).
-pub fn detached<T: Send>(py: Python<'_>, f: impl FnOnce() -> T + Send) -> T {
-    match pool() {
-        Ok(pool) => py.detach(|| pool.install(f)),
-        Err(_) => py.detach(f),
+/// Runs `f` with the GIL released on the configured pool (on the calling thread if the pool
+/// cannot start: the results are the same, only the thread count differs), stopping it when a
+/// signal handler raises while it runs (see the module doc); core errors become Python's.
+pub fn detached<T: Send>(py: Python<'_>, f: impl FnOnce() -> softshadows_core::Result<T> + Send) -> PyResult<T> {
+    let cancel = Cancel::new();
+    let Ok(pool) = pool() else {
+        return py.detach(|| cancel.run(f)).map_err(to_py);
+    };
+    let (sender, results) = mpsc::channel();
+    pool.in_place_scope(|scope| {
+        let token = cancel.clone();
+        scope.spawn(move |_| {
+            // The receiver outlives the scope, so the send cannot fail.
+            let _ = sender.send(token.run(f));
+        });
+        wait_for(py, results, &cancel)
+    })
+}
+
+/// Waits for the call's result, polling for signals; on a raised handler, stops the call and
+/// returns the handler's exception.
+fn wait_for<T: Send>(py: Python<'_>, mut results: Receiver<softshadows_core::Result<T>>, cancel: &Cancel) -> PyResult<T> {
+    loop {
+        // The receiver travels into the GIL-free wait and back (it may not be shared).
+        let (back, received) = py.detach(move || {
+            let received = results.recv_timeout(SIGNAL_POLL);
+            (results, received)
+        });
+        results = back;
+        match received {
+            Ok(out) => return out.map_err(to_py),
+            Err(RecvTimeoutError::Timeout) => {
+                if let Err(signal) = py.check_signals() {
+                    cancel.request();
+                    // The call returns at its next check; its result (interrupted) is dropped.
+                    let _ = py.detach(move || results.recv());
+                    return Err(signal);
+                }
+            }
+            Err(RecvTimeoutError::Disconnected) => {
+                return Err(pyo3::exceptions::PyRuntimeError::new_err("softshadows: a worker stopped without a result"))
+            }
+        }
     }
 }
 
@@ -60,9 +112,12 @@ pub fn num_threads() -> PyResult<usize> {
     Ok(pool()?.current_num_threads())
 }
 
-/// Forgets the parent's pool in a forked child (see the module doc).
+/// Forgets the parent's pool and GPU context in a forked child (see the module doc), so that its
+/// next call builds its own of each.
 #[pyfunction]
 pub fn after_fork_in_child() {
+    // First, as it takes no lock: the GPU context's reset cannot wait on the pool's lock below.
+    softshadows_core::gpu::after_fork_in_child();
     // The child has one thread, so no lock is held by another; a poisoned lock keeps its data.
     let mut state = match STATE.lock() {
         Ok(state) => state,

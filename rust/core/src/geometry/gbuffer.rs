@@ -13,7 +13,9 @@ use crate::geometry::bvh::Bvh;
 use crate::geometry::camera::Camera;
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
-use crate::limits;
+use crate::interrupt;
+use crate::limits::{self, Work};
+use crate::stats::Stats;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
@@ -91,9 +93,11 @@ pub fn gbuffer(scene: &Scene, bvh: &Bvh, camera: &Camera, msaa: usize) -> Result
     // The output arrays (33 bytes) and the per-pixel hits collected first (32 bytes).
     let per_pixel = 33 + 32 + if msaa > 1 { 4 * msaa as u64 } else { 0 };
     limits::check_memory("G-buffer", limits::bytes(&[n as u64, per_pixel]))?;
+    let rays_per_pixel = 1 + if msaa > 1 { msaa as u64 } else { 0 };
+    Work::default().loop_of(&[n as u64, rays_per_pixel, Work::RAY]).check("gbuffer", &mut Stats::default())?;
     let texels: Vec<Texel> =
-        (0..n).into_par_iter().map(|i| cast(scene, bvh, camera, (i % w) as f32 + 0.5, (i / w) as f32 + 0.5)).collect();
-    let sample_depths = if msaa > 1 { depths(scene, bvh, camera, &offsets) } else { Vec::new() };
+        interrupt::par_map(n, Work::RAY, |i| cast(scene, bvh, camera, (i % w) as f32 + 0.5, (i / w) as f32 + 0.5))?;
+    let sample_depths = if msaa > 1 { depths(scene, bvh, camera, &offsets)? } else { Vec::new() };
     Ok(GBuffer {
         width: w,
         height: h,
@@ -107,18 +111,21 @@ pub fn gbuffer(scene: &Scene, bvh: &Bvh, camera: &Camera, msaa: usize) -> Result
 }
 
 /// Hit distances of every pixel's MSAA samples, `+inf` for no hit.
-fn depths(scene: &Scene, bvh: &Bvh, camera: &Camera, offsets: &[Vec2]) -> Vec<f32> {
+fn depths(scene: &Scene, bvh: &Bvh, camera: &Camera, offsets: &[Vec2]) -> Result<Vec<f32>> {
     let (w, m) = (camera.width, offsets.len());
     let mut out = vec![f32::INFINITY; camera.width * camera.height * m];
-    out.par_chunks_mut(m).enumerate().for_each(|(i, px)| {
-        let center = Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
-        for (d, o) in px.iter_mut().zip(offsets) {
-            let p = center + *o;
-            let dir = camera.ray(p.x, p.y);
-            *d = bvh.intersect(scene, camera.eye, dir, f32::INFINITY).map_or(f32::INFINITY, |h| h.t);
-        }
-    });
-    out
+    interrupt::rounds(&mut out, interrupt::round_len(m, Work::RAY), |offset, part| {
+        part.par_chunks_mut(m).enumerate().for_each(|(k, px)| {
+            let i = offset / m + k;
+            let center = Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
+            for (d, o) in px.iter_mut().zip(offsets) {
+                let p = center + *o;
+                let dir = camera.ray(p.x, p.y);
+                *d = bvh.intersect(scene, camera.eye, dir, f32::INFINITY).map_or(f32::INFINITY, |h| h.t);
+            }
+        })
+    })?;
+    Ok(out)
 }
 
 impl GBuffer {

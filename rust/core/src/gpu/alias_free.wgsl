@@ -46,7 +46,10 @@ struct Params {
 // The table's masks, `words` u32 per entry.
 @group(0) @binding(2) var<storage, read> lut: array<u32>;
 // Per view sample of the chunk, VIEW_STRIDE values: p, p moved along n, n, linear depth, the
-// transpose of its samples' rotation (columns), and 1 when it has one.
+// transpose of its samples' rotation (columns), 1 when it has one, 1 when it tests its planes
+// exactly although there is a table (alias_free.rs TABLE_MAX_SPREAD), 1 when it lies inside a
+// closed mesh (alias_free.rs mark_inside_closed_meshes), and the point it is listed at (the CPU's
+// `points`: moved when inside).
 @group(0) @binding(3) var<storage, read> views: array<f64>;
 // The range's lists: counts turned starts (texels + 1), fill cursors, penumbra flags, scan
 // levels, entries (chunk-local view sample indices).
@@ -63,7 +66,7 @@ struct Params {
 // The built lists, read by `cover` without atomics (plain loads are far cheaper on some drivers).
 @group(0) @binding(8) var<storage, read> built: array<u32>;
 
-const VIEW_STRIDE: u32 = 20u;
+const VIEW_STRIDE: u32 = 25u;
 const CASTER_STRIDE: u32 = 13u;
 const INFO_STRIDE: u32 = 10u;
 const INFO_FLAGS: u32 = 0u;
@@ -79,6 +82,7 @@ const TEXELS_PER_THREAD: u32 = 8u;
 const FLAG_ALPHA: u32 = 1u;
 const FLAG_MOVED: u32 = 2u;
 const FLAG_FRONT_ONLY: u32 = 4u;
+const FLAG_CULLED: u32 = 8u;
 const SAMPLES_AT: u32 = 8u;
 const MAX_WORDS: u32 = 32u;
 // Slack of the texel squares against the regions, as raster/region.rs's conservative_rows.
@@ -105,6 +109,14 @@ fn has_rotation(v: u32) -> bool {
     return views[v * VIEW_STRIDE + 19u] != 0.0lf;
 }
 
+fn exact_planes(v: u32) -> bool {
+    return views[v * VIEW_STRIDE + 20u] != 0.0lf;
+}
+
+fn inside(v: u32) -> bool {
+    return views[v * VIEW_STRIDE + 21u] != 0.0lf;
+}
+
 // The transpose of view sample v's rotation times x (glam's DMat3 * DVec3: columns in order).
 fn rotate_plane(v: u32, x: vec3<f64>) -> vec3<f64> {
     return (view_vec(v, 10u) * x.x + view_vec(v, 13u) * x.y) + view_vec(v, 16u) * x.z;
@@ -126,7 +138,7 @@ fn rotate_sample(v: u32, y: vec3<f64>) -> vec3<f64> {
 
 // ReceiverLists::texel: the texel of view sample v (x, y).
 fn texel_of(v: u32) -> vec2<u32> {
-    let p = vec3<f32>(view_vec(v, 0u));
+    let p = vec3<f32>(view_vec(v, 22u));
     let w = params.width;
     let h = params.height;
     let q = to_view(params.view, p);
@@ -379,7 +391,7 @@ fn and_below(v: u32, m_in: vec3<f64>, k_in: f64, mask: ptr<function, array<u32, 
         m = rotate_plane(v, m_in);
         k = (k_in - dot_d(m_in, c)) + dot_d(m, c);
     }
-    if (params.bins == 0u) {
+    if (params.bins == 0u || exact_planes(v)) {
         for (var w = 0u; w < params.words; w++) {
             var word = 0u;
             for (var bit = 0u; bit < 32u; bit++) {
@@ -567,7 +579,7 @@ fn row_span(at: u32, n: u32, y: u32) -> vec2<u32> {
 }
 
 // alias_free.rs Tester::band for one list entry: tests view sample v against caster c.
-fn test_entry(t: Caster, c: u32, v: u32, umbra_or_lit: bool) {
+fn test_entry(t_in: Caster, c: u32, v: u32, umbra_or_lit: bool) {
     let base = v * params.words;
     var full = true;
     for (var w = 0u; w < params.words; w++) {
@@ -580,8 +592,13 @@ fn test_entry(t: Caster, c: u32, v: u32, umbra_or_lit: bool) {
     }
     // Wholly beyond both the receiver and the light: it cannot cut their segment.
     let depth = views[v * VIEW_STRIDE + 9u];
-    if (t.near_depth > max(depth, light[3u]) + 1.0e-9lf * abs(t.near_depth)) {
+    if (((t_in.flags & FLAG_CULLED) != 0u && !inside(v)) || t_in.near_depth > max(depth, light[3u]) + 1.0e-9lf * abs(t_in.near_depth)) {
         return;
+    }
+    // Prepared::seen_from_inside: from inside a closed mesh, either side, from the moved point.
+    var t = t_in;
+    if (inside(v)) {
+        t.flags = (t.flags & ~FLAG_FRONT_ONLY) | FLAG_MOVED;
     }
     var p = view_vec(v, 0u);
     if ((t.flags & FLAG_MOVED) != 0u) {

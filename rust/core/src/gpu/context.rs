@@ -4,10 +4,22 @@
 //! Stage times ([`Gpu::timed`]) are the GPU's own execution times of a stage's compute passes,
 //! by timestamp queries written at the start and end of each pass, where the adapter has them
 //! (`wgpu::Features::TIMESTAMP_QUERY`); elsewhere the wall clock around the stage's submissions.
+//!
+//! A forked child gets a context of its own. After `fork` only the forking thread exists in the
+//! child, and the parent's device waits on driver threads that are gone (lavapipe signals its
+//! fences from a queue thread of its own), so its first poll would never return. The context is
+//! therefore kept per process, and so are the methods' pipelines ([`PerContext`]): each process
+//! makes its own on its first call, telling an inherited context by its process id. The Python
+//! module's fork handler also forgets the inherited context ([`forget_after_fork`]), as a
+//! grandchild may be given the id of the exited grandparent that made it. The parent's context
+//! and pipelines are leaked in the child, never dropped: dropping them would call into a driver
+//! whose threads do not exist.
 
 use super::{forced_limits, DispatchLimits};
 use crate::error::{Error, Result};
 use std::cell::RefCell;
+use std::ptr;
+use std::sync::atomic::{AtomicPtr, Ordering};
 use std::sync::OnceLock;
 use std::time::Instant;
 use wgpu::util::DeviceExt;
@@ -31,7 +43,8 @@ pub enum Binding {
 /// Threads per workgroup of every shader (`@workgroup_size(64)`).
 pub const WORKGROUP: u64 = 64;
 
-static GPU: OnceLock<std::result::Result<Gpu, String>> = OnceLock::new();
+/// This process's context (or why there is none), keyed by the process id.
+static GPU: Keyed<std::result::Result<Gpu, String>> = Keyed::new();
 
 thread_local! {
     /// The clock of the [`Gpu::timed`] scope running on this thread, if the adapter has
@@ -67,11 +80,92 @@ impl Clock {
     }
 }
 
-/// The shared GPU context, created on the first call.
+/// The shared GPU context, created on the first call of this process (see the module doc).
 ///
 /// Errors: `Unavailable` when no adapter or device can be had, saying how to get one.
 pub fn context() -> Result<&'static Gpu> {
-    GPU.get_or_init(create).as_ref().map_err(|message| Error::Unavailable(message.clone()))
+    GPU.get_or_init(std::process::id() as usize, create).as_ref().map_err(|message| Error::Unavailable(message.clone()))
+}
+
+/// Forgets the parent's context in a forked child, so that its next call makes its own (see the
+/// module doc); the parent's is leaked.
+pub fn forget_after_fork() {
+    GPU.forget();
+}
+
+/// A value made once per key: a newer key's value replaces the older one's, which is leaked.
+///
+/// Lock-free, so that a forked child never waits on a lock that a thread of the parent held at
+/// the fork: the child swaps in its own entry instead.
+struct Keyed<T> {
+    /// The newest entry, leaked (never freed); null before the first.
+    current: AtomicPtr<Entry<T>>,
+}
+
+struct Entry<T> {
+    key: usize,
+    value: OnceLock<T>,
+}
+
+impl<T: Send + Sync> Keyed<T> {
+    const fn new() -> Keyed<T> {
+        Keyed { current: AtomicPtr::new(ptr::null_mut()) }
+    }
+
+    /// The value of `key`, made by `make` on the first call with this key.
+    fn get_or_init(&self, key: usize, make: impl FnOnce() -> T) -> &'static T {
+        self.entry(key).value.get_or_init(make)
+    }
+
+    /// Drops the reference to the current entry (leaking it).
+    fn forget(&self) {
+        self.current.store(ptr::null_mut(), Ordering::Release);
+    }
+
+    /// The entry of `key`, installing an empty one if the current entry has another key.
+    fn entry(&self, key: usize) -> &'static Entry<T> {
+        let mut seen = self.current.load(Ordering::Acquire);
+        loop {
+            // SAFETY: `current` holds null or a pointer from `Box::into_raw` that is never freed.
+            if let Some(entry) = unsafe { seen.as_ref() } {
+                if entry.key == key {
+                    return entry;
+                }
+            }
+            let fresh = Box::into_raw(Box::new(Entry { key, value: OnceLock::new() }));
+            match self.current.compare_exchange(seen, fresh, Ordering::AcqRel, Ordering::Acquire) {
+                // SAFETY: `fresh` is from `Box::into_raw`, and once installed it is never freed.
+                Ok(_) => return unsafe { &*fresh },
+                Err(newer) => {
+                    // SAFETY: `fresh` was never installed, so nothing else refers to it.
+                    drop(unsafe { Box::from_raw(fresh) });
+                    seen = newer;
+                }
+            }
+        }
+    }
+}
+
+/// A value made once per GPU context, such as a method's compiled pipelines, which belong to the
+/// device they were made on: a forked child's context gets its own (see the module doc).
+pub struct PerContext<T>(Keyed<T>);
+
+impl<T: Send + Sync> PerContext<T> {
+    pub const fn new() -> PerContext<T> {
+        PerContext(Keyed::new())
+    }
+
+    /// The value for `gpu`, made by `make` on the first call with it.
+    pub fn get_or_init(&self, gpu: &Gpu, make: impl FnOnce() -> T) -> &'static T {
+        // Contexts are leaked, so no two share an address.
+        self.0.get_or_init(ptr::from_ref(gpu) as usize, make)
+    }
+}
+
+impl<T: Send + Sync> Default for PerContext<T> {
+    fn default() -> PerContext<T> {
+        PerContext::new()
+    }
 }
 
 fn create() -> std::result::Result<Gpu, String> {
@@ -320,5 +414,40 @@ impl Gpu {
         let words = bytemuck::pod_collect_to_vec(&slice.get_mapped_range().map_err(|e| Error::Unavailable(format!("GPU readback failed: {e}")))?);
         staging.unmap();
         Ok(words)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Keyed;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    /// One value per key, made once; a new key (a forked child's process id) or a forget (the
+    /// fork handler) makes a new one.
+    #[test]
+    fn keyed_makes_a_value_per_key_and_after_a_forget() {
+        static KEYED: Keyed<usize> = Keyed::new();
+        let made = AtomicUsize::new(0);
+        let make = || made.fetch_add(1, Ordering::Relaxed);
+        let first = KEYED.get_or_init(7, make);
+        assert_eq!((*first, *KEYED.get_or_init(7, make)), (0, 0));
+        assert_eq!(*KEYED.get_or_init(8, make), 1);
+        KEYED.forget();
+        assert_eq!(*KEYED.get_or_init(8, make), 2);
+        // The replaced values stay alive (leaked) for whoever still holds them.
+        assert_eq!((*first, made.load(Ordering::Relaxed)), (0, 3));
+    }
+
+    /// Threads racing for the first value all get the same one, made once.
+    #[test]
+    fn keyed_makes_one_value_for_racing_threads() {
+        static KEYED: Keyed<usize> = Keyed::new();
+        let made = AtomicUsize::new(0);
+        let values: Vec<usize> = std::thread::scope(|scope| {
+            let handles: Vec<_> = (0..8).map(|_| scope.spawn(|| *KEYED.get_or_init(1, || made.fetch_add(1, Ordering::Relaxed)))).collect();
+            handles.into_iter().filter_map(|handle| handle.join().ok()).collect()
+        });
+        assert_eq!(values, vec![0; 8]);
+        assert_eq!(made.load(Ordering::Relaxed), 1);
     }
 }

@@ -3,12 +3,11 @@
 //! Tables are split into groups of coefficients that fit one storage binding, receivers into
 //! chunks, and every pass into dispatches within the workgroup limit.
 
-use super::context::{context, Binding, Gpu};
+use super::context::{context, Binding, Gpu, PerContext};
 use super::DispatchLimits;
 use crate::error::{Error, Result};
 use crate::methods::cssm::{Shared, Start};
 use crate::raster::depth::DepthMap;
-use std::sync::OnceLock;
 
 const SHADER: &str = include_str!("cssm.wgsl");
 /// Bytes of a `Receiver` in `cssm.wgsl`.
@@ -74,8 +73,8 @@ struct Pipelines {
 }
 
 fn pipelines(gpu: &Gpu) -> &'static Pipelines {
-    static PIPELINES: OnceLock<Pipelines> = OnceLock::new();
-    PIPELINES.get_or_init(|| {
+    static PIPELINES: PerContext<Pipelines> = PerContext::new();
+    PIPELINES.get_or_init(gpu, || {
         let layout = gpu.layout("cssm", &[(0, Binding::Uniform), (1, Binding::Read), (2, Binding::ReadWrite), (3, Binding::ReadWrite)]);
         let make = |entry: &str| gpu.pipeline_with_layout("cssm", SHADER, entry, &layout);
         Pipelines {

@@ -1,6 +1,7 @@
 //! The wgpu backend: the methods that the papers ran on graphics hardware, as compute pipelines.
 //!
-//! One device and queue are created lazily on first use and reused by every call ([`context`]);
+//! One device and queue are created lazily on first use and reused by every call ([`context`]),
+//! one per process: a forked child makes its own ([`after_fork_in_child`]);
 //! each method has one `.rs` + `.wgsl` pair here, the WGSL embedded in the binary. Methods pick
 //! the backend per call ([`Backend`]); the CPU path is unchanged. Large inputs are split into
 //! dispatches within the adapter's limits ([`DispatchLimits`]: workgroup counts and storage
@@ -123,7 +124,16 @@ pub mod vwss {
 }
 
 #[cfg(feature = "gpu")]
-pub use context::{context, Gpu};
+pub use context::{context, Gpu, PerContext};
+
+/// Makes a forked child build its own GPU context on its next GPU call, as the parent's waits on
+/// driver threads that do not exist in the child. Call it in the child right after `fork`; a
+/// child that does not still gets its own context, by its new process id, unless that id was
+/// the one of the process that made the context.
+pub fn after_fork_in_child() {
+    #[cfg(feature = "gpu")]
+    context::forget_after_fork();
+}
 
 /// Where a method runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

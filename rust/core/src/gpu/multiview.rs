@@ -2,12 +2,11 @@
 //! maps live on the GPU: the receivers are uploaded once per call in chunks that fit a binding;
 //! each batch of maps adds its views' weighted PCF lookups to the receivers' sums, in view order.
 
-use super::context::{context, Gpu};
+use super::context::{context, Gpu, PerContext};
 use crate::error::{Error, Result};
 use crate::geometry::receivers::Receivers;
 use crate::raster::depth::{DepthMap, LightFrustum};
 use crate::raster::pcf::{DepthBias, PcfKernel};
-use std::sync::OnceLock;
 
 /// `frustum.wgsl`, prepended to the shaders that read or write depth maps.
 pub(crate) const FRUSTUM: &str = include_str!("frustum.wgsl");
@@ -92,8 +91,8 @@ pub(crate) fn upload_maps(gpu: &Gpu, maps: &[&DepthMap]) -> Result<wgpu::Buffer>
 }
 
 fn pipeline(gpu: &Gpu) -> &'static wgpu::ComputePipeline {
-    static PIPELINE: OnceLock<wgpu::ComputePipeline> = OnceLock::new();
-    PIPELINE.get_or_init(|| gpu.pipeline("multiview lighting", &format!("{FRUSTUM}\n{SHADER}"), "light"))
+    static PIPELINE: PerContext<wgpu::ComputePipeline> = PerContext::new();
+    PIPELINE.get_or_init(gpu, || gpu.pipeline("multiview lighting", &format!("{FRUSTUM}\n{SHADER}"), "light"))
 }
 
 /// One chunk of receivers: their records, their sums and their count.

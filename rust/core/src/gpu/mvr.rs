@@ -4,12 +4,11 @@
 //! once per call in chunks within the binding and workgroup limits; views go in batches whose
 //! maps fit one binding.
 
-use super::context::{context, Binding, Gpu, WORKGROUP};
+use super::context::{context, Binding, Gpu, PerContext, WORKGROUP};
 use super::multiview::{decode_maps, upload_views, views_per_batch, Lighting, FRUSTUM, VECTOR64};
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::raster::depth::{DepthMap, LightFrustum};
-use std::sync::OnceLock;
 
 const SHADER: &str = include_str!("mvr.wgsl");
 /// Bytes per triangle: nine f32.
@@ -29,8 +28,8 @@ struct Pipelines {
 const LARGE_SLOTS: u64 = 1024;
 
 fn pipelines(gpu: &Gpu) -> &'static Pipelines {
-    static PIPELINES: OnceLock<Pipelines> = OnceLock::new();
-    PIPELINES.get_or_init(|| {
+    static PIPELINES: PerContext<Pipelines> = PerContext::new();
+    PIPELINES.get_or_init(gpu, || {
         let source = format!("{FRUSTUM}\n{VECTOR64}\n{SHADER}");
         let kind = |binding: u32| match binding {
             0 => Binding::Uniform,

@@ -1,19 +1,18 @@
 //! `pcss` on the GPU (`pcss.wgsl`): the blocker search and the filter per receiver, over the
 //! CPU's depth map; receivers in chunks that fit a binding, dispatches within the workgroup limit.
 
-use super::context::{context, Gpu};
+use super::context::{context, Gpu, PerContext};
 use super::multiview::{receiver_chunks, upload_maps, upload_views, FRUSTUM};
 use crate::error::{Error, Result};
 use crate::geometry::receivers::Receivers;
 use crate::methods::pcss::GpuLookup as Lookup;
 use crate::raster::pcf::DepthBias;
-use std::sync::OnceLock;
 
 const SHADER: &str = include_str!("pcss.wgsl");
 
 fn pipeline(gpu: &Gpu) -> &'static wgpu::ComputePipeline {
-    static PIPELINE: OnceLock<wgpu::ComputePipeline> = OnceLock::new();
-    PIPELINE.get_or_init(|| gpu.pipeline("pcss", &format!("{FRUSTUM}\n{SHADER}"), "pcss"))
+    static PIPELINE: PerContext<wgpu::ComputePipeline> = PerContext::new();
+    PIPELINE.get_or_init(gpu, || gpu.pipeline("pcss", &format!("{FRUSTUM}\n{SHADER}"), "pcss"))
 }
 
 /// The visibility of every receiver of `rx`, equal to the CPU's lookups, and the fraction of

@@ -3,11 +3,10 @@
 //! per call, in chunks that fit one storage binding and one dispatch's workgroups; each traversal
 //! warps every chunk into a batch of views whose maps fit one binding.
 
-use super::context::{context, Gpu, WORKGROUP};
+use super::context::{context, Gpu, PerContext, WORKGROUP};
 use super::multiview::{decode_maps, upload_views, views_per_batch, Lighting, FRUSTUM};
 use crate::error::Result;
 use crate::raster::depth::{DepthMap, LightFrustum};
-use std::sync::OnceLock;
 
 const SHADER: &str = include_str!("vwss.wgsl");
 /// Bytes per point: three f32.
@@ -22,8 +21,8 @@ pub struct Warper {
 }
 
 fn pipeline(gpu: &Gpu) -> &'static wgpu::ComputePipeline {
-    static PIPELINE: OnceLock<wgpu::ComputePipeline> = OnceLock::new();
-    PIPELINE.get_or_init(|| gpu.pipeline("vwss warp", &format!("{FRUSTUM}\n{SHADER}"), "warp"))
+    static PIPELINE: PerContext<wgpu::ComputePipeline> = PerContext::new();
+    PIPELINE.get_or_init(gpu, || gpu.pipeline("vwss warp", &format!("{FRUSTUM}\n{SHADER}"), "warp"))
 }
 
 impl Warper {

@@ -10,11 +10,18 @@
 //!    view samples' projected bounding box and depth range.
 //! 3. **Lists** (section 3.1): each view sample goes to the list of the texel it projects to, by
 //!    count, prefix sum and scatter ([`crate::raster::influence::ReceiverLists`]).
-//! 4. **Casters**: with `Casters::Backfacing`, closed meshes cast with their light back-facing
-//!    triangles only, which never shadow the front-facing surface they belong to, so no bias is
-//!    needed (section 3.3); open meshes cast with every triangle. With `Casters::All` every triangle
-//!    casts. A caster that can be its own receiver's surface (every triangle of an open mesh, every
-//!    triangle with `All`) tests the receiver moved `bias` along its normal, as the ray tracer does.
+//! 4. **Casters**: with `Casters::Backfacing` (the default), closed meshes cast with their light
+//!    back-facing triangles only, which never shadow the front-facing surface they belong to, so
+//!    no bias is needed (section 3.3); open meshes cast with every triangle. Culling holds for
+//!    receivers outside every closed mesh, the paper's view samples, seen by an eye outside the
+//!    objects: a segment from outside that crosses a closed mesh enters it through a light
+//!    back-facing triangle. From inside one (a receiver within it, or one whose normal points
+//!    into it) a segment first leaves through a light front-facing triangle, which culling drops.
+//!    So a view sample whose moved point lies inside a closed mesh ([`mark_inside_closed_meshes`])
+//!    is tested from its moved point against every triangle of the closed meshes. With
+//!    `Casters::All` every triangle casts. A caster that can be its own receiver's surface (every
+//!    triangle of an open mesh, every triangle with `All`) tests the receiver moved `bias` along
+//!    its normal, as the ray tracer does.
 //! 5. **Influence regions** (section 4.1, [`crate::raster::influence`]): the union of the
 //!    triangle's projections from every point of the light, bounded by the convex hull of the
 //!    projections of its vertices from the light's bounding points (`hull_degree`-gons for disks,
@@ -28,6 +35,9 @@
 //!    With `lut: None` every plane tests every sample exactly; with `lut: Some(k)` a plane's mask
 //!    is read from a table indexed by its normal's two angles and its signed distance from the
 //!    light's center, `k` bins each (the plane-to-bitmask lookup table; Eisemann and Décoret 2007).
+//!    The bins are angles and distances relative to the light, so a binned plane's error, as seen
+//!    from a view sample, grows with the light's apparent size there: a view sample that sees the
+//!    samples' bounding sphere wider than [`TABLE_MAX_SPREAD`] tests its planes exactly instead.
 //!    A view sample whose mask is full skips the remaining tests. With per-receiver rotation of the
 //!    samples (disk and sphere lights) a view sample's planes are rotated the other way instead, so
 //!    the one table serves every rotation (the paper's rotated lookups for symmetric lights). Samples behind the receiver's
@@ -44,15 +54,16 @@
 //! The result is the emission-weighted fraction of unblocked samples, as `ray_traced`'s.
 
 use crate::error::{Error, Result};
+use crate::geometry::bvh::Bvh;
 use crate::geometry::edges::{edges, edges_peak, Edge};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::gpu::{self, Backend};
 use crate::light::lights::{Light, Shape};
 use crate::light::sampling::SampleSet;
-use crate::limits::{self, Peak};
+use crate::limits::{self, object_work, Peak};
 use crate::raster::depth::{band_rows, casters, Caster, FaceFilter, LightFrustum, RasterMode, RasterOptions};
-use crate::raster::influence::{check_hull_degree, influence_hull, ReceiverLists};
+use crate::raster::influence::{check_hull_degree, influence_hull, LightBounds, ReceiverLists};
 use crate::raster::region::conservative_rows;
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
@@ -61,10 +72,21 @@ use rayon::prelude::*;
 /// The most light samples a view sample's bitmask holds.
 pub const MAX_SAMPLES: usize = 1024;
 
+/// The widest light the lookup table serves a view sample: the radius of the samples' bounding
+/// sphere over the view sample's distance from the light's center (a cone of 60 degrees). The
+/// table's bins are angles and distances relative to the light (Sintorn et al. 2008, Sample
+/// Based Visibility for Soft Shadows using Alias-free Shadow Maps, section 4.2), so the light
+/// points a binned plane puts on the wrong side span a fixed part of the light, which looks the
+/// wider the nearer the light, while the casters' shadows on it do not grow. Farther from the
+/// light than this, a view sample reads its planes from the table; nearer, it tests them exactly.
+/// The built-in scenes' default lights stay below 0.36.
+pub const TABLE_MAX_SPREAD: f64 = 0.5;
+
 /// Which triangles cast shadows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Casters {
-    /// Closed meshes: light back-facing triangles only (bias-free); open meshes: every triangle.
+    /// Closed meshes: light back-facing triangles only (bias-free, section 3.3), but every
+    /// triangle for the receivers inside one (module doc, step 4); open meshes: every triangle.
     #[default]
     Backfacing,
     /// Every triangle, each tested against receivers moved `bias` along their normals.
@@ -134,6 +156,12 @@ pub(crate) struct ViewSample {
     pub n: DVec3,
     /// The transpose of its samples' rotation about the light's center (`rotate="per_receiver"`).
     pub rotation: Option<DMat3>,
+    /// Whether its moved point lies inside a closed mesh under `Casters::Backfacing`: it is listed
+    /// at its moved point and tested from there against every closed triangle, culled or not.
+    pub inside: bool,
+    /// Whether its planes are tested exactly although a table was asked for: the light looks too
+    /// wide from it for the table ([`TABLE_MAX_SPREAD`]).
+    pub exact_planes: bool,
 }
 
 /// The light samples as f64 points, their weights, and the bitmask word count.
@@ -315,8 +343,19 @@ pub(crate) struct Prepared {
     /// A closed mesh's triangle under `Casters::Backfacing`: it blocks only samples it is back-facing
     /// to, from receivers in front of it (so never its own surface).
     pub front_only: bool,
+    /// A closed triangle that culling leaves out (facing every sample, or a point light's front
+    /// face): it casts for the view samples inside a closed mesh only.
+    pub culled: bool,
     /// Its nearest linear depth in the light's frustum.
     pub near_depth: f64,
+}
+
+impl Prepared {
+    /// This caster as a view sample inside a closed mesh sees it: blocking from either side of
+    /// its plane, tested from the moved point.
+    fn seen_from_inside(&self) -> Prepared {
+        Prepared { moved: true, front_only: false, ..*self }
+    }
 }
 
 /// The four planes `(m, k)` of the test of triangle `t` from view point `p` (section 3.3): a light
@@ -397,11 +436,15 @@ fn alpha_test(scene: &Scene, t: &Prepared, p: DVec3, samples: &LightSamples, rot
     }
 }
 
-/// Whether every point of `light` lies strictly in front of triangle `t`'s plane.
-fn faces_whole_light(light: &Light, t: &[Vec3; 3]) -> bool {
+/// Whether every point of the light and of its samples lies strictly in front of triangle `t`'s
+/// plane: only then is a closed triangle back-facing to no sample.
+fn faces_whole_light(bounds: &LightBounds<'_>, t: &[Vec3; 3]) -> bool {
     let v = t.map(|p| p.as_dvec3());
     let n = (v[1] - v[0]).cross(v[2] - v[0]);
     let ahead = |y: DVec3| n.dot(y - v[0]);
+    let Some(light) = bounds.volume() else {
+        return bounds.corners().is_some_and(|corners| corners.iter().all(|&y| ahead(y) > 0.0));
+    };
     match light.shape {
         Shape::Point { position } => ahead(position.as_dvec3()) > 0.0,
         Shape::Rect { center, u, v: w } => {
@@ -424,14 +467,19 @@ fn faces_whole_light(light: &Light, t: &[Vec3; 3]) -> bool {
 /// Returns the visibility (receivers' order) and stats: `list_build_seconds`,
 /// `rasterization_seconds` (influence regions and their binning), `visibility_seconds` (the
 /// per-texel tests), `view_samples`, `casters`, `average_list_length` and `max_list_length` (over
-/// occupied texels), `occupied_texels_percent` (the paper's Figure 9 inlay), `light_samples`.
+/// occupied texels), `occupied_texels_percent` (the paper's Figure 9 inlay), `light_samples`,
+/// `exact_view_samples` (view samples that test their planes exactly although a table was asked
+/// for, [`TABLE_MAX_SPREAD`]), `inside_view_samples` (view samples inside a closed mesh, which
+/// culling does not serve).
 ///
-/// Errors: invalid options; no samples or more than [`MAX_SAMPLES`]; rotated or interleaved
-/// samples; the light's center inside the view samples' bounds; `TooLarge`.
+/// Errors: invalid options; no samples or more than [`MAX_SAMPLES`]; explicit samples of a
+/// point light off its position; rotated or interleaved samples; the light's center inside the
+/// view samples' bounds; `TooLarge`.
 pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: &SampleSet, opts: &AliasFreeOptions) -> Result<(Vec<f32>, Stats)> {
     let mut stats = Stats::default();
     let n = receivers.len();
     Peak::default().buffer(&[n as u64, 4]).and(masks_peak(scene, n, samples.count(), opts)).check("alias_free", &mut stats)?;
+    object_work(scene, n, samples.count()).check("alias_free", &mut stats)?;
     let masks = sample_masks(scene, light, receivers, samples, opts, false, &mut stats)?;
     Ok(((0..receivers.len()).map(|i| masks.visibility(i)).collect(), stats))
 }
@@ -503,22 +551,31 @@ pub(crate) fn sample_masks(
         stats.set(name, 0.0);
     }
     stats.set("light_samples", light_samples.points.len() as f64);
+    stats.set("exact_view_samples", 0.0);
+    stats.set("inside_view_samples", 0.0);
     let words = light_samples.words;
     limits::check_memory("alias_free bitmasks", limits::bytes(&[receivers.len() as u64, words as u64, 8]))?;
     let mut out = SampleMasks { words, masks: vec![!0u64; receivers.len() * words], weights: light_samples.weights.clone() };
-    let view = view_samples(light, receivers, samples, opts.bias);
+    let bounds = LightBounds::new(light, samples, opts.hull_degree)?;
+    let mut view = view_samples(light, &bounds, receivers, samples, opts.bias);
     stats.set("view_samples", view.len() as f64);
     if view.is_empty() {
         return Ok(out);
     }
-    let points: Vec<Vec3> = view.iter().map(|s| s.p.as_vec3()).collect();
+    let inside = if opts.casters == Casters::Backfacing { stats.time_add("list_build", || mark_inside_closed_meshes(scene, &mut view))? } else { 0 };
+    stats.set("inside_view_samples", inside as f64);
+    // A view sample inside a closed mesh is tested from its moved point against every closed
+    // triangle, so it is listed there: the casters' regions must hold the point they block.
+    let points: Vec<Vec3> = view.iter().map(|s| if s.inside { s.moved } else { s.p }.as_vec3()).collect();
     let frustum = stats.time_add("list_build", || ReceiverLists::fit(light, &points, opts.resolution))?;
     let center = light.center().as_dvec3();
     let radius = light_samples.points.iter().map(|y| (*y - center).length()).fold(0.0f64, f64::max) * (1.0 + 1e-9) + 1e-12;
-    let casters = stats.time_add("rasterization", || CasterSet::prepare(scene, light, &frustum, opts, opaque_only));
+    let exact_views = if opts.lut.is_some() && light_samples.points.len() > 1 { mark_too_near_for_the_table(&mut view, center, radius) } else { 0 };
+    stats.set("exact_view_samples", exact_views as f64);
+    let casters = stats.time_add("rasterization", || CasterSet::prepare(scene, &bounds, &frustum, opts, opaque_only, inside > 0));
     stats.set("casters", casters.prepared.len() as f64);
     let penumbra = if opts.restrict_to_penumbra && light_samples.points.len() > 1 {
-        let (flags, silhouettes) = stats.time_add("rasterization", || penumbra_texels(scene, light, &frustum, &casters, opts.hull_degree, (center, radius)));
+        let (flags, silhouettes) = stats.time_add("rasterization", || penumbra_texels(scene, &bounds, &frustum, &casters, opts.hull_degree, (center, radius)));
         stats.set("silhouette_edges", silhouettes as f64);
         stats.set("penumbra_texels_percent", 100.0 * flags.iter().filter(|&&f| f).count() as f64 / flags.len() as f64);
         Some(flags)
@@ -526,14 +583,16 @@ pub(crate) fn sample_masks(
         stats.set("penumbra_texels_percent", 100.0);
         None
     };
-    let extent = f64::from(light.extent());
+    // The table's distances span the light and every sample (a plane past them all leaves the
+    // center to decide, which is right only for planes that miss every sample).
+    let extent = f64::from(bounds.reach());
     let lut = match opts.lut {
-        Some(bins) if light_samples.points.len() > 1 && extent > 0.0 => Some(Lut::new(&light_samples, center, extent, bins)?),
+        Some(bins) if light_samples.points.len() > 1 && extent > 0.0 && exact_views < view.len() => Some(Lut::new(&light_samples, center, extent, bins)?),
         _ => None,
     };
     let setup = Setup {
         scene,
-        light,
+        bounds: &bounds,
         hull_degree: opts.hull_degree,
         frustum,
         points: &points,
@@ -547,7 +606,7 @@ pub(crate) fn sample_masks(
         full: light_samples.full_mask(),
     };
     let masks = match opts.backend {
-        Backend::Cpu => cpu_masks(&setup, stats),
+        Backend::Cpu => cpu_masks(&setup, stats)?,
         Backend::Gpu => gpu::alias_free::masks(&setup, stats)?,
     };
     for (k, s) in view.iter().enumerate() {
@@ -562,7 +621,9 @@ pub(crate) fn sample_masks(
 /// influence regions on its far plane, the penumbra texels, the light samples and the table.
 pub(crate) struct Setup<'a> {
     pub scene: &'a Scene,
-    pub light: &'a Light,
+    /// The light and the bounds of it and its samples, from which the influence regions are
+    /// projected.
+    pub bounds: &'a LightBounds<'a>,
     /// Sides of the light's bounding polygons.
     pub hull_degree: usize,
     pub frustum: LightFrustum,
@@ -582,21 +643,21 @@ pub(crate) struct Setup<'a> {
 }
 
 /// The bitmask of every view sample (view order) on the CPU: the lists, then bands of rows in
-/// parallel over the casters binned to them.
-fn cpu_masks(setup: &Setup<'_>, stats: &mut Stats) -> Vec<u64> {
+/// parallel over the casters binned to them. Errors: interrupted.
+fn cpu_masks(setup: &Setup<'_>, stats: &mut Stats) -> Result<Vec<u64>> {
     let lists = stats.time_add("list_build", || ReceiverLists::with_frustum(setup.frustum, setup.points));
     lists.record_stats(stats);
     let bins = stats.time_add("rasterization", || lists.bin(&setup.casters.hulls));
     let words = setup.full.len();
     let mut masks = initial_masks(&lists, setup.view, setup.samples, setup.center);
     let tester = Tester { setup, lists: &lists, bins: &bins };
-    stats.time("visibility", || tester.run(&mut masks));
+    stats.time("visibility", || tester.run(&mut masks))?;
     let mut by_view = vec![0u64; masks.len()];
     for (e, &i) in lists.entries.iter().enumerate() {
         let i = i as usize;
         by_view[i * words..(i + 1) * words].copy_from_slice(&masks[e * words..(e + 1) * words]);
     }
-    by_view
+    Ok(by_view)
 }
 
 /// The light samples of `samples` (one bit each; the light's center for a point light), after
@@ -616,23 +677,94 @@ fn light_samples(light: &Light, samples: &SampleSet) -> Result<LightSamples> {
     if ys.is_empty() || ys.len() > MAX_SAMPLES {
         return Err(Error::invalid("samples", format!("needs 1..={MAX_SAMPLES} light samples, got {}", ys.len())));
     }
-    let points: Vec<DVec3> = if matches!(light.shape, Shape::Point { .. }) { vec![light.center().as_dvec3()] } else { ys.iter().map(|y| y.as_dvec3()).collect() };
+    let point = matches!(light.shape, Shape::Point { .. });
+    // A point light's one bit is its position (rotations map every sample there): samples
+    // elsewhere would be ignored, and the result would not be `ray_traced`'s on them.
+    if point && !rotated && ys.iter().any(|&y| y != light.center()) {
+        return Err(Error::invalid(
+            "samples",
+            "alias_free tests a point light at its position only; pass samples at the position (or a count), or a SphereLight for samples around it",
+        ));
+    }
+    let points: Vec<DVec3> = if point { vec![light.center().as_dvec3()] } else { ys.iter().map(|y| y.as_dvec3()).collect() };
     Ok(LightSamples { weights: points.iter().map(|y| f64::from(light.weight(y.as_vec3()))).collect(), words: points.len().div_ceil(64), points })
 }
 
-/// The view samples: valid receivers that face some part of the light (depths set later).
-fn view_samples(light: &Light, receivers: &Receivers, samples: &SampleSet, bias: f32) -> Vec<ViewSample> {
+/// The view samples: valid receivers that face some part of the light or some sample (depths
+/// set later).
+fn view_samples(light: &Light, bounds: &LightBounds<'_>, receivers: &Receivers, samples: &SampleSet, bias: f32) -> Vec<ViewSample> {
     let center = light.center().as_dvec3();
-    let extent = f64::from(light.extent());
+    let extent = f64::from(bounds.reach());
     (0..receivers.len())
         .filter(|&i| receivers.valid[i])
         .map(|i| {
             let (p, n) = (receivers.points[i].as_dvec3(), receivers.normals[i].as_dvec3());
             let rotation = samples.rotation_for(i).and_then(|r| light.rigid_rotation(r)).map(|m| m.as_dmat3().transpose());
-            ViewSample { receiver: i as u32, p, moved: p + n * f64::from(bias), n, rotation }
+            let moved = p + n * f64::from(bias);
+            ViewSample { receiver: i as u32, p, moved, n, rotation, inside: false, exact_planes: false }
         })
         .filter(|s| s.n.dot(center - s.p) > -extent * s.n.length() && (center - s.p).length_squared() > 0.0)
         .collect()
+}
+
+/// How far along its normal a view sample is probed for lying inside a closed mesh, at least:
+/// this fraction of the scene's diagonal, a tenth of `ray_traced`'s default offset, so that a
+/// receiver on a closed mesh's surface facing out probes outside it even without a bias, as the
+/// paper's bias-free culling assumes.
+const INSIDE_PROBE: f64 = 1e-5;
+
+/// Two directions of rays from a probed point, along no axis or diagonal of a regular grid: the
+/// watertight test counts a ray through a shared edge or vertex on both triangles, so a ray
+/// that grazes one finds the wrong parity; two such rays at once are left to chance.
+const INSIDE_RAYS: [Vec3; 2] = [Vec3::new(0.289_1, 0.836_7, 0.465_1), Vec3::new(-0.613_6, 0.178_9, -0.769_1)];
+
+/// Flags the view samples whose moved point lies inside a closed mesh (see the module doc,
+/// step 4) and returns their number: those within a closed mesh's bounding box, probed
+/// [`INSIDE_PROBE`] or their bias along the normal, that find an odd number of the mesh's faces
+/// on either of the [`INSIDE_RAYS`] through a BVH (built only when some probe is in a box). A
+/// view sample flagged though outside only tests more triangles, and exactly; one inside the
+/// mesh and missed would see the light through it.
+fn mark_inside_closed_meshes(scene: &Scene, view: &mut [ViewSample]) -> Result<usize> {
+    let boxes: Vec<(u32, DVec3, DVec3)> = scene
+        .meshes
+        .iter()
+        .enumerate()
+        .filter(|(_, m)| m.closed && !m.faces.is_empty())
+        .map(|(k, m)| {
+            let corners = m.faces.iter().flatten().map(|&v| m.positions[v as usize].as_dvec3());
+            let (lo, hi) = corners.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p), hi.max(p)));
+            (k as u32, lo, hi)
+        })
+        .collect();
+    let (lo, hi) = scene.bounds();
+    let least = INSIDE_PROBE * (hi - lo).as_dvec3().length();
+    let probe = |s: &ViewSample| {
+        let len = s.n.length();
+        s.p + s.n / len * (s.moved - s.p).length().max(least)
+    };
+    let in_box = |q: DVec3, (_, lo, hi): &(u32, DVec3, DVec3)| q.cmpge(*lo).all() && q.cmple(*hi).all();
+    if !view.iter().any(|s| boxes.iter().any(|b| in_box(probe(s), b))) {
+        return Ok(0);
+    }
+    let bvh = Bvh::build(scene)?;
+    let odd = |q: DVec3, (mesh, lo, hi): &(u32, DVec3, DVec3)| {
+        let reach = 2.0 * (*hi - *lo).length() as f32 + 1.0;
+        INSIDE_RAYS.iter().any(|d| bvh.count_hits(q.as_vec3(), *d, reach, |f| scene.face_ref(f).mesh == *mesh) % 2 == 1)
+    };
+    view.par_iter_mut().for_each(|s| {
+        let q = probe(s);
+        s.inside = boxes.iter().any(|b| in_box(q, b) && odd(q, b));
+    });
+    Ok(view.iter().filter(|s| s.inside).count())
+}
+
+/// Flags the view samples too near the light for the table (their distance from the light's
+/// center under `radius / TABLE_MAX_SPREAD`, see [`TABLE_MAX_SPREAD`]) and returns their number.
+fn mark_too_near_for_the_table(view: &mut [ViewSample], center: DVec3, radius: f64) -> usize {
+    view.iter_mut().fold(0, |count, s| {
+        s.exact_planes = radius > TABLE_MAX_SPREAD * (s.p - center).length();
+        count + usize::from(s.exact_planes)
+    })
 }
 
 /// The initial bitmask of every list entry: the samples behind its view sample's tangent plane
@@ -659,19 +791,23 @@ pub(crate) struct CasterSet {
     pub hulls: Vec<Option<Vec<DVec2>>>,
 }
 impl CasterSet {
-    /// The casters of `scene` for `light` (see the module documentation, step 4) and their
-    /// influence regions in the lists' `frustum`.
-    fn prepare(scene: &Scene, light: &Light, frustum: &LightFrustum, opts: &AliasFreeOptions, opaque_only: bool) -> CasterSet {
-        let point = matches!(light.shape, Shape::Point { .. });
+    /// The casters of `scene` for the light of `bounds` (see the module documentation, step 4)
+    /// and their influence regions in the lists' `frustum`, which bound the light's samples too;
+    /// with `any_inside`, the culled closed triangles too, for the view samples inside.
+    fn prepare(scene: &Scene, bounds: &LightBounds<'_>, frustum: &LightFrustum, opts: &AliasFreeOptions, opaque_only: bool, any_inside: bool) -> CasterSet {
+        let point = matches!(bounds.light.shape, Shape::Point { .. });
         let filter = match opts.casters {
             Casters::Backfacing if point => FaceFilter::BackFacingIfClosed,
             _ => FaceFilter::All,
         };
-        let mut raw = casters(scene, &RasterOptions { mode: RasterMode::Conservative, faces: filter, alpha_test: true }, frustum.eye);
+        let gathered = if any_inside { FaceFilter::All } else { filter };
+        let mut raw = casters(scene, &RasterOptions { mode: RasterMode::Conservative, faces: gathered, alpha_test: true }, frustum.eye);
         let front_only = |id: u32| opts.casters == Casters::Backfacing && !point && scene.is_closed_face(id);
-        // A closed triangle facing every point of the light is back-facing to no sample: it casts
-        // nothing. With `opaque_only`, perforated casters are left to `stsv`.
-        let left_out = |id: u32, t: &[Vec3; 3], alpha: bool| (front_only(id) && faces_whole_light(light, t)) || (opaque_only && alpha);
+        // A closed triangle facing every point of the light and every sample is back-facing to no
+        // sample: it casts nothing, but for the view samples inside a closed mesh.
+        let culled = |id: u32, t: &[Vec3; 3]| (front_only(id) && faces_whole_light(bounds, t)) || !filter.keeps(scene, id, t, frustum.eye);
+        // With `opaque_only`, perforated casters are left to `stsv`.
+        let left_out = |id: u32, t: &[Vec3; 3], alpha: bool| (!any_inside && culled(id, t)) || (opaque_only && alpha);
         raw.retain(|(id, t, alpha)| !left_out(*id, t, *alpha));
         let prepared = raw
             .iter()
@@ -681,23 +817,25 @@ impl CasterSet {
                 // near its own surface, a receiver's per-sample edge planes are degenerate.
                 let moved = opts.casters == Casters::All || !scene.is_closed_face(*id) || !point;
                 let near_depth = t.iter().map(|p| f64::from(frustum.to_view(*p).z)).fold(f64::INFINITY, f64::min);
-                Prepared { id: *id, v, normal: (v[1] - v[0]).cross(v[2] - v[0]), alpha: *alpha, moved, front_only: front_only(*id), near_depth }
+                let culled = any_inside && culled(*id, t);
+                Prepared { id: *id, v, normal: (v[1] - v[0]).cross(v[2] - v[0]), alpha: *alpha, moved, front_only: front_only(*id), culled, near_depth }
             })
             .collect();
-        let hulls = raw.par_iter().map(|(_, t, _)| influence_hull(frustum, light, t, opts.hull_degree)).collect();
+        let hulls = raw.par_iter().map(|(_, t, _)| influence_hull(frustum, bounds, t, opts.hull_degree)).collect();
         CasterSet { raw, prepared, hulls }
     }
 }
 
 /// The penumbra restriction of section 4.3: flags the texels that the influence region of a
-/// potential silhouette edge of the ball `(center, radius)` around the light (see
+/// potential silhouette edge of the ball `(center, radius)` around the samples (see
 /// [`crate::geometry::edges`]) or of a perforated caster reaches, on the far plane (which holds
-/// the regions at every nearer depth). A view sample in any other texel sees every point of the
-/// light blocked or none. Returns the flags and the number of silhouette edges.
-fn penumbra_texels(scene: &Scene, light: &Light, frustum: &LightFrustum, casters: &CasterSet, degree: usize, (center, radius): (DVec3, f64)) -> (Vec<bool>, usize) {
+/// the regions at every nearer depth). A view sample in any other texel sees every sample, and
+/// the light's center, blocked or none: both the ball and `bounds` hold the center and every
+/// sample, and so the segment between them. Returns the flags and the number of silhouette edges.
+fn penumbra_texels(scene: &Scene, bounds: &LightBounds<'_>, frustum: &LightFrustum, casters: &CasterSet, degree: usize, (center, radius): (DVec3, f64)) -> (Vec<bool>, usize) {
     let (w, h) = (frustum.width, frustum.height);
     let silhouettes: Vec<Edge> = edges(scene).into_iter().filter(|e| e.is_potential_silhouette(center, radius)).collect();
-    let edge_hulls = silhouettes.par_iter().map(|e| influence_hull(frustum, light, &e.ends, degree));
+    let edge_hulls = silhouettes.par_iter().map(|e| influence_hull(frustum, bounds, &e.ends, degree));
     let perforated = casters.raw.iter().zip(&casters.hulls).filter(|((_, _, alpha), _)| *alpha).map(|(_, hull)| hull.clone());
     let hulls: Vec<Option<Vec<DVec2>>> = edge_hulls.collect::<Vec<_>>().into_iter().chain(perforated).collect();
     if hulls.iter().any(Option::is_none) {
@@ -720,15 +858,18 @@ struct Tester<'a> {
 
 impl Tester<'_> {
     /// Tests every band of rows in parallel, each over its own part of `masks` (the bitmasks of
-    /// the list entries, in list order).
-    fn run(&self, masks: &mut [u64]) {
+    /// the list entries, in list order). Errors: interrupted (each band stops at its next
+    /// caster once the call is asked to stop).
+    fn run(&self, masks: &mut [u64]) -> Result<()> {
         let parts = self.lists.split_by_band(masks, self.setup.full.len());
-        parts.into_par_iter().for_each(|(b, rows, base, band_masks)| self.band(b, rows, base, band_masks));
+        let watch = crate::interrupt::watch();
+        parts.into_par_iter().for_each(|(b, rows, base, band_masks)| self.band(b, rows, base, band_masks, &watch));
+        crate::interrupt::check()
     }
 
     /// Tests the casters binned to band `b` (rows `rows`, list entries from `base` on) against
     /// the view samples of its lists.
-    fn band(&self, b: usize, rows: std::ops::Range<usize>, base: usize, band_masks: &mut [u64]) {
+    fn band(&self, b: usize, rows: std::ops::Range<usize>, base: usize, band_masks: &mut [u64], watch: &crate::interrupt::Watch) {
         let setup = self.setup;
         let (w, words, full) = (setup.frustum.width, setup.full.len(), &setup.full);
         let (lists, view, casters) = (self.lists, setup.view, setup.casters);
@@ -737,10 +878,10 @@ impl Tester<'_> {
         let Some(band_frustum) = lists.band_frustum(&rows) else { return };
         let (center, radius) = (setup.center, setup.radius);
         let unrotated = Planes { samples: setup.samples, lut: setup.lut, center, radius, rotation: None };
-        for &c in &self.bins[b] {
+        for &c in self.bins[b].iter().take_while(|_| !watch.requested()) {
             let t = &casters.prepared[c as usize];
             let region = match &casters.hulls[c as usize] {
-                Some(_) => influence_hull(&band_frustum, setup.light, &casters.raw[c as usize].1, setup.hull_degree),
+                Some(_) => influence_hull(&band_frustum, setup.bounds, &casters.raw[c as usize].1, setup.hull_degree),
                 None => None,
             };
             for (y, x0, x1) in lists.spans(region.as_deref(), &rows) {
@@ -753,9 +894,16 @@ impl Tester<'_> {
                         }
                         let (i, s) = (lists.entries[e] as usize, &view[lists.entries[e] as usize]);
                         // Wholly beyond both the receiver and the light: it cannot cut their segment.
-                        if t.near_depth > lists.depths[i].max(radius) + 1e-9 * t.near_depth.abs() {
+                        if (t.culled && !s.inside) || t.near_depth > lists.depths[i].max(radius) + 1e-9 * t.near_depth.abs() {
                             continue;
                         }
+                        let from_inside;
+                        let t = if s.inside {
+                            from_inside = t.seen_from_inside();
+                            &from_inside
+                        } else {
+                            t
+                        };
                         let p = if t.moved { s.moved } else { s.p };
                         if umbra_or_lit {
                             // All of the light is blocked or none: the center decides.
@@ -764,7 +912,7 @@ impl Tester<'_> {
                             }
                             continue;
                         }
-                        let planes = Planes { rotation: s.rotation, ..unrotated };
+                        let planes = Planes { rotation: s.rotation, lut: setup.lut.filter(|_| !s.exact_planes), ..unrotated };
                         if blocked_by(t, p, &planes, full, &mut blocked, &mut scratch) {
                             if t.alpha {
                                 alpha_test(setup.scene, t, p, setup.samples, |y| rotate_about(center, s.rotation, y), &mut blocked);

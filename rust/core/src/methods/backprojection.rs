@@ -46,8 +46,9 @@ use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::{concentric_disk, tangent_frame, Light, Shape};
 use crate::light::sampling::Rng;
+use crate::interrupt;
 use crate::limits::Peak;
-use crate::raster::depth::{raster_peak, rasterize_depth, LightFrustum, RasterOptions};
+use crate::raster::depth::{raster_peak, raster_work, rasterize_depth, LightFrustum, RasterOptions};
 use crate::raster::influence::light_polytope;
 use crate::raster::pcf::{DepthBias, ReceiverDepth, RASTERIZED_SLACK};
 use crate::raster::pyramid::{MinMaxPyramid, MultiScaleMap};
@@ -764,6 +765,19 @@ fn smooth_levels(levels: &[Option<f32>], depth: &[f32], (w, h): (usize, usize), 
 /// the map and its stored copy, the acceleration structure, the micro-occluder levels (depths;
 /// for microrects also extents and the merge's buffers), and per receiver its search, levels
 /// (raw, depths, smoothed twice), result, visibility and level.
+/// The texels one receiver's search and backprojection visit: at most five budgets' worth
+/// (the search and both blended levels of section 4.4), and without a budget about one side of
+/// the map (a typical penumbra footprint; the whole map is the worst case).
+fn receiver_work(opts: &BackprojectionOptions, (w, h): (usize, usize)) -> u64 {
+    let side = (w.max(h) as u64).max(1);
+    let bounded = |b: f32| ((f64::from(b).powi(2) * 5.0).ceil() as u64).clamp(1, side * side);
+    match &opts.budget {
+        Budget::Infinite => side,
+        Budget::Uniform(b) => bounded(*b),
+        Budget::Map(m) => bounded(m.iter().copied().fold(0.0, f32::max)),
+    }
+}
+
 fn peak(scene: &Scene, receivers: usize, (w, h): (usize, usize), opts: &BackprojectionOptions) -> Peak {
     let hsm = MinMaxPyramid::peak(w, h);
     let accel = match opts.acceleration {
@@ -833,6 +847,9 @@ pub fn backprojection_levels(scene: &Scene, light: &Light, receivers: &Receivers
     let Some(bounds) = receivers.bounds() else { return Ok(Backprojected { visibility: vec![0.0; n], levels: vec![f32::NAN; n], processed: vec![0; n], stats }) };
     let frustum = LightFrustum::for_light_aligned(light, bounds, opts.resolution)?;
     peak(scene, n, (frustum.width, frustum.height), opts).check("backprojection", &mut stats)?;
+    raster_work(scene, frustum.width, frustum.height)
+        .loop_of(&[n as u64, receiver_work(opts, (frustum.width, frustum.height))])
+        .check("backprojection", &mut stats)?;
     let map = stats.time("depth_map", || rasterize_depth(scene, &frustum, &RasterOptions::default()))?;
     let stored: Vec<f32> = map.depth.iter().map(|&d| if d.is_finite() { d } else { EMPTY }).collect();
     let near = stored.iter().copied().fold(f32::INFINITY, f32::min).max(frustum.near);
@@ -847,19 +864,17 @@ pub fn backprojection_levels(scene: &Scene, light: &Light, receivers: &Receivers
         Budget::Map(m) => Some(m[i]),
     };
     // Step 1 and the raw LOQ map.
+    let per_receiver = receiver_work(opts, (map.width, map.height));
     let searched: Vec<(Search, Option<ReceiverDepth>)> = stats.time("search", || {
-        (0..n)
-            .into_par_iter()
-            .map(|i| {
-                let (p, nrm) = (receivers.points[i], receivers.normals[i]);
-                if !receivers.valid[i] || nrm.dot(light.center() - p) <= 0.0 {
-                    return (Search::Fixed(0.0), None);
-                }
-                let Some(rd) = ctx.receiver(p, nrm) else { return (Search::Fixed(1.0), None) };
-                (ctx.search(p, &rd, budget(i)), Some(rd))
-            })
-            .collect()
-    });
+        interrupt::par_map(n, per_receiver, |i| {
+            let (p, nrm) = (receivers.points[i], receivers.normals[i]);
+            if !receivers.valid[i] || nrm.dot(light.center() - p) <= 0.0 {
+                return (Search::Fixed(0.0), None);
+            }
+            let Some(rd) = ctx.receiver(p, nrm) else { return (Search::Fixed(1.0), None) };
+            (ctx.search(p, &rd, budget(i)), Some(rd))
+        })
+    })?;
     let raw: Vec<Option<f32>> = searched.iter().map(|s| if let Search::Area { level, .. } = s.0 { Some(level) } else { None }).collect();
     let smoothed = if matches!(opts.budget, Budget::Infinite) || opts.level.is_some() || opts.smoothing == 1 {
         raw
@@ -868,11 +883,9 @@ pub fn backprojection_levels(scene: &Scene, light: &Light, receivers: &Receivers
         stats.time("smoothing", || smooth_levels(&raw, &depth, (receivers.width, receivers.height), opts.smoothing))
     };
     let results: Vec<(f32, Option<Counts>)> = stats.time("backprojection", || {
-        searched
-            .par_iter()
-            .zip(&smoothed)
-            .enumerate()
-            .map(|(i, ((search, rd), level))| match (search, rd, level) {
+        interrupt::par_map(n, per_receiver, |i| {
+            let ((search, rd), level) = (&searched[i], &smoothed[i]);
+            match (search, rd, level) {
                 (Search::Fixed(v), _, _) => (*v, None),
                 (Search::Lit, _, _) => (ctx.light.behind(receivers.points[i].as_dvec3(), receivers.normals[i].as_dvec3()).1 as f32, None),
                 (Search::Umbra, _, _) => (0.0, None),
@@ -888,9 +901,9 @@ pub fn backprojection_levels(scene: &Scene, light: &Light, receivers: &Receivers
                     ((1.0 - alpha) * v0 + alpha * v1, Some(c0 + c1))
                 }
                 _ => (1.0, None),
-            })
-            .collect()
-    });
+            }
+        })
+    })?;
     let valid = searched.iter().filter(|s| s.1.is_some()).count().max(1) as f64;
     let counts: Vec<Counts> = results.iter().filter_map(|r| r.1).collect();
     stats.set("backprojecting_percent", 100.0 * counts.len() as f64 / valid);

@@ -65,8 +65,9 @@ use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::gpu::{self, Backend};
 use crate::light::lights::Light;
+use crate::interrupt;
 use crate::limits::{self, Peak};
-use crate::raster::depth::{raster_peak, rasterize_depth, DepthMap, LightFrustum, RasterOptions, MAX_RESOLUTION};
+use crate::raster::depth::{raster_peak, raster_work, rasterize_depth, DepthMap, LightFrustum, RasterOptions, MAX_RESOLUTION};
 use crate::raster::footprint::LightFootprint;
 use crate::raster::pyramid::{MipMap, SummedAreaTable};
 use crate::stats::Stats;
@@ -400,6 +401,13 @@ pub fn cssm(scene: &Scene, light: &Light, receivers: &Receivers, opts: &CssmOpti
         .buffer(&[receivers.len() as u64, 4])
         .and(cssm_peak(scene, frustum.width, frustum.height, opts))
         .check("cssm", &mut stats)?;
+    // The basis images and their prefilter per channel; each receiver's search and lookups
+    // (a few tens of prefiltered fetches of every channel).
+    let channel_count = (4 * opts.order + 1) as u64;
+    raster_work(scene, frustum.width, frustum.height)
+        .loop_of(&[frustum.width as u64, frustum.height as u64, channel_count, 4])
+        .loop_of(&[receivers.len() as u64, channel_count, 32])
+        .check("cssm", &mut stats)?;
     let map = stats.time("shadow_map", || rasterize_depth(scene, &frustum, &RasterOptions::default()))?;
     let range = depth_range(&map, &frustum, receivers);
     let near = opts.near.unwrap_or(range.lo).max(frustum.near);
@@ -429,11 +437,10 @@ pub fn cssm(scene: &Scene, light: &Light, receivers: &Receivers, opts: &CssmOpti
     drop(basis);
     let lookup = Lookup { filtered: &filtered, projection };
     let vis = stats.time("lookup", || {
-        (0..receivers.len())
-            .into_par_iter()
-            .map(|i| if receivers.valid[i] { lookup.receiver(receivers.points[i], receivers.normals[i]) } else { 0.0 })
-            .collect()
-    });
+        interrupt::par_map(receivers.len(), channel_count * 32, |i| {
+            if receivers.valid[i] { lookup.receiver(receivers.points[i], receivers.normals[i]) } else { 0.0 }
+        })
+    })?;
     Ok((vis, stats))
 }
 

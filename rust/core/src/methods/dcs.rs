@@ -7,13 +7,19 @@
 //!
 //! 1. **Reference sample**: the light's center `y0`. Its count is that of a hard shadow volume;
 //!    here the faces the segment `p' → y0` meets are counted through the BVH.
-//! 2. **Silhouette edges**: the edges that are silhouettes from some point of the light (its
-//!    bounding sphere, [`crate::geometry::edges`]); no other edge changes a count.
+//! 2. **Silhouette edges**: the edges that are silhouettes from some point of the light or some
+//!    sample (the sphere about the center that holds both, [`crate::geometry::edges`]); no other
+//!    edge changes a count.
 //! 3. **Wedges**: each such edge updates the receivers inside its penumbra wedge, its influence
-//!    region in the light-space receiver lists ([`crate::raster::influence`]; the paper rasterizes
-//!    the wedges in screen space). For a receiver the edge is a silhouette from, every sample `y`
-//!    for which the edge crosses the triangle `(p', y0, y)` gets the edge's change in count
-//!    ([`crate::geometry::edges::Sweep`]).
+//!    region in the light-space receiver lists from the bounds of the light and its samples
+//!    ([`crate::raster::influence`]; the paper rasterizes the wedges in screen space). For a
+//!    receiver the edge is a silhouette from, every sample `y` for which the edge crosses the
+//!    triangle `(p', y0, y)` gets the edge's change in count ([`crate::geometry::edges::Sweep`]).
+//! 4. **Samples past a face**: the sweeps carry `y0`'s count to `y` only if the segment `y0 → y`
+//!    crosses no face, since the count also changes where the segment's far end passes through
+//!    one, which no edge sees. Samples whose segment from `y0` crosses an opaque face (explicit
+//!    samples between occluders or beyond a wall, a light that cuts into the scene) are counted
+//!    through the BVH instead. Without an opaque face near enough to `y0` no sample is.
 //!
 //! Counts are exact integers, so the result equals `ray_traced`'s on the same samples up to
 //! floating-point ties. Perforated meshes are left out here: `stsv` adds them.
@@ -25,9 +31,11 @@ use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
-use crate::limits::{self, Peak};
+use crate::interrupt;
+use crate::limits::{self, object_work, Peak, Work};
 use crate::raster::influence::{ObjectOptions, Origins};
 use crate::stats::Stats;
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -59,7 +67,7 @@ pub(crate) fn depth_complexity(scene: &Scene, bvh: &Bvh, origins: &Origins, opts
     let tested = AtomicU64::new(0);
     stats.time("wedges", || {
         let shared = samples.is_shared().then(|| samples.pattern_for(0, 0));
-        lists.visit_regions(light, opts.hull_degree, &silhouettes, |e| &e.ends, &mut counts, s, |edge, k, c| {
+        lists.visit_regions(&origins.bounds, opts.hull_degree, &silhouettes, |e| &e.ends, &mut counts, s, |edge, k, c| {
             let Some(sweep) = edge.sweep(origins.origins[k].as_dvec3(), center.as_dvec3()) else { return };
             tested.fetch_add(1, Ordering::Relaxed);
             let mut own = (Vec::new(), Vec::new());
@@ -75,10 +83,54 @@ pub(crate) fn depth_complexity(scene: &Scene, bvh: &Bvh, origins: &Origins, opts
                     *c += sweep.delta;
                 }
             }
-        });
-    });
+        })?;
+        recount_samples_past_faces(scene, bvh, origins, radius, &mut counts)
+    })?;
     stats.set("wedge_tests", tested.into_inner() as f64);
     Ok(counts)
+}
+
+/// Counts through the BVH, for every origin, the samples whose segment from the light's center
+/// crosses an opaque face (step 4 of the module doc), over the counts of the sweeps. Such a
+/// segment lies within `radius` of the center, so only a face that comes that close can make
+/// one: without one, nothing is recounted.
+fn recount_samples_past_faces(scene: &Scene, bvh: &Bvh, origins: &Origins, radius: f64, counts: &mut [i32]) -> Result<()> {
+    let (center, samples) = (origins.light.center(), origins.samples);
+    let opaque = |f: u32| !scene.is_perforated_face(f);
+    if !opaque_face_within(scene, center.as_dvec3(), radius) {
+        return Ok(());
+    }
+    let past_a_face = |y: Vec3| bvh.count_hits(center, y - center, 1.0, opaque) > 0;
+    let shared: Option<Vec<bool>> = samples.is_shared().then(|| samples.pattern_for(0, 0).iter().map(|&y| past_a_face(y)).collect());
+    let s = samples.count();
+    interrupt::rounds(counts, interrupt::round_len(s, Work::RAY), |offset, part| {
+        part.par_chunks_mut(s).zip(&origins.lists.entries[offset / s..]).for_each_init(
+            || (Vec::new(), Vec::new()),
+            |(ys, ws), (c, &k)| {
+                origins.fill(k as usize, ys, ws);
+                let o = origins.origins[k as usize];
+                for (j, (c, &y)) in c.iter_mut().zip(ys.iter()).enumerate() {
+                    if shared.as_ref().map_or_else(|| past_a_face(y), |past| past[j]) {
+                        *c = bvh.count_hits(o, y - o, 1.0, opaque) as i32;
+                    }
+                }
+            },
+        );
+    })
+}
+
+/// Whether the bounding box of some opaque face of `scene` comes within `radius` of `center`.
+fn opaque_face_within(scene: &Scene, center: DVec3, radius: f64) -> bool {
+    scene.triangles().any(|(id, t)| {
+        let (lo, hi) = (t[0].min(t[1]).min(t[2]).as_dvec3(), t[0].max(t[1]).max(t[2]).as_dvec3());
+        !scene.is_perforated_face(id) && (center.clamp(lo, hi) - center).length() <= radius
+    })
+}
+
+/// A step of a sum that starts from +0.0: `Iterator::sum` over f64 starts from -0.0, so a receiver
+/// with no lit sample would get a visibility of -0.0.
+pub(crate) fn plus_zero_sum(total: f64, term: f64) -> f64 {
+    total + term
 }
 
 /// The weighted fraction of each receiver's samples in front of its tangent plane whose count
@@ -103,7 +155,7 @@ pub(crate) fn visible_fraction(origins: &Origins, counts: &[i32]) -> Vec<f32> {
                     .zip(&counts[e * s..(e + 1) * s])
                     .filter(|((y, _), &c)| c == 0 && (**y - p).dot(n) > 0.0)
                     .map(|((_, &w), _)| f64::from(w))
-                    .sum();
+                    .fold(0.0, plus_zero_sum);
                 (i, if total > 0.0 { (lit / total).clamp(0.0, 1.0) as f32 } else { 0.0 })
             },
         )
@@ -134,6 +186,7 @@ pub fn dcs(scene: &Scene, bvh: &Bvh, light: &Light, receivers: &Receivers, sampl
         .and(Origins::peak(n, opts))
         .and(depth_complexity_peak(scene, n, samples.count()))
         .check("dcs", &mut stats)?;
+    object_work(scene, n, samples.count()).check("dcs", &mut stats)?;
     let Some(origins) = Origins::new(light, receivers, samples, opts)? else { return Ok((vec![0.0; receivers.len()], stats)) };
     stats.set("receivers", origins.ids.len() as f64);
     let counts = depth_complexity(scene, bvh, &origins, opts, &mut stats)?;
@@ -189,5 +242,52 @@ mod tests {
             }
         }
         assert!(deep > 100, "the soup must stack occluders: {deep} samples behind two or more faces");
+    }
+
+    /// Per list entry and sample, whether the count is the number of faces on the segment; and
+    /// how many samples a segment from the light's center to them crosses a face for.
+    fn counts_match_the_segments(light: &Light, samples: &SampleSet) -> crate::error::Result<usize> {
+        let scene = scene();
+        let bvh = Bvh::build(&scene)?;
+        let (w, h) = (24, 24);
+        let points = (0..w * h).map(|i| Vec3::new(-2.5 + 5.0 * (i % w) as f32 / w as f32, 0.0, -2.5 + 5.0 * (i / w) as f32 / h as f32)).collect();
+        let receivers = Receivers::new(points, vec![Vec3::Y; w * h], vec![true; w * h], w, h)?;
+        let opts = ObjectOptions { epsilon: 1e-4, resolution: 64, hull_degree: 6 };
+        let Some(origins) = Origins::new(light, &receivers, samples, &opts)? else {
+            return Err(crate::error::Error::invalid("receivers", "none faces the light or a sample"));
+        };
+        let counts = depth_complexity(&scene, &bvh, &origins, &opts, &mut Stats::default())?;
+        let (mut ys, mut ws, s) = (Vec::new(), Vec::new(), samples.count());
+        let mut past = std::collections::HashSet::new();
+        for (e, &k) in origins.lists.entries.iter().enumerate() {
+            origins.fill(k as usize, &mut ys, &mut ws);
+            let o = origins.origins[k as usize];
+            for (j, y) in ys.iter().enumerate() {
+                let expected = bvh.count_hits(o, *y - o, 1.0, |_| true) as i32;
+                assert_eq!(counts[e * s + j], expected, "receiver {k}, sample {j} at {y}");
+                if bvh.count_hits(light.center(), *y - light.center(), 1.0, |_| true) > 0 {
+                    past.insert(y.to_array().map(f32::to_bits));
+                }
+            }
+        }
+        Ok(past.len())
+    }
+
+    #[test]
+    fn counts_hold_for_samples_off_the_light() -> crate::error::Result<()> {
+        // Samples of a light twice as large, pushed back, among the soup and below the ground:
+        // the wedges' regions bound the samples, and samples whose segment from the center
+        // crosses a face are counted directly (no edge sweep sees their end pass a face).
+        let light = Light::rect(Vec3::new(0.2, 4.0, 0.1), Vec3::new(0.9, 0.0, 0.0), Vec3::new(0.0, 0.0, -0.9))?;
+        let on: Vec<Vec3> = SampleSet::generate(&light, 16, Pattern::Poisson, 2, 1, false, 0)?.pattern_for(0, 0).to_vec();
+        let c = light.center();
+        let shifted = |by: Vec3| on.iter().map(|&y| y + by).collect::<Vec<_>>();
+        let twice = on.iter().map(|&y| c + (y - c) * 2.0).collect::<Vec<_>>();
+        let mixed = [shifted(Vec3::Y * -2.8), shifted(Vec3::Y * -5.0), shifted(Vec3::Y * 2.0)].concat();
+        assert_eq!(counts_match_the_segments(&light, &SampleSet::explicit(twice.clone(), None)?)?, 0);
+        assert!(counts_match_the_segments(&light, &SampleSet::explicit(mixed.clone(), None)?)? > 8, "samples must lie past faces");
+        let disk = Light::disk(c, -Vec3::Y, 0.9)?;
+        assert!(counts_match_the_segments(&disk, &SampleSet::explicit([twice, mixed].concat(), Some(3))?)? > 8);
+        Ok(())
     }
 }

@@ -15,7 +15,8 @@ use crate::gpu::multiview::Lighting;
 use crate::gpu::mvr::Rasterizer;
 use crate::gpu::Backend;
 use crate::light::sampling::SampleSet;
-use crate::limits::Peak;
+use crate::interrupt;
+use crate::limits::{Peak, Work};
 use crate::raster::depth::{raster_peak, rasterize_depth, RasterOptions};
 use crate::raster::multiview::{accumulate, resolve, ViewSet};
 use crate::raster::pcf::{DepthBias, PcfKernel, RASTERIZED_SLACK};
@@ -42,6 +43,13 @@ impl Default for MultiViewOptions {
 }
 
 impl MultiViewOptions {
+    /// The work of lighting `receivers` from `views` maps: each map cleared, and each receiver's
+    /// PCF taps in each.
+    pub fn lighting_work(&self, views: usize, receivers: usize) -> Work {
+        let side = self.resolution as u64;
+        Work::default().loop_of(&[views as u64, side, side]).loop_of(&[views as u64, receivers as u64, (self.pcf as u64).pow(2)])
+    }
+
     /// Checks the options and returns the PCF kernel and the depth bias for maps whose texels
     /// hold depths with `slack` (see [`crate::raster::pcf`]).
     pub fn shadow_test(&self, slack: f32) -> Result<(PcfKernel, DepthBias)> {
@@ -96,6 +104,9 @@ pub fn mvr(
         .buffer(&[receivers.len() as u64, 4 + 4])
         .and(raster_peak(scene, opts.resolution, opts.resolution))
         .check("mvr", &mut stats)?;
+    opts.lighting_work(views.views.len(), receivers.len())
+        .loop_of(&[views.views.len() as u64, scene.num_faces() as u64, Work::TRIANGLE])
+        .check("mvr", &mut stats)?;
     if opts.backend == Backend::Gpu {
         let rasterizer = stats.time_add("depth_maps", || Rasterizer::new(scene))?;
         let lighting = stats.time_add("lighting", || Lighting::new(receivers, &kernel, bias))?;
@@ -108,6 +119,7 @@ pub fn mvr(
     }
     let mut sums = vec![0.0f32; receivers.len()];
     for (s, view) in views.views.iter().enumerate() {
+        interrupt::check()?;
         let map = stats.time_add("depth_maps", || rasterize_depth(scene, view, &RasterOptions::default()))?;
         stats.add("fragments", map.fragments as f64);
         stats.time_add("lighting", || accumulate(&mut sums, &views, &[(s, &map)], receivers, &kernel, bias));

@@ -31,13 +31,13 @@ use crate::geometry::receivers::Receivers;
 use crate::gpu::{self, Backend};
 use crate::light::lights::Light;
 use crate::light::sampling::{unit_disk_pattern, Pattern};
+use crate::interrupt;
 use crate::limits::Peak;
-use crate::raster::depth::{raster_peak, rasterize_depth, DepthMap, LightFrustum, RasterOptions, MAX_RESOLUTION};
+use crate::raster::depth::{raster_peak, raster_work, rasterize_depth, DepthMap, LightFrustum, RasterOptions, MAX_RESOLUTION};
 use crate::raster::footprint::LightFootprint;
 use crate::raster::pcf::{DepthBias, ReceiverDepth, RASTERIZED_SLACK};
 use crate::stats::Stats;
 use glam::{Vec2, Vec3};
-use rayon::prelude::*;
 
 /// The largest tap count accepted for either stage.
 pub const MAX_TAPS: usize = 4096;
@@ -177,6 +177,9 @@ pub fn pcss(scene: &Scene, light: &Light, receivers: &Receivers, opts: &PcssOpti
         .buffer(&[receivers.len() as u64, 4 + 8])
         .and(raster_peak(scene, frustum.width, frustum.height))
         .check("pcss", &mut stats)?;
+    raster_work(scene, frustum.width, frustum.height)
+        .loop_of(&[receivers.len() as u64, (opts.blocker_samples + opts.filter_samples) as u64])
+        .check("pcss", &mut stats)?;
     let map = stats.time("depth_map", || rasterize_depth(scene, &frustum, &RasterOptions::default()))?;
     let nearest_stored = map.depth.iter().copied().fold(f32::INFINITY, f32::min);
     let near = opts.near.unwrap_or(nearest_stored).max(frustum.near);
@@ -204,12 +207,12 @@ pub fn pcss(scene: &Scene, light: &Light, receivers: &Receivers, opts: &PcssOpti
         stats.set("no_blocker", no_blocker);
         return Ok((vis, stats));
     }
+    let taps = (opts.blocker_samples + opts.filter_samples) as u64;
     let outcomes: Vec<Option<Outcome>> = stats.time("lighting", || {
-        (0..receivers.len())
-            .into_par_iter()
-            .map(|i| receivers.valid[i].then(|| lookup.receiver(receivers.points[i], receivers.normals[i])))
-            .collect()
-    });
+        interrupt::par_map(receivers.len(), taps, |i| {
+            receivers.valid[i].then(|| lookup.receiver(receivers.points[i], receivers.normals[i]))
+        })
+    })?;
     let valid = outcomes.iter().filter(|o| o.is_some()).count();
     let free = outcomes.iter().filter(|o| matches!(o, Some(Outcome::NoBlocker))).count();
     stats.set("no_blocker", if valid > 0 { free as f64 / valid as f64 } else { 0.0 });

@@ -24,7 +24,8 @@ use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
 use crate::geometry::edges::{edges_peak, opaque_silhouettes};
-use crate::limits::Peak;
+use crate::limits::{object_work, Peak};
+use crate::methods::dcs::plus_zero_sum;
 use crate::raster::influence::{ObjectOptions, Origins};
 use crate::stats::Stats;
 use rayon::prelude::*;
@@ -44,10 +45,11 @@ pub fn penumbra_wedge(scene: &Scene, bvh: &Bvh, light: &Light, receivers: &Recei
     stats.set("light_samples", samples.count() as f64);
     let n = receivers.len();
     Peak::default().buffer(&[n as u64, 4]).and(Origins::peak(n, opts)).and(wedge_occlusion_peak(scene, n)).check("penumbra_wedge", &mut stats)?;
+    object_work(scene, n, samples.count()).check("penumbra_wedge", &mut stats)?;
     let mut vis = vec![0.0f32; receivers.len()];
     let Some(origins) = Origins::new(light, receivers, samples, opts)? else { return Ok((vis, stats)) };
     stats.set("receivers", origins.ids.len() as f64);
-    let occlusion = wedge_occlusion(scene, bvh, &origins, opts, &mut stats);
+    let occlusion = wedge_occlusion(scene, bvh, &origins, opts, &mut stats)?;
     for (&k, occ) in origins.lists.entries.iter().zip(occlusion) {
         let i = origins.ids[k as usize] as usize;
         vis[i] = (occ.front * (1.0 - occ.occlusion.clamp(0.0, 1.0))) as f32;
@@ -70,7 +72,7 @@ pub(crate) fn wedge_occlusion_peak(scene: &Scene, receivers: usize) -> Peak {
 }
 
 /// The per list entry [`WedgeOcclusion`] of the receivers (see the module doc).
-pub(crate) fn wedge_occlusion(scene: &Scene, bvh: &Bvh, origins: &Origins, opts: &ObjectOptions, stats: &mut Stats) -> Vec<WedgeOcclusion> {
+pub(crate) fn wedge_occlusion(scene: &Scene, bvh: &Bvh, origins: &Origins, opts: &ObjectOptions, stats: &mut Stats) -> Result<Vec<WedgeOcclusion>> {
     let (lists, light) = (&origins.lists, origins.light);
     let center = light.center();
     let opaque = |f: u32| !scene.is_perforated_face(f);
@@ -87,7 +89,7 @@ pub(crate) fn wedge_occlusion(scene: &Scene, bvh: &Bvh, origins: &Origins, opts:
                     fill(k, ys, ws);
                     let ((p, n), o) = (origins.receiver(k), origins.origins[k]);
                     let total: f64 = ws.iter().map(|&w| f64::from(w)).sum();
-                    let front: f64 = ys.iter().zip(ws.iter()).filter(|(y, _)| (**y - p).dot(n) > 0.0).map(|(_, &w)| f64::from(w)).sum();
+                    let front: f64 = ys.iter().zip(ws.iter()).filter(|(y, _)| (**y - p).dot(n) > 0.0).map(|(_, &w)| f64::from(w)).fold(0.0, plus_zero_sum);
                     let hard = bvh.count_hits(o, center - o, 1.0, opaque) > 0;
                     WedgeOcclusion { front: if total > 0.0 { front / total } else { 0.0 }, occlusion: f64::from(u8::from(hard)) }
                 },
@@ -98,7 +100,7 @@ pub(crate) fn wedge_occlusion(scene: &Scene, bvh: &Bvh, origins: &Origins, opts:
     stats.set("silhouette_edges", silhouettes.len() as f64);
     let tested = AtomicU64::new(0);
     stats.time("wedges", || {
-        lists.visit_regions(light, opts.hull_degree, &silhouettes, |e| &e.ends, &mut occ, 1, |edge, k, occ| {
+        lists.visit_regions(&origins.bounds, opts.hull_degree, &silhouettes, |e| &e.ends, &mut occ, 1, |edge, k, occ| {
             let Some(sweep) = edge.wedge_sweep(origins.origins[k].as_dvec3(), center.as_dvec3()) else { return };
             tested.fetch_add(1, Ordering::Relaxed);
             let (mut ys, mut ws) = (Vec::new(), Vec::new());
@@ -116,8 +118,8 @@ pub(crate) fn wedge_occlusion(scene: &Scene, bvh: &Bvh, origins: &Origins, opts:
             if front > 0.0 {
                 occ[0].occlusion += f64::from(sweep.delta) * covered / front;
             }
-        });
-    });
+        })
+    })?;
     stats.set("wedge_tests", tested.into_inner() as f64);
-    occ
+    Ok(occ)
 }

@@ -23,7 +23,8 @@ use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
-use crate::limits::{self, Peak};
+use crate::interrupt;
+use crate::limits::{self, Peak, Work};
 use crate::stats::Stats;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -77,17 +78,18 @@ pub fn ray_traced(
     let threads = rayon::current_num_threads() as u64;
     let mut stats = Stats::default();
     Peak::default().buffer(&[n as u64, 4]).buffer(&[per_thread, threads]).check("ray_traced", &mut stats)?;
+    Work::default().loop_of(&[n as u64, samples.count() as u64, Work::RAY]).check("ray_traced", &mut stats)?;
     let mut out = vec![0f32; n];
-    let rays = stats.time("trace", || trace_all(scene, bvh, light, receivers, samples, opts.epsilon, &mut out));
+    let rays = stats.time("trace", || trace_all(scene, bvh, light, receivers, samples, opts.epsilon, &mut out))?;
     stats.set("rays", rays as f64);
     stats.set("receivers", receivers.valid.iter().filter(|&&v| v).count() as f64);
     stats.set("samples", samples.count() as f64);
     Ok((out, stats))
 }
 
-/// Fills `out` in parallel with thread-local buffers; returns the rays traced. When every
-/// receiver uses the same unweighted samples, screen tiles of receivers are traced together
-/// ([`trace_shared`]); otherwise each receiver traces its own samples.
+/// Fills `out` in parallel with thread-local buffers, in interruptible rounds; returns the rays
+/// traced. When every receiver uses the same unweighted samples, screen tiles of receivers are
+/// traced together ([`trace_shared`]); otherwise each receiver traces its own samples.
 fn trace_all(
     scene: &Scene,
     bvh: &Bvh,
@@ -96,18 +98,37 @@ fn trace_all(
     samples: &SampleSet,
     epsilon: f32,
     out: &mut [f32],
-) -> u64 {
+) -> Result<u64> {
     if samples.is_shared() && !light.is_textured() {
         return trace_shared(scene, bvh, receivers, samples.pattern_for(0, 0), epsilon, out);
     }
-    out.par_chunks_mut(CHUNK)
+    let mut rays = 0;
+    interrupt::rounds(out, interrupt::round_len(CHUNK, samples.count() as u64 * Work::RAY), |offset, part| {
+        rays += trace_round(scene, bvh, light, receivers, samples, epsilon, offset, part);
+    })?;
+    Ok(rays)
+}
+
+/// [`trace_all`] for receivers `offset..offset + part.len()`, each tracing its own samples.
+#[allow(clippy::too_many_arguments)]
+fn trace_round(
+    scene: &Scene,
+    bvh: &Bvh,
+    light: &Light,
+    receivers: &Receivers,
+    samples: &SampleSet,
+    epsilon: f32,
+    offset: usize,
+    part: &mut [f32],
+) -> u64 {
+    part.par_chunks_mut(CHUNK)
         .enumerate()
         .map_init(
             || (Vec::with_capacity(samples.count()), Vec::with_capacity(samples.count()), Traced::default()),
             |(ys, ws, traced), (c, chunk)| {
                 let mut rays = 0;
                 for (k, v) in chunk.iter_mut().enumerate() {
-                    let i = c * CHUNK + k;
+                    let i = offset + c * CHUNK + k;
                     if !receivers.valid[i] {
                         continue;
                     }
@@ -131,29 +152,41 @@ const TILE_ROWS: usize = 8;
 
 /// [`trace_all`] for samples `ys` shared by every receiver, all of weight 1: the grid is cut
 /// into bands of tile rows (the parallel work items, so the output does not depend on the
-/// thread count) and each band into tiles traced by [`trace_tile`].
-fn trace_shared(scene: &Scene, bvh: &Bvh, receivers: &Receivers, ys: &[Vec3], epsilon: f32, out: &mut [f32]) -> u64 {
+/// thread count; rounds hold whole bands) and each band into tiles traced by [`trace_tile`].
+fn trace_shared(scene: &Scene, bvh: &Bvh, receivers: &Receivers, ys: &[Vec3], epsilon: f32, out: &mut [f32]) -> Result<u64> {
     let width = receivers.width.max(1);
     let rows = TILE_ROWS.min(receivers.height.max(1));
     let cols = TILE / rows;
     let shared = SharedSamples::new(ys);
-    out.par_chunks_mut(rows * width)
-        .enumerate()
-        .map_init(TileBuffers::default, |buf, (b, band)| {
-            let (first, len) = (b * rows * width, band.len());
-            buf.to_packets.clear();
-            buf.to_packets.resize(len, false);
-            (0..width)
-                .step_by(cols)
-                .map(|x0| {
-                    let tile = (0..rows)
-                        .flat_map(|r| (x0..(x0 + cols).min(width)).map(move |x| r * width + x))
-                        .filter(move |&k| k < len);
-                    trace_tile(scene, bvh, receivers, &shared, epsilon, (first, width), tile, band, buf)
-                })
-                .sum::<u64>()
-        })
-        .sum()
+    let band_len = rows * width;
+    let mut rays = 0;
+    // A band of receivers with thousands of samples each takes seconds: its tiles stop early
+    // once the call is asked to stop, and the next round's check reports it.
+    let watch = interrupt::watch();
+    interrupt::rounds(out, interrupt::round_len(band_len, ys.len() as u64 * Work::RAY), |offset, part| {
+        rays += part
+            .par_chunks_mut(band_len)
+            .enumerate()
+            .map_init(TileBuffers::default, |buf, (b, band)| {
+                let (first, len) = (offset + b * band_len, band.len());
+                buf.to_packets.clear();
+                buf.to_packets.resize(len, false);
+                (0..width)
+                    .step_by(cols)
+                    .take_while(|_| !watch.requested())
+                    .map(|x0| {
+                        let tile = (0..rows)
+                            .flat_map(|r| (x0..(x0 + cols).min(width)).map(move |x| r * width + x))
+                            .filter(move |&k| k < len);
+                        trace_tile(scene, bvh, receivers, &shared, epsilon, (first, width), tile, band, buf)
+                    })
+                    .sum::<u64>()
+            })
+            .sum::<u64>();
+    })?;
+    // The last round's tiles may have stopped early.
+    interrupt::check()?;
+    Ok(rays)
 }
 
 /// The samples every receiver shares: as points, per axis (for [`SharedSamples::front`]) and

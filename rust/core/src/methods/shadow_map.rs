@@ -27,11 +27,11 @@ use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
 use crate::gpu::multiview::Lighting;
 use crate::gpu::{self, Backend};
+use crate::interrupt;
 use crate::limits::Peak;
-use crate::raster::depth::{raster_peak, rasterize_depth, DepthMap, LightFrustum, RasterOptions};
+use crate::raster::depth::{raster_peak, raster_work, rasterize_depth, DepthMap, LightFrustum, RasterOptions};
 use crate::raster::pcf::{DepthBias, PcfKernel, RASTERIZED_SLACK};
 use crate::stats::Stats;
-use rayon::prelude::*;
 
 /// Options of [`shadow_map`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -99,6 +99,9 @@ pub fn shadow_map(scene: &Scene, light: &Light, receivers: &Receivers, opts: &Sh
         .buffer(&[receivers.len() as u64, 4])
         .and(raster_peak(scene, frustum.width, frustum.height))
         .check("shadow_map", &mut stats)?;
+    raster_work(scene, frustum.width, frustum.height)
+        .loop_of(&[receivers.len() as u64, (opts.pcf as u64).pow(2)])
+        .check("shadow_map", &mut stats)?;
     let map = stats.time("render", || rasterize_depth(scene, &frustum, &RasterOptions::default()))?;
     let vis = match opts.backend {
         Backend::Gpu => gpu::timed_stage(&mut stats, "lookup", || lookup_all(&map, &frustum, receivers, opts))?,
@@ -119,8 +122,6 @@ fn lookup_all(map: &DepthMap, frustum: &LightFrustum, rx: &Receivers, opts: &Sha
         lighting.accumulate_maps(&[map], std::slice::from_ref(frustum), &[1.0])?;
         return lighting.sums();
     }
-    Ok((0..rx.len())
-        .into_par_iter()
-        .map(|i| if rx.valid[i] { kernel.visibility(map, frustum, rx.points[i], rx.normals[i], bias) } else { 0.0 })
-        .collect())
+    let taps = (opts.pcf as u64).pow(2);
+    interrupt::par_map(rx.len(), taps, |i| if rx.valid[i] { kernel.visibility(map, frustum, rx.points[i], rx.normals[i], bias) } else { 0.0 })
 }

@@ -12,7 +12,8 @@
 //!    and the receivers, where the back cap closes the volume ([`stsv_volumes`] returns these
 //!    closed volumes). The light is bounded by a polygon or polytope ([`light_polytope`](crate::raster::influence::light_polytope)): its
 //!    corners for a rectangle, a circumscribed `hull_degree`-gon for a disk, the circumscribed box
-//!    for spheres and ellipsoids.
+//!    for spheres and ellipsoids; with samples off the light, one that holds them too
+//!    ([`LightBounds::polytope`]), so that the volume holds every receiver they shadow.
 //! 2. **Points in the volume** (section 2.3): a receiver is inside when it lies on the inner side
 //!    of the four planes, the front cap and the three outer planes (the caps and the clamping
 //!    only serve the paper's z-fail rasterization; a back cap through three clamped points would
@@ -39,11 +40,11 @@ use crate::geometry::receivers::Receivers;
 use crate::gpu::Backend;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
-use crate::limits::{self, Peak};
+use crate::limits::{self, object_work, Peak};
 use crate::methods::alias_free::{masks_peak, sample_masks, AliasFreeOptions, Casters};
 use crate::methods::dcs::{depth_complexity, depth_complexity_peak, visible_fraction};
 use crate::methods::penumbra_wedge::{wedge_occlusion, wedge_occlusion_peak};
-use crate::raster::influence::{check_hull_degree, light_polytope, ObjectOptions, Origins};
+use crate::raster::influence::{check_hull_degree, LightBounds, ObjectOptions, Origins};
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -204,10 +205,11 @@ impl Volume {
 }
 
 /// The volumes of every perforated triangle of `scene` (two per triangle with `two_sided` when
-/// the light reaches both sides), within `bounds`.
-fn volumes(scene: &Scene, light: &Light, degree: usize, two_sided: bool, bounds: (DVec3, DVec3)) -> Vec<Volume> {
-    let polytope = light_polytope(light, degree);
-    let center = light.center().as_dvec3();
+/// the light or its samples reach both sides) for the light and samples of `light`, within
+/// `bounds`.
+fn volumes(scene: &Scene, light: &LightBounds<'_>, degree: usize, two_sided: bool, bounds: (DVec3, DVec3)) -> Vec<Volume> {
+    let polytope = light.polytope(degree);
+    let center = light.light.center().as_dvec3();
     let mut out = Vec::new();
     for (id, tri) in scene.triangles() {
         let r = scene.face_ref(id);
@@ -248,7 +250,7 @@ fn padded_bounds(scene: &Scene, points: &[Vec3]) -> (DVec3, DVec3) {
 pub fn stsv_volumes(scene: &Scene, light: &Light, hull_degree: usize, two_sided: bool, points: &[Vec3]) -> Result<Vec<(u32, [Vec3; 6])>> {
     check_hull_degree(hull_degree)?;
     let volumes: Vec<(u32, [Vec3; 6])> =
-        volumes(scene, light, hull_degree, two_sided, padded_bounds(scene, points)).iter().map(|v| (v.face, v.corners.map(|c| c.as_vec3()))).collect();
+        volumes(scene, &LightBounds::of_light(light), hull_degree, two_sided, padded_bounds(scene, points)).iter().map(|v| (v.face, v.corners.map(|c| c.as_vec3()))).collect();
     if volumes.iter().any(|(_, corners)| !corners.iter().all(|c| c.is_finite())) {
         return Err(Error::invalid("receivers", "the volumes' back caps reach beyond float32's range: receivers too far from the light"));
     }
@@ -261,12 +263,12 @@ fn perforated_masks(scene: &Scene, origins: &Origins, opts: &StsvOptions, words:
     let lists = &origins.lists;
     limits::check_memory("stsv bitmasks", limits::bytes(&[lists.entries.len() as u64, words as u64, 8]))?;
     let bounds = padded_bounds(scene, &origins.origins);
-    let volumes = volumes(scene, origins.light, opts.object.hull_degree, opts.two_sided, bounds);
+    let volumes = volumes(scene, &origins.bounds, opts.object.hull_degree, opts.two_sided, bounds);
     stats.set("volumes", volumes.len() as f64);
     let (tested, inside) = (AtomicU64::new(0), AtomicU64::new(0));
     let mut masks = vec![0u64; lists.entries.len() * words];
     let shared = origins.samples.is_shared().then(|| origins.samples.pattern_for(0, 0));
-    lists.visit_regions(origins.light, opts.object.hull_degree, &volumes, |v| &v.triangle, &mut masks, words, |volume, k, mask| {
+    lists.visit_regions(&origins.bounds, opts.object.hull_degree, &volumes, |v| &v.triangle, &mut masks, words, |volume, k, mask| {
         tested.fetch_add(1, Ordering::Relaxed);
         let p = origins.origins[k].as_dvec3();
         if !volume.contains(p) {
@@ -283,7 +285,7 @@ fn perforated_masks(scene: &Scene, origins: &Origins, opts: &StsvOptions, words:
                 volume.block(p, &ys, texture, mask);
             }
         }
-    });
+    })?;
     stats.set("receivers_tested", tested.into_inner() as f64);
     stats.set("receivers_inside", inside.into_inner() as f64);
     Ok(masks)
@@ -330,6 +332,7 @@ pub fn stsv(scene: &Scene, bvh: &Bvh, light: &Light, receivers: &Receivers, samp
         .buffer(&[scene.num_faces() as u64, 2 * std::mem::size_of::<Volume>() as u64 + 16 * 8])
         .and(opaque_peak)
         .check("stsv", &mut stats)?;
+    object_work(scene, n, samples.count()).check("stsv", &mut stats)?;
     let mut vis = vec![0.0f32; n];
     let Some(origins) = Origins::new(light, receivers, samples, &opts.object)? else { return Ok((vis, stats)) };
     let perforated = {
@@ -361,7 +364,7 @@ pub fn stsv(scene: &Scene, bvh: &Bvh, light: &Light, receivers: &Receivers, samp
             vis = visible_fraction(&origins, &counts);
         }
         Opaque::PenumbraWedge => {
-            let occlusion = wedge_occlusion(scene, bvh, &origins, &opts.object, &mut stats);
+            let occlusion = wedge_occlusion(scene, bvh, &origins, &opts.object, &mut stats)?;
             let (mut ys, mut ws) = (Vec::new(), Vec::new());
             for (e, (&k, occ)) in origins.lists.entries.iter().zip(occlusion).enumerate() {
                 origins.fill(k as usize, &mut ys, &mut ws);

@@ -50,13 +50,14 @@ use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
+use crate::interrupt;
 use crate::limits::{self, Peak};
 use crate::gpu::multiview::Lighting;
 use crate::gpu::vwss::Warper;
 use crate::gpu::Backend;
 use crate::methods::mvr::{shared_eyes, MultiViewOptions};
 use crate::raster::depth::{
-    casters, raster_peak, rasterize_depth, Caster, DepthMap, FaceFilter, LightFrustum, RasterMode, RasterOptions, Rasterizer,
+    casters, raster_peak, raster_work, rasterize_depth, Caster, DepthMap, FaceFilter, LightFrustum, RasterMode, RasterOptions, Rasterizer,
     TexelRect, MAX_RESOLUTION, NEAR_FRACTION,
 };
 use crate::raster::multiview::{accumulate, resolve, ViewSet};
@@ -463,6 +464,12 @@ pub fn vwss(scene: &Scene, light: &Light, receivers: &Receivers, samples: &Sampl
         .buffer(&[per_pass as u64, side as u64, side as u64, 4 + 4])
         .and(points_peak)
         .check("vwss", &mut stats)?;
+    // Every source point warped into every view's map, after the source view is rasterized.
+    opts.multiview
+        .lighting_work(views.views.len(), receivers.len())
+        .loop_of(&[views.views.len() as u64, source.width as u64, source.height as u64])
+        .and(raster_work(scene, source.width, source.height))
+        .check("vwss", &mut stats)?;
     let points = match opts.mode {
         Mode::Buffered => Some(stats.time("point_generation", || generate_points(scene, &source, opts))?),
         Mode::Unbuffered => None,
@@ -476,6 +483,7 @@ pub fn vwss(scene: &Scene, light: &Light, receivers: &Receivers, samples: &Sampl
             let warper = stats.time_add("depth_maps", || Warper::new(points.iter()))?;
             let lighting = stats.time_add("lighting", || Lighting::new(receivers, &kernel, bias))?;
             for (targets, weights) in views.views.chunks(per_pass).zip(views.weights.chunks(per_pass)) {
+                interrupt::check()?;
                 let (warp, light) = warper.warp_and_light(targets, weights, &lighting)?;
                 stats.add("depth_maps_seconds", warp);
                 stats.add("lighting_seconds", light);
@@ -489,6 +497,7 @@ pub fn vwss(scene: &Scene, light: &Light, receivers: &Receivers, samples: &Sampl
             let mut maps: Vec<DepthMap> = (0..per_pass).map(|_| DepthMap::empty(side, side)).collect::<Result<_>>()?;
             let mut sums = vec![0.0f32; receivers.len()];
             for (pass, targets) in views.views.chunks(per_pass).enumerate() {
+                interrupt::check()?;
                 let count = stats.time_add("depth_maps", || {
                     atomic.clear(targets.len());
                     let count = point_source.warp(&atomic, targets)?;

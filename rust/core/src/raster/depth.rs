@@ -52,7 +52,7 @@
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::light::lights::Light;
-use crate::limits::{self, Peak};
+use crate::limits::{self, Peak, Work};
 use glam::{DVec2, DVec3, Vec3};
 use rayon::prelude::*;
 
@@ -1016,6 +1016,12 @@ impl Rasterizer {
 /// set-up and row bins (96 bytes per face).
 pub fn raster_peak(scene: &Scene, width: usize, height: usize) -> Peak {
     Peak::default().buffer(&[width as u64, height as u64, 4]).buffer(&[scene.num_faces() as u64, 96])
+}
+
+/// The work of [`rasterize_depth`] into a `width × height` map: each triangle set up, each
+/// texel cleared and filled at least once.
+pub fn raster_work(scene: &Scene, width: usize, height: usize) -> Work {
+    Work::default().loop_of(&[scene.num_faces() as u64, Work::TRIANGLE]).loop_of(&[width as u64, height as u64])
 }
 
 /// Rasterizes the linear depth of every triangle of `scene` that passes `opts.faces` into a

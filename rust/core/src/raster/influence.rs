@@ -13,6 +13,10 @@
 //! region is the primitive's own projection. Regions are rasterized conservatively
 //! ([`crate::raster::region`]) and processed by bands of rows in parallel, each band owning the
 //! lists of its texels. [`Origins`] are the receivers of the object-based methods in such lists.
+//!
+//! The paper's samples may lie anywhere (section 4.2), and explicit samples may lie off the light:
+//! the regions then bound the light and every sample ([`LightBounds`]), since a region that misses
+//! a sample misses the receivers its segments shadow.
 
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
@@ -25,6 +29,7 @@ use crate::raster::region::{conservative_rows, convex_hull};
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
 use rayon::prelude::*;
+use std::borrow::Cow;
 use std::ops::Range;
 
 /// Options of the object-based methods (`dcs`, `penumbra_wedge`, `stsv`).
@@ -70,13 +75,14 @@ pub fn check_hull_degree(degree: usize) -> Result<()> {
     Ok(())
 }
 
-/// The receivers the object-based methods test: the valid ones facing some part of the light,
-/// their shadow-ray origins, and those origins in light-space lists; with the light and the
-/// samples they are tested against.
+/// The receivers the object-based methods test: the valid ones facing some part of the light
+/// or some sample, their shadow-ray origins, and those origins in light-space lists; with the
+/// light and the samples they are tested against, and the bounds of both.
 pub(crate) struct Origins<'a> {
     pub light: &'a Light,
     pub receivers: &'a Receivers,
     pub samples: &'a SampleSet,
+    pub bounds: LightBounds<'a>,
     /// Receiver index of each origin.
     pub ids: Vec<u32>,
     pub origins: Vec<Vec3>,
@@ -89,13 +95,15 @@ impl<'a> Origins<'a> {
         Peak::default().buffer(&[receivers as u64, 4 + 12]).and(ReceiverLists::peak(receivers, opts.resolution))
     }
 
-    /// `None` when no receiver faces the light.
+    /// `None` when no receiver faces the light or a sample. Errors: samples whose bounds
+    /// overflow f32 ([`LightBounds::new`]), the lists' frustum's.
     pub fn new(light: &'a Light, receivers: &'a Receivers, samples: &'a SampleSet, opts: &ObjectOptions) -> Result<Option<Self>> {
-        let (c, extent) = (light.center(), light.extent());
+        let bounds = LightBounds::new(light, samples, opts.hull_degree)?;
+        let (c, reach) = (light.center(), bounds.reach());
         let ids: Vec<u32> = (0..receivers.len() as u32)
             .filter(|&i| {
                 let (p, n) = (receivers.points[i as usize], receivers.normals[i as usize]);
-                receivers.valid[i as usize] && n.dot(c - p) > -extent * n.length() && p != c
+                receivers.valid[i as usize] && n.dot(c - p) > -reach * n.length() && p != c
             })
             .collect();
         if ids.is_empty() {
@@ -103,7 +111,7 @@ impl<'a> Origins<'a> {
         }
         let origins: Vec<Vec3> = ids.iter().map(|&i| receivers.points[i as usize] + receivers.normals[i as usize] * opts.epsilon).collect();
         let lists = ReceiverLists::build(light, &origins, opts.resolution)?;
-        Ok(Some(Origins { light, receivers, samples, ids, origins, lists }))
+        Ok(Some(Origins { light, receivers, samples, bounds, ids, origins, lists }))
     }
 
     /// The samples and weights of origin `k` (its receiver's samples) into the buffers.
@@ -252,29 +260,33 @@ impl ReceiverLists {
 
 impl ReceiverLists {
     /// Calls `visit(item, point, values)` for every item and every listed point inside the
-    /// item's influence region (the region of the world points `vertices(item)`), with the
-    /// point's `per_entry` values of `data` (one run of values per list entry, in list order).
-    /// Bands of rows run in parallel, each projecting the regions onto its own farthest point;
-    /// within a band, items go in order, so the result does not depend on the thread count.
+    /// item's influence region (the region of the world points `vertices(item)` from the points
+    /// of `bounds`), with the point's `per_entry` values of `data` (one run of values per list
+    /// entry, in list order). Bands of rows run in parallel, each projecting the regions onto its
+    /// own farthest point; within a band, items go in order, so the result does not depend on
+    /// the thread count. Errors: interrupted.
     #[allow(clippy::too_many_arguments)]
     pub fn visit_regions<I: Sync, T: Send>(
         &self,
-        light: &Light,
+        bounds: &LightBounds<'_>,
         degree: usize,
         items: &[I],
         vertices: impl Fn(&I) -> &[Vec3] + Sync,
         data: &mut [T],
         per_entry: usize,
         visit: impl Fn(&I, usize, &mut [T]) + Sync,
-    ) {
-        let hulls: Vec<Option<Vec<DVec2>>> = items.par_iter().map(|it| influence_hull(&self.frustum, light, vertices(it), degree)).collect();
+    ) -> Result<()> {
+        let hulls: Vec<Option<Vec<DVec2>>> = items.par_iter().map(|it| influence_hull(&self.frustum, bounds, vertices(it), degree)).collect();
         let bins = self.bin(&hulls);
+        // A band visits every item of its bin, seconds of work for a large scene: each band
+        // stops at the next item once the call is asked to stop.
+        let watch = crate::interrupt::watch();
         self.split_by_band(data, per_entry).into_par_iter().for_each(|(b, rows, base, part)| {
             let Some(band_frustum) = self.band_frustum(&rows) else { return };
-            for &k in &bins[b] {
+            for &k in bins[b].iter().take_while(|_| !watch.requested()) {
                 let item = &items[k as usize];
                 let region = match &hulls[k as usize] {
-                    Some(_) => influence_hull(&band_frustum, light, vertices(item), degree),
+                    Some(_) => influence_hull(&band_frustum, bounds, vertices(item), degree),
                     None => None,
                 };
                 for span in self.spans(region.as_deref(), &rows) {
@@ -284,6 +296,7 @@ impl ReceiverLists {
                 }
             }
         });
+        crate::interrupt::check()
     }
 }
 
@@ -406,20 +419,21 @@ pub fn light_polytope(light: &Light, degree: usize) -> Vec<DVec3> {
 }
 
 /// The influence region of the world points `points` (a triangle's or an edge's vertices): the
-/// convex hull, in texel coordinates, of their projections from the light's bounding points
-/// onto the far plane; `None` for the whole map (a point not strictly beyond some light point
-/// along the view direction). Every receiver whose segment to a light point meets the convex
-/// hull of `points` projects inside it (Sintorn et al. 2008, section 4.1).
-pub fn influence_hull(frustum: &LightFrustum, light: &Light, points: &[Vec3], degree: usize) -> Option<Vec<DVec2>> {
+/// convex hull, in texel coordinates, of their projections from the bounding points of the light
+/// and its samples onto the far plane; `None` for the whole map (a point not strictly beyond
+/// some bounding point along the view direction). Every receiver whose segment to a light point
+/// or a sample meets the convex hull of `points` projects inside it (Sintorn et al. 2008,
+/// section 4.1), since the light's center, the frustum's eye, lies inside the bounds.
+pub fn influence_hull(frustum: &LightFrustum, bounds: &LightBounds<'_>, points: &[Vec3], degree: usize) -> Option<Vec<DVec2>> {
     let (eye, f) = (frustum.eye.as_dvec3(), frustum.forward.as_dvec3());
     let far = f64::from(frustum.far);
     let mut pts = Vec::with_capacity(points.len() * degree.max(4));
     for v in points.iter().map(|v| v.as_dvec3()) {
-        let ys = light_points(light, v, degree);
+        let ys = bounds.points_seen_from(v, degree);
         if ys.is_empty() {
             return None;
         }
-        for y in ys {
+        for &y in ys.iter() {
             let (zy, dz) = ((y - eye).dot(f), (v - y).dot(f));
             if dz <= 1e-9 * (1.0 + zy.abs()) {
                 return None;
@@ -430,4 +444,313 @@ pub fn influence_hull(frustum: &LightFrustum, light: &Light, points: &[Vec3], de
         }
     }
     Some(convex_hull(&pts))
+}
+
+/// Slack, in units in the last place of the light's coordinates, of the test that a sample lies
+/// on the light: generated samples are rounded to f32 a few times over ([`Light::map`],
+/// [`Light::rotate`]) and may stray that far.
+const ON_LIGHT_ULPS: f64 = 16.0;
+
+/// Relative margin of bounds enlarged to hold samples off the light, against the round-off of
+/// their corners and of their f32 radii and axes.
+const MARGIN: f64 = 1e-6;
+
+/// The light and every light sample its receivers use: what the influence regions, the test of
+/// which receivers face the light and the soft shadow volumes bound.
+///
+/// Sintorn et al. 2008 (Sample Based Visibility for Soft Shadows using Alias-free Shadow Maps,
+/// section 4.2) test arbitrary light sample positions, and explicit samples may lie off the light
+/// (samples of a larger light, behind it, on a shell around it). A region that bounds the light
+/// but not a sample misses receivers that the sample's segments shadow. Samples on the light (to
+/// float precision, as every generated pattern is) keep the light's own bounding points, and so
+/// their results; otherwise a shape of the light's kind that holds the light and every sample
+/// takes its place. Each such shape is symmetric under the light's per-receiver rotation (a ball
+/// about the center, a prism about a disk's axis), and the rotations of rectangles and
+/// ellipsoids map any point onto the light, so rotated samples stay inside.
+pub struct LightBounds<'a> {
+    pub light: &'a Light,
+    /// `None` when every sample lies on the light.
+    beyond: Option<Beyond>,
+}
+
+/// A shape holding a light and its samples off it.
+enum Beyond {
+    /// A sphere or an ellipsoid about the light's center (point, sphere and ellipsoid lights),
+    /// bounded as a volume light is.
+    Volume(Light),
+    /// The corners of a convex polytope (rect and disk lights): a box over a rectangle's two
+    /// parameters and its normal, or a prism of polygons circumscribing a disk about its axis.
+    Corners(Vec<DVec3>),
+}
+
+impl<'a> LightBounds<'a> {
+    /// The bounds of `light` alone.
+    pub fn of_light(light: &'a Light) -> Self {
+        Self { light, beyond: None }
+    }
+
+    /// The bounds of `light` and every sample of `samples` (a disk's by `degree`-gons).
+    ///
+    /// Errors: samples so far from the light that their bounds overflow f32.
+    pub fn new(light: &'a Light, samples: &SampleSet, degree: usize) -> Result<Self> {
+        let c = light.center().as_dvec3();
+        let tol = ON_LIGHT_ULPS * f64::from(f32::EPSILON) * (c.abs().max_element() + f64::from(light.extent()));
+        let offsets: Vec<DVec3> = samples.points().map(|y| y.as_dvec3() - c).collect();
+        let beyond = match light.shape {
+            Shape::Point { .. } => ball_beyond(c, 0.0, &offsets, tol)?,
+            Shape::Sphere { radius, .. } => ball_beyond(c, f64::from(radius), &offsets, tol)?,
+            Shape::Ellipsoid { axes, .. } => ellipsoid_beyond(c, axes.as_dmat3(), &offsets, tol)?,
+            Shape::Rect { u, v, .. } => rect_beyond(c, u.as_dvec3(), v.as_dvec3(), &offsets, tol),
+            Shape::Disk { normal, radius, .. } => disk_beyond(c, normal.as_dvec3(), f64::from(radius), &offsets, tol, degree),
+        };
+        let bounds = Self { light, beyond };
+        if !bounds.reach().is_finite() {
+            return Err(too_far());
+        }
+        Ok(bounds)
+    }
+
+    /// Whether every sample lies on the light.
+    pub fn is_light(&self) -> bool {
+        self.beyond.is_none()
+    }
+
+    /// The largest distance from the light's center to a bounded point: the light's extent when
+    /// every sample lies on it.
+    pub fn reach(&self) -> f32 {
+        match &self.beyond {
+            None => self.light.extent(),
+            Some(Beyond::Volume(volume)) => volume.extent(),
+            Some(Beyond::Corners(corners)) => {
+                let c = self.light.center().as_dvec3();
+                let far = corners.iter().map(|q| (*q - c).length()).fold(0.0f64, f64::max);
+                (far * (1.0 + MARGIN)) as f32
+            }
+        }
+    }
+
+    /// The bounding points seen from world point `v`, whose cone from `v` holds the light and
+    /// every sample: the light's or the larger volume's ([`light_points`]), or the polytope's
+    /// corners; empty when `v` lies inside a volume.
+    pub fn points_seen_from(&self, v: DVec3, degree: usize) -> Cow<'_, [DVec3]> {
+        match &self.beyond {
+            None => Cow::Owned(light_points(self.light, v, degree)),
+            Some(Beyond::Volume(volume)) => Cow::Owned(light_points(volume, v, degree)),
+            Some(Beyond::Corners(corners)) => Cow::Borrowed(corners),
+        }
+    }
+
+    /// Points whose convex hull holds the light and every sample: [`light_polytope`] of the light
+    /// or of the larger volume, or the polytope's corners.
+    pub fn polytope(&self, degree: usize) -> Vec<DVec3> {
+        match &self.beyond {
+            None => light_polytope(self.light, degree),
+            Some(Beyond::Volume(volume)) => light_polytope(volume, degree),
+            Some(Beyond::Corners(corners)) => corners.clone(),
+        }
+    }
+
+    /// The light, or the larger sphere or ellipsoid holding it and its samples; `None` when a
+    /// polytope's corners bound them ([`LightBounds::corners`]).
+    pub fn volume(&self) -> Option<&Light> {
+        match &self.beyond {
+            None => Some(self.light),
+            Some(Beyond::Volume(volume)) => Some(volume),
+            Some(Beyond::Corners(_)) => None,
+        }
+    }
+
+    /// The corners of the polytope holding the light and its samples, when one bounds them.
+    pub fn corners(&self) -> Option<&[DVec3]> {
+        match &self.beyond {
+            Some(Beyond::Corners(corners)) => Some(corners),
+            _ => None,
+        }
+    }
+}
+
+fn too_far() -> Error {
+    Error::invalid("samples", "lie so far from the light that their bounds overflow float32: keep every sample within about 1e38 of the light's center")
+}
+
+/// A point light's or a sphere's bounds (radius `r` about `c`) for samples at `offsets` from `c`:
+/// `None` when every sample lies within `r` (give or take `tol`), else a sphere about `c` holding
+/// them.
+fn ball_beyond(c: DVec3, r: f64, offsets: &[DVec3], tol: f64) -> Result<Option<Beyond>> {
+    let far = offsets.iter().map(|d| d.length()).fold(0.0f64, f64::max);
+    if far <= r + tol {
+        return Ok(None);
+    }
+    let ball = Light::sphere(c.as_vec3(), (far * (1.0 + MARGIN)) as f32).map_err(|_| too_far())?;
+    Ok(Some(Beyond::Volume(ball)))
+}
+
+/// An ellipsoid's bounds (semi-axes the columns of `a`): `None` when every sample lies inside it
+/// (give or take `tol`), else the ellipsoid scaled about `c` until it holds them.
+fn ellipsoid_beyond(c: DVec3, a: DMat3, offsets: &[DVec3], tol: f64) -> Result<Option<Beyond>> {
+    let inverse = a.inverse();
+    let scale = offsets.iter().map(|d| (inverse * *d).length()).fold(0.0f64, f64::max);
+    let thinnest = a.x_axis.length().min(a.y_axis.length()).min(a.z_axis.length());
+    if scale <= 1.0 + tol / thinnest {
+        return Ok(None);
+    }
+    let s = scale * (1.0 + MARGIN);
+    let axes = [a.x_axis * s, a.y_axis * s, a.z_axis * s].map(|axis| axis.as_vec3());
+    let volume = Light::ellipsoid(c.as_vec3(), axes).map_err(|_| too_far())?;
+    Ok(Some(Beyond::Volume(volume)))
+}
+
+/// A rectangle's bounds (half-extent vectors `u`, `v`): `None` when every sample lies on it
+/// (give or take `tol`), else the corners of the box `c + a u + b v + h n` (unit normal `n`)
+/// over the ranges of `a`, `b` and `h` of the rectangle and the samples; flat when every sample
+/// lies in the rectangle's plane.
+fn rect_beyond(c: DVec3, u: DVec3, v: DVec3, offsets: &[DVec3], tol: f64) -> Option<Beyond> {
+    let n = u.cross(v).normalize();
+    let to_params = DMat3::from_cols(u, v, n).inverse();
+    let params: Vec<DVec3> = offsets.iter().map(|d| to_params * *d).collect();
+    let slack = DVec3::new(1.0 + tol / u.length(), 1.0 + tol / v.length(), tol);
+    if params.iter().all(|q| q.abs().cmple(slack).all()) {
+        return None;
+    }
+    let (lo, hi) = params.iter().fold((DVec3::new(-1.0, -1.0, 0.0), DVec3::new(1.0, 1.0, 0.0)), |(lo, hi), q| (lo.min(*q), hi.max(*q)));
+    let (lo, hi) = (lo - (hi - lo) * MARGIN, hi + (hi - lo) * MARGIN);
+    let heights: &[f64] = if lo.z == hi.z { &[lo.z] } else { &[lo.z, hi.z] };
+    let corners = heights
+        .iter()
+        .flat_map(|&h| [(lo.x, lo.y), (hi.x, lo.y), (hi.x, hi.y), (lo.x, hi.y)].map(|(a, b)| c + u * a + v * b + n * h))
+        .collect();
+    Some(Beyond::Corners(corners))
+}
+
+/// A disk's bounds (unit normal `n`, radius `r`): `None` when every sample lies on it (give or
+/// take `tol`), else the prism of `degree`-gons circumscribing the circle through the farthest
+/// sample from the axis (or the rim) at the lowest and highest heights along `n` of the disk and
+/// the samples; one polygon when every sample lies in the disk's plane.
+fn disk_beyond(c: DVec3, n: DVec3, r: f64, offsets: &[DVec3], tol: f64, degree: usize) -> Option<Beyond> {
+    let (mut radial, mut lo, mut hi) = (0.0f64, 0.0f64, 0.0f64);
+    for d in offsets {
+        let h = d.dot(n);
+        radial = radial.max((*d - n * h).length());
+        (lo, hi) = (lo.min(h), hi.max(h));
+    }
+    if radial <= r + tol && lo >= -tol && hi <= tol {
+        return None;
+    }
+    let (lo, hi) = (lo - (hi - lo) * MARGIN, hi + (hi - lo) * MARGIN);
+    let heights: &[f64] = if lo == hi { &[lo] } else { &[lo, hi] };
+    let radius = radial.max(r) * (1.0 + MARGIN);
+    Some(Beyond::Corners(heights.iter().flat_map(|&h| polygon(c + n * h, n, radius, degree)).collect()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::light::sampling::{Pattern, Rng};
+
+    /// Whether the segment `p → y` meets triangle `t` strictly inside (general position).
+    fn segment_meets_triangle(p: DVec3, y: DVec3, t: [DVec3; 3]) -> bool {
+        let orient = |a: DVec3, b: DVec3, c: DVec3, d: DVec3| (b - a).cross(c - a).dot(d - a);
+        if orient(t[0], t[1], t[2], p) * orient(t[0], t[1], t[2], y) >= 0.0 {
+            return false;
+        }
+        let s = [orient(p, y, t[0], t[1]), orient(p, y, t[1], t[2]), orient(p, y, t[2], t[0])];
+        s.iter().all(|&v| v > 0.0) || s.iter().all(|&v| v < 0.0)
+    }
+
+    fn lights() -> Result<Vec<Light>> {
+        let c = Vec3::new(0.3, 4.0, -0.2);
+        Ok(vec![
+            Light::point(c)?,
+            Light::rect(c, Vec3::new(0.5, 0.1, 0.0), Vec3::new(0.1, 0.0, -0.4))?,
+            Light::disk(c, Vec3::new(0.2, -1.0, 0.1), 0.5)?,
+            Light::sphere(c, 0.4)?,
+            Light::ellipsoid(c, [Vec3::new(0.6, 0.0, 0.0), Vec3::new(0.0, 0.2, 0.0), Vec3::new(0.0, 0.0, 0.35)])?,
+        ])
+    }
+
+    /// Samples of `light` off it: scaled by 2 about its center, on a shell around it, shifted
+    /// sideways, pushed back, pulled among the occluders.
+    fn off_light_samples(light: &Light, rng: &mut Rng) -> Vec<Vec<Vec3>> {
+        let c = light.center();
+        let on: Vec<Vec3> = (0..12).map(|_| light.map([rng.next_f32(), rng.next_f32(), rng.next_f32()])).collect();
+        let mut shell = Vec::new();
+        while shell.len() < 12 {
+            let d = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - 1.0;
+            if d.length() > 0.1 && d.length() <= 1.0 {
+                shell.push(c + d.normalize() * 1.3);
+            }
+        }
+        let moved = |by: Vec3| on.iter().map(|&y| y + by).collect::<Vec<_>>();
+        vec![on.iter().map(|&y| c + (y - c) * 2.0).collect(), shell, moved(Vec3::new(1.2, 0.0, -0.7)), moved(Vec3::Y * 2.0), moved(Vec3::Y * -2.6)]
+    }
+
+    #[test]
+    fn regions_hold_every_receiver_that_a_sample_off_the_light_shadows() -> Result<()> {
+        // Sintorn et al. 2008, section 4.1, for samples anywhere: a receiver whose segment to a
+        // sample meets a triangle projects into the triangle's region, rotated samples included.
+        let mut rng = Rng::new(11);
+        let (w, h) = (20, 20);
+        let points: Vec<Vec3> = (0..w * h).map(|i| Vec3::new(-3.0 + 6.0 * (i % w) as f32 / w as f32, 0.1 * (i / w) as f32 / h as f32, -3.0 + 6.0 * (i / w) as f32 / h as f32)).collect();
+        let receivers = Receivers::new(points.clone(), vec![Vec3::Y; w * h], vec![true; w * h], w, h)?;
+        let triangles: Vec<[Vec3; 3]> = (0..40)
+            .map(|_| {
+                let c = Vec3::new(4.0 * rng.next_f32() - 2.0, 0.8 + 1.6 * rng.next_f32(), 4.0 * rng.next_f32() - 2.0);
+                [0, 1, 2].map(|_| c + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 1.2)
+            })
+            .collect();
+        let (mut shadowed, mut beyond) = (0usize, 0usize);
+        for light in lights()? {
+            let lists = ReceiverLists::build(&light, &points, 32)?;
+            let (fw, fh) = (lists.frustum.width, lists.frustum.height);
+            for (k, ys) in off_light_samples(&light, &mut rng).into_iter().enumerate() {
+                let rotate = (k % 2 == 1 && light.rigid_rotation([0.0; 3]).is_some()).then_some(5);
+                let samples = SampleSet::explicit(ys, rotate)?;
+                let bounds = LightBounds::new(&light, &samples, 6)?;
+                beyond += usize::from(!bounds.is_light());
+                let (mut own, mut weights) = (Vec::new(), Vec::new());
+                for t in &triangles {
+                    let region = influence_hull(&lists.frustum, &bounds, t, 6).map(|hull| conservative_rows(&hull, fw, fh));
+                    let covered = |texel: usize| region.as_ref().is_none_or(|rows| rows.iter().any(|&(y, x0, x1)| y == texel / fw && (x0..x1).contains(&(texel % fw))));
+                    for (i, &p) in points.iter().enumerate() {
+                        samples.fill(&light, i, receivers.pixel(i), &mut own, &mut weights);
+                        if own.iter().any(|y| segment_meets_triangle(p.as_dvec3(), y.as_dvec3(), t.map(|v| v.as_dvec3()))) {
+                            shadowed += 1;
+                            assert!(covered(ReceiverLists::texel(&lists.frustum, p)), "{:?}, samples {k}: receiver {i} outside the region of {t:?}", light.shape);
+                        }
+                    }
+                }
+            }
+        }
+        // Every set lies off its light but one: a point light's samples scaled about it stay on it.
+        assert_eq!(beyond, 24, "the sample sets must lie off their lights");
+        assert!(shadowed > 5_000, "the triangles must shadow receivers: {shadowed}");
+        Ok(())
+    }
+
+    #[test]
+    fn generated_samples_lie_on_their_light() -> Result<()> {
+        // Their bounds are the light's own, so their regions and results stay as they were.
+        for light in lights()? {
+            for pattern in [Pattern::Uniform, Pattern::Stratified, Pattern::Poisson, Pattern::Sobol, Pattern::Halton] {
+                for (interleave, rotate, frame) in [(1, false, 0), (2, true, 0), (1, true, 3), (3, false, 7)] {
+                    let samples = SampleSet::generate(&light, 64, pattern, 9, interleave, rotate, frame)?;
+                    assert!(LightBounds::new(&light, &samples, 6)?.is_light(), "{:?} {pattern:?} {interleave} {rotate} {frame}", light.shape);
+                }
+            }
+            let c = light.center();
+            let off = SampleSet::explicit(vec![c + Vec3::new(0.0, 0.0, 2.0 * light.extent() + 0.1)], None)?;
+            let bounds = LightBounds::new(&light, &off, 6)?;
+            assert!(!bounds.is_light() && bounds.reach() >= 2.0 * light.extent() + 0.1, "{:?}", light.shape);
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn samples_whose_bounds_overflow_are_refused_by_name() -> Result<()> {
+        let light = Light::sphere(Vec3::splat(-3e38), 1.0)?;
+        let samples = SampleSet::explicit(vec![Vec3::splat(3e38)], None)?;
+        let refused = LightBounds::new(&light, &samples, 6);
+        assert!(matches!(&refused, Err(Error::InvalidInput { arg, .. }) if arg == "samples"), "{:?}", refused.err());
+        Ok(())
+    }
 }
