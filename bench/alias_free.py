@@ -1,4 +1,4 @@
-"""Alias-free shadow maps against brute-force shadow rays on the same samples (seed 000).
+"""Alias-free shadow maps against brute-force shadow rays on the same samples (Sintorn et al. 2008).
 
 One run on one scene: ``alias_free`` (plane lookup table and exact tests), ``ray_traced`` and
 Mitsuba's ``ray_test`` (the rays of ``bench/shadow_rays.py``) on the same shared Poisson light

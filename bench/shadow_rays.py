@@ -1,7 +1,7 @@
 """Shadow-ray throughput: ``ray_traced`` against Mitsuba's ``ray_test`` and Embree (embreex).
 
 All three trace the very same rays in one run, side by side: every hit pixel of the bunny scene
-at 512x512 receivers times 64 shared Poisson light samples (the rays of DESIGN.md section 3:
+at 512x512 receivers times 64 shared Poisson light samples (the rays of docs/design.md section 3:
 origin p + eps n, ending just short of the sample; samples behind the tangent plane are not
 traced). It prints rays per second of each and the ratios, plus how often the three agree.
 

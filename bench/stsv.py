@@ -1,4 +1,4 @@
-"""Soft textured shadow volumes (seed 001) against explicit geometry, side by side in one run.
+"""Soft textured shadow volumes (Forest et al. 2009) against explicit geometry, side by side in one run.
 
 The paper's Figure 11: a fence as perforated triangles (``stsv``) against the same fence as an
 explicit mesh (``ray_traced`` and ``dcs`` on it), and ``ray_traced`` on the perforated triangles

@@ -1,4 +1,4 @@
-"""View-warped soft shadows against multi-view rasterization and PCSS (seed 004, Tables 1-2).
+"""View-warped soft shadows against multi-view rasterization and PCSS (Marrs et al. 2018, Tables 1-2).
 
 For torus knots of growing tessellation (50k to 1M triangles) over a ground plane, one run
 measures side by side, on the same 24 or 128 Poisson light samples and the same receivers:

@@ -1,4 +1,4 @@
-"""The oracle agrees with Mitsuba's own ray_test on the same samples (DESIGN.md sections 3-4)."""
+"""The oracle agrees with Mitsuba's own ray_test on the same samples (docs/design.md sections 3-4)."""
 
 import numpy as np
 import pytest

@@ -30,7 +30,15 @@ def test_hard_shadows_equal_ray_tracing_without_a_bias_in_closed_mode(name):
     hard = ss.alias_free(setup.scene, light, gb, casters="backfacing")
     assert set(np.unique(hard[gb.mask])) <= {0.0, 1.0}
     assert exact[gb.mask].min() == 0 and exact[gb.mask].max() == 1
-    assert np.mean((hard == exact)[gb.mask]) >= 0.999
+    if name == "bunny":
+        # 2 of the bunny's 48785 hit pixels differ, (64, 82) and (161, 62), on the bunny itself:
+        # the oracle keeps its answer when the receiver moves 1e-5 of the light distance across
+        # the segment while alias_free's flips there, so it is no float tie of the oracle's;
+        # the two start from different points (the surface, and 1/100 of the offset along the
+        # normal). Not yet explained; the other scenes agree on every pixel.
+        assert np.sum((hard != exact) & gb.mask) <= 2
+    else:
+        np.testing.assert_array_equal(hard[gb.mask], exact[gb.mask])
 
 
 @pytest.mark.parametrize("name", ["columns", "torus_knot", pytest.param("bunny", marks=needs_pymeshlab)])
@@ -38,7 +46,7 @@ def test_hard_shadows_with_every_caster_equal_ray_tracing(name):
     setup, gb = case(name)
     light = ss.PointLight(setup.light.center)
     exact = ss.ray_traced(setup.scene, light, gb, samples=1)
-    assert np.mean((ss.alias_free(setup.scene, light, gb, casters="all") == exact)[gb.mask]) >= 0.999
+    np.testing.assert_array_equal(ss.alias_free(setup.scene, light, gb, casters="all")[gb.mask], exact[gb.mask])
 
 
 @pytest.mark.parametrize("kind", ["rect", "disk", "sphere", "ellipsoid"])
@@ -48,7 +56,7 @@ def test_exact_soft_shadows_give_the_oracles_bits(kind):
     exact = ss.ray_traced(setup.scene, setup.light, gb, samples=samples)
     soft, stats = ss.alias_free(setup.scene, setup.light, gb, samples=samples, lut=None, return_stats=True)
     assert np.mean((exact > 0) & (exact < 1) & gb.mask) > 0.02, "needs a penumbra"
-    assert np.mean((soft == exact)[gb.mask]) >= 0.995
+    np.testing.assert_array_equal(soft[gb.mask], exact[gb.mask])
     lut = ss.alias_free(setup.scene, setup.light, gb, samples=samples)
     assert np.abs(lut - exact)[gb.mask].mean() < 0.01
     assert stats["light_samples"] == 256 and stats["view_samples"] > 0 and 0 < stats["occupied_texels_percent"] <= 100
@@ -63,7 +71,7 @@ def test_exact_soft_shadows_on_a_closed_scan():
     samples = setup.light.samples(128, pattern="poisson", seed=1)
     exact = ss.ray_traced(setup.scene, setup.light, gb, samples=samples)
     soft = ss.alias_free(setup.scene, setup.light, gb, samples=samples, lut=None)
-    assert np.mean((soft == exact)[gb.mask]) >= 0.995
+    np.testing.assert_array_equal(soft[gb.mask], exact[gb.mask])
 
 
 @pytest.mark.parametrize(
@@ -142,7 +150,7 @@ def test_rotated_lookups_for_symmetric_lights(kind):
     samples = setup.light.samples(128, pattern="poisson", seed=4)
     exact = ss.ray_traced(setup.scene, setup.light, gb, samples=samples, rotate="per_receiver", seed=9)
     soft = ss.alias_free(setup.scene, setup.light, gb, samples=samples, rotate="per_receiver", seed=9, lut=None)
-    assert np.mean((soft == exact)[gb.mask]) >= 0.995
+    np.testing.assert_array_equal(soft[gb.mask], exact[gb.mask])
     assert np.any(exact != ss.ray_traced(setup.scene, setup.light, gb, samples=samples))
     lut = ss.alias_free(setup.scene, setup.light, gb, samples=samples, rotate="per_receiver", seed=9)
     assert np.abs(lut - exact)[gb.mask].mean() < 0.01
@@ -289,3 +297,20 @@ def test_receivers_inside_a_closed_mesh_are_shadowed_as_the_oracle_says(kind):
     assert np.abs(ss.alias_free(setup.scene, light, rx, samples=samples) - exact).max() <= 4 / 64
     # stsv's opaque part is alias_free's bitmasks, culling included.
     np.testing.assert_array_equal(ss.stsv(setup.scene, light, rx, samples=samples), exact)
+
+
+@pytest.mark.parametrize("name, kind", [("columns", "rect"), ("torus_knot", "sphere"), ("ground_sphere", "point"), ("leaves", "disk")])
+def test_the_shadow_does_not_depend_on_the_light_space_resolution(name, kind):
+    # The alias-free property (Sintorn et al. 2008, section 3): the lists only decide which
+    # receivers a triangle is tested against, never the answer, so the same bits at 2^2 texels
+    # as at 2048^2. (The lookup table's answers do vary with it: the penumbra texels, where the
+    # table is read, are fewer at finer resolutions, 408 of 4096 pixels between 2 and 16 here.)
+    setup, gb = case(name, size=64, light=kind)
+    light = ss.PointLight(setup.light.center) if kind == "point" else setup.light
+    samples = 1 if kind == "point" else light.samples(64, seed=3)
+    coarse = ss.alias_free(setup.scene, light, gb, samples=samples, resolution=2, lut=None)
+    assert np.mean((coarse > 0) & (coarse < 1) & gb.mask) > 0.01 or kind == "point"
+    assert np.any(coarse[gb.mask] < 1)
+    for resolution in (16, 512, 2048):
+        fine = ss.alias_free(setup.scene, light, gb, samples=samples, resolution=resolution, lut=None)
+        np.testing.assert_array_equal(fine, coarse, err_msg=f"resolution {resolution}")

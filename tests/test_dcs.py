@@ -28,7 +28,7 @@ def test_counts_give_the_oracles_bits_on_closed_meshes(name, kind):
     exact = ss.ray_traced(setup.scene, setup.light, gb, samples=samples)
     assert np.mean((exact > 0) & (exact < 1) & gb.mask) > 0.05, "needs a penumbra"
     vis, stats = ss.dcs(setup.scene, setup.light, gb, samples=samples, return_stats=True)
-    assert np.mean((vis == exact)[gb.mask]) >= 0.995
+    np.testing.assert_array_equal(vis[gb.mask], exact[gb.mask])
     assert stats["silhouette_edges"] > 0 and stats["wedge_tests"] > 0 and stats["light_samples"] == 64
 
 
@@ -37,7 +37,7 @@ def test_decorrelated_samples_follow_each_receiver(options):
     setup, gb = case("columns", size=64, light="disk")
     exact = ss.ray_traced(setup.scene, setup.light, gb, samples=16, seed=4, **options)
     vis = ss.dcs(setup.scene, setup.light, gb, samples=16, seed=4, **options)
-    assert np.mean((vis == exact)[gb.mask]) >= 0.995
+    np.testing.assert_array_equal(vis[gb.mask], exact[gb.mask])
     assert np.any(exact != ss.ray_traced(setup.scene, setup.light, gb, samples=16, seed=4))
 
 
@@ -46,7 +46,7 @@ def test_point_lights_give_hard_shadows_by_counting():
     light = ss.PointLight(setup.light.center)
     hard = ss.dcs(setup.scene, light, gb)
     assert set(np.unique(hard[gb.mask])) == {0.0, 1.0}
-    assert np.mean((hard == ss.ray_traced(setup.scene, light, gb, samples=1))[gb.mask]) >= 0.999
+    np.testing.assert_array_equal(hard[gb.mask], ss.ray_traced(setup.scene, light, gb, samples=1)[gb.mask])
 
 
 def test_perforated_meshes_are_left_to_stsv():

@@ -1,4 +1,4 @@
-"""Every method estimates its whole peak memory before allocating (DESIGN.md section 6).
+"""Every method estimates its whole peak memory before allocating (docs/design.md section 6).
 
 Each run reports its estimate as the stat ``peak_bytes``. With the limit one byte below it, the
 same call raises MemoryError naming the method, the estimate and the knob; with the limit at it,

@@ -12,7 +12,7 @@ def case(name, size=128, **options):
 
 
 def test_misses_a_thin_occluder_that_vwss_keeps():
-    """Seed 004, Figure 10: the blocker search steps over a thin blade. Measure: among the pixels
+    """Marrs et al. 2018, Figure 10: the blocker search steps over a thin blade. Measure: among the pixels
     the reference puts in the blade's shadow (V < 0.5), the share lit more than 0.25 too much."""
     setup, gb = case("sword")
     reference = ss.ray_traced(setup.scene, setup.light, gb, samples=256)

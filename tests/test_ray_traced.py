@@ -1,4 +1,4 @@
-"""The oracle against analytic answers (DESIGN.md section 3)."""
+"""The oracle against analytic answers (docs/design.md section 3)."""
 
 import numpy as np
 import pytest
@@ -133,3 +133,32 @@ def test_gbuffer_visibility_has_the_image_shape_and_zero_off_surface(ground):
     assert np.all(vis[~gb.mask] == 0) and gb.mask.any() and not gb.mask.all()
     assert np.all((vis >= 0) & (vis <= 1)) and not np.isnan(vis).any()
     assert stats["rays"] > 0 and "trace_seconds" in stats
+
+
+def test_textured_light_weights_match_an_independent_computation(ground):
+    # The emission texture's bands computed here in numpy from the light's own definition
+    # (row i: b in the i-th of H bands of [-1, 1], column j: a in the j-th of W), not through
+    # the core's weight function; then the shadow of a blocker over x > 0 found by
+    # intersecting each segment with its plane, weighted by those bands.
+    rng = np.random.default_rng(4)
+    emission = rng.uniform(0.0, 2.0, (3, 5)).astype(np.float32)
+    emission[1, 2] = 0.0
+    center, u, v = np.float64([0, 4, 0]), np.float64([1.2, 0, 0]), np.float64([0, 0, -0.8])
+    light = ss.RectLight(center, u, v, emission=emission)
+    # Parameters inside the bands, away from their borders, so no rounding decides a band.
+    i, j = rng.integers(0, 3, 400), rng.integers(0, 5, 400)
+    a = -1 + (2 * j + rng.uniform(0.1, 0.9, 400)) / 5
+    b = -1 + (2 * i + rng.uniform(0.1, 0.9, 400)) / 3
+    samples = (center + a[:, None] * u + b[:, None] * v).astype(np.float32)
+    np.testing.assert_array_equal(light.weights(samples), emission[i, j])
+
+    blocker = ss.Mesh(np.float32([[0.3, 2, -5], [5, 2, -5], [5, 2, 5], [0.3, 2, 5]]), np.uint32([[0, 2, 1], [0, 3, 2]]))
+    xs = np.linspace(-2.0, 2.0, 9)
+    vis = ss.ray_traced(ss.Scene([ground, blocker]), light, up_receivers(xs), samples=samples)
+    y = samples.astype(np.float64)
+    for x, got in zip(xs, vis, strict=True):
+        crossing_x = x + (y[:, 0] - x) * 2.0 / y[:, 1]  # where the segment meets the plane y = 2
+        w = emission[i, j].astype(np.float64)
+        expected = w[crossing_x < 0.3].sum() / w.sum()
+        assert got == pytest.approx(expected, rel=1e-6, abs=1e-7), x
+    assert vis.min() < 0.2 and vis.max() == 1.0

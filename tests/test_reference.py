@@ -1,6 +1,6 @@
 """Mitsuba references (reference.py) against a brute-force numpy oracle on tiny scenes.
 
-The oracle below implements DESIGN.md section 3 directly: every segment is tested against every
+The oracle below implements docs/design.md section 3 directly: every segment is tested against every
 triangle (Moller-Trumbore in float64), perforated triangles alpha-tested at the interpolated uv.
 It does not need the compiled core.
 """

@@ -162,7 +162,7 @@ def test_sphere_subdivisions(s):
 
 
 def test_columns_counts():
-    assert len(scenes.columns().occluders[0].faces) == 840  # seed 000's "columns of 840 triangles"
+    assert len(scenes.columns().occluders[0].faces) == 840  # Sintorn et al. 2008's "columns of 840 triangles"
     assert len(scenes.columns(n=3, segments=10, width=32, height=32).occluders[0].faces) == 3 * 4 * 10
     assert len(scenes.columns(n=4, kind="box", width=32, height=32).occluders[0].faces) == 4 * 12
     bounds = scenes.columns(column_height=2.0, width=32, height=32).occluder_bounds
@@ -353,7 +353,7 @@ def test_fence_and_fence_mesh_share_their_setup_and_cast_the_same_shadow(pattern
 
 
 def test_fence_mesh_is_far_heavier_than_the_perforated_fence():
-    # Seed 001, Fig. 11: the textured fence needs 2 triangles per panel, the mesh many more.
+    # Forest et al. 2009, Fig. 11: the textured fence needs 2 triangles per panel, the mesh many more.
     assert scenes.fence().scene.num_faces == 2 + 2 * 2
     assert scenes.fence_mesh(pattern="grid").scene.num_faces > 1000
 

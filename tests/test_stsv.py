@@ -33,22 +33,22 @@ def test_exact_combinations_give_the_oracles_bits(opaque):
         samples = light.samples(64, pattern="poisson", seed=3)
         exact = ss.ray_traced(scene, light, gb, samples=samples)
         assert np.mean((exact > 0) & (exact < 1) & gb.mask) > 0.05, f"{name} needs a penumbra"
-        vis, stats = ss.stsv(scene, light, gb, samples=samples, opaque=opaque, two_sided=True, return_stats=True)
-        assert np.mean((vis == exact)[gb.mask]) >= 0.995, name
+        vis, stats = ss.stsv(scene, light, gb, samples=samples, opaque=opaque, return_stats=True)
+        np.testing.assert_array_equal(vis, exact, err_msg=name)
         assert stats["volumes"] > 0 and stats["receivers_inside"] > 0
         assert stats["receivers_tested"] >= stats["receivers_inside"]
 
 
 def test_one_sided_volumes_miss_the_light_behind_a_triangle():
-    # Seed 001 section 6: leaves straddled by the light only block the part on their center's side.
+    # Forest et al. 2009, section 6: leaves straddled by the light only block the part on their center's side.
     setup, gb = case("leaves")
     samples = setup.light.samples(64, seed=3)
     exact = ss.ray_traced(setup.scene, setup.light, gb, samples=samples)
-    one, one_stats = ss.stsv(setup.scene, setup.light, gb, samples=samples, return_stats=True)
-    two, two_stats = ss.stsv(setup.scene, setup.light, gb, samples=samples, two_sided=True, return_stats=True)
+    one, one_stats = ss.stsv(setup.scene, setup.light, gb, samples=samples, two_sided=False, return_stats=True)
+    two, two_stats = ss.stsv(setup.scene, setup.light, gb, samples=samples, return_stats=True)
     assert two_stats["volumes"] > one_stats["volumes"]
     assert np.all(one[gb.mask] >= exact[gb.mask]) and np.any(one[gb.mask] > exact[gb.mask])
-    assert np.mean((two == exact)[gb.mask]) > np.mean((one == exact)[gb.mask])
+    np.testing.assert_array_equal(two, exact)
 
 
 def test_penumbra_wedges_with_volumes_are_close():
@@ -100,7 +100,7 @@ def test_uvs_outside_the_unit_square_wrap():
     scene, light, gb = textured_quad_scene(checker.astype(np.float32), uvs=uvs)
     samples = light.samples(64, seed=2)
     exact = ss.ray_traced(scene, light, gb, samples=samples)
-    assert np.mean((ss.stsv(scene, light, gb, samples=samples) == exact)[gb.mask]) >= 0.995
+    np.testing.assert_array_equal(ss.stsv(scene, light, gb, samples=samples), exact)
 
 
 def test_degenerate_perforated_triangles_cast_nothing():
@@ -144,3 +144,28 @@ def test_samples_off_the_light_give_the_oracles_bits(opaque, kind):
     exact = ss.ray_traced(scene, light, gb, samples=samples)
     vis = ss.stsv(scene, light, gb, samples=samples, opaque=opaque, two_sided=True)
     np.testing.assert_array_equal(vis, exact)
+
+
+def leaf_card_under_an_overhead_light(size=96):
+    """A vertical leaf card over a ground quad, its plane through the overhead light's center."""
+    ground = ss.Mesh(np.float32([[-2, 0, -2], [2, 0, -2], [2, 0, 2], [-2, 0, 2]]), np.uint32([[0, 2, 1], [0, 3, 2]]))
+    card = ss.Mesh(np.float32([[0, 0.4, -0.6], [0, 0.4, 0.6], [0, 1.6, 0.6], [0, 1.6, -0.6]]),
+                   np.uint32([[0, 1, 2], [0, 2, 3]]), uvs=np.float32([[0, 0], [1, 0], [1, 1], [0, 1]]),
+                   alpha=ss.scenes.leaf_texture(64))
+    scene = ss.Scene([ground, card])
+    light = ss.RectLight((0.05, 3.0, 0.0), (0.6, 0, 0), (0, 0, -0.6))
+    camera = ss.Camera(np.float32([2.5, 2.5, 2.5]), np.float32([0, 0.3, 0]), np.float32([0, 1, 0]), 45.0, size, size)
+    return scene, light, ss.gbuffer(scene, camera)
+
+
+@pytest.mark.parametrize("opaque", ["bitmask", "dcs"])
+def test_the_default_is_exact_for_a_card_the_light_straddles(opaque):
+    # The light lies on both sides of the card's plane: the paper's one-sided volumes never
+    # block the part behind it (550 of 6033 pixels brighter than the oracle, up to 0.39), and
+    # were the default; two-sided volumes are, and give the oracle's bits on every pixel.
+    scene, light, gb = leaf_card_under_an_overhead_light()
+    samples = light.samples(64, seed=3)
+    exact = ss.ray_traced(scene, light, gb, samples=samples)
+    np.testing.assert_array_equal(ss.stsv(scene, light, gb, samples=samples, opaque=opaque), exact)
+    one_sided = ss.stsv(scene, light, gb, samples=samples, opaque=opaque, two_sided=False)
+    assert np.all(one_sided[gb.mask] >= exact[gb.mask]) and np.sum((one_sided > exact) & gb.mask) > 300

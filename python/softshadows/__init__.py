@@ -8,7 +8,8 @@ Quick start::
     gb = ss.gbuffer(setup.scene, setup.camera)
     vis = ss.ray_traced(setup.scene, setup.light, gb, samples=64)
 
-See DESIGN.md for the data model and the definition of visibility.
+See docs/design.md in the repository for the data model (section 2) and the definition of
+visibility (section 3).
 """
 
 import os as _os

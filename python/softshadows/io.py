@@ -3,7 +3,7 @@
 * EXR files are written as single-part scanline images, float32, ZIP-compressed: a (H, W)
   array as one channel ``"Y"``, a (H, W, 3) array as ``"R"``, ``"G"``, ``"B"`` (and (H, W, 4)
   adds ``"A"``). Reading returns float32 whatever the stored pixel type (half included).
-* Environment maps (DESIGN.md section 2) are lat-long images (row 0 is the top, the +up pole;
+* Environment maps (docs/design.md section 2) are lat-long images (row 0 is the top, the +up pole;
   columns sweep the azimuth) or cube maps stored as a vertical strip of six square faces in the
   order +x, -x, +y, -y, +z, -z (the OpenGL face order), each face's row 0 at its top.
 * PNGs go through ``matplotlib.image.imsave`` (no pyplot, no GUI backend needed).
@@ -102,7 +102,7 @@ def read_exr(path) -> np.ndarray:
 
 
 def read_environment(path, *, layout: str = "latlong") -> np.ndarray:
-    """Reads an environment map (the input of environment lighting, seed 002 section 4.2).
+    """Reads an environment map (the input of environment lighting, Annen et al. 2008, section 4.2).
 
     Parameters
     ----------

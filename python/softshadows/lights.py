@@ -1,4 +1,4 @@
-"""Lights and their sample patterns (DESIGN.md section 2).
+"""Lights and their sample patterns (docs/design.md section 2).
 
 Every light has ``samples(n, pattern=..., seed=..., frame=...)`` returning world-space light
 points of shape (n, 3), so patterns can be plotted and two methods can run on the same samples.
@@ -7,7 +7,7 @@ The patterns, their defaults and the per-receiver rotation are documented in
 
 * ``"uniform"``, ``"stratified"`` (jittered grid, or n-rooks when n is not a square),
 * ``"poisson"`` (Poisson disk; minimum distances 0.2456139 and 0.1076681 for 16 and 64 samples,
-  seed 001 section 4.1),
+  Forest et al. 2009, Soft Textured Shadow Volume, section 4.1),
 * ``"sobol"`` (a digitally shifted (0,2)-sequence), ``"halton"`` (bases 2, 3, 5).
 
 Methods additionally take ``rotate="per_receiver"`` (a random rotation per receiver: about the
@@ -69,7 +69,7 @@ class _Light(abc.ABC):
         seed : int
             Any non-negative integer; the same seed gives the same samples.
         frame : int
-            Temporal jitter (seed 000 section 4.3): frame ``i > 0`` rotates the whole pattern.
+            Temporal jitter (Sintorn et al. 2008, section 4.3): frame ``i > 0`` rotates the whole pattern.
 
         Returns
         -------
@@ -216,7 +216,9 @@ class DiskLight(_Light):
 
 
 class SphereLight(_Light):
-    """A volumetric spherical light that emits from its whole volume (seed 000).
+    """A volumetric spherical light that emits from its whole volume.
+
+    The spherical light of Sintorn et al. 2008, Sample Based Visibility for Soft Shadows.
 
     Parameters
     ----------
@@ -240,9 +242,10 @@ class SphereLight(_Light):
 
 
 class EllipsoidLight(_Light):
-    """A volumetric ellipsoidal light that emits from its whole volume (seed 000 section 4.1).
+    """A volumetric ellipsoidal light that emits from its whole volume.
 
-    The points ``center + axes.T @ x`` with ``|x| <= 1``. Its samples are the unit ball's mapped
+    The points ``center + axes.T @ x`` with ``|x| <= 1`` (Sintorn et al. 2008, Sample Based
+    Visibility for Soft Shadows, section 4.1). Its samples are the unit ball's mapped
     by the axes (still volume-uniform). ``alias_free`` bounds its influence regions by the
     paper's virtual scaling: in the frame where the ellipsoid is a sphere, the sphere's bounding
     polygons are exact, and the axes map them back.

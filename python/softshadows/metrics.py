@@ -1,4 +1,4 @@
-"""Image metrics for comparing a method's result with a reference (DESIGN.md section 3).
+"""Image metrics for comparing a method's result with a reference (docs/design.md section 3).
 
 All functions take ``test`` and ``ref`` of the same shape: visibility images (H, W) in [0, 1],
 or RGB images (H, W, 3); ``rmse`` also takes flat (K,) visibility of explicit receivers. The

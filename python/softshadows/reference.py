@@ -1,5 +1,5 @@
 """Mitsuba 3 references: the same scene as a Mitsuba scene, visibility by Mitsuba's own ray
-queries, and path-traced direct illumination (DESIGN.md section 4).
+queries, and path-traced direct illumination (docs/design.md section 4).
 
 Choices made here (where the design is silent)
 ----------------------------------------------
@@ -36,7 +36,7 @@ Choices made here (where the design is silent)
 * **Light geometry in view.** The light's shape is part of the rendered scene (it must be, to
   emit); a camera ray that hits its back side sees black, not what lies behind it. Keep lights
   out of view or mask those pixels. The light's shape is never part of the visibility scene.
-* **Visibility.** Section 3 of the design: ray origin ``p + eps n`` (n normalized, eps defaulting
+* **Visibility.** Section 3 of docs/design.md: ray origin ``p + eps n`` (n normalized, eps defaulting
   to ``scene.epsilon``), unit direction toward the sample and ``maxt = |y_s - origin| (1 - 1e-6)``
   so the segment stops just short of the sample, and v = 0 for samples with
   ``dot(y_s - p, n) <= 0`` (those rays are not traced). Textured lights weight their samples by
@@ -325,7 +325,7 @@ def _sensor_dict(mi, camera: Camera, spp: int) -> dict:
 
 def mitsuba_visibility(scene: Scene, light, receivers, samples, *, epsilon: float | None = None,
                        cache: bool = True, progress: bool = True) -> np.ndarray:
-    """Visibility of light samples by Mitsuba's own ray queries (DESIGN.md section 3).
+    """Visibility of light samples by Mitsuba's own ray queries (docs/design.md section 3).
 
     V(p) is the mean over samples y_s of v(p, y_s): 1 when the open segment from
     ``p + epsilon n`` to ``y_s`` hits no opaque surface (alpha-tested on perforated meshes)

@@ -1,4 +1,4 @@
-"""Scenes: triangle meshes, optionally perforated by a binary alpha texture (DESIGN.md section 2)."""
+"""Scenes: triangle meshes, optionally perforated by a binary alpha texture (docs/design.md section 2)."""
 
 from __future__ import annotations
 
@@ -161,7 +161,7 @@ class Scene:
     def epsilon(self) -> float:
         """The default shadow-ray offset along the receiver normal: 1e-4 x the bounds' diagonal.
 
-        ``ray_traced`` and the Mitsuba reference use the same value (DESIGN.md section 3).
+        ``ray_traced`` and the Mitsuba reference use the same value (docs/design.md section 3).
         """
         lo, hi = self.bounds.astype(np.float64)
         return float(1e-4 * np.linalg.norm(hi - lo))

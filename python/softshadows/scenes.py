@@ -5,7 +5,7 @@ a camera that frames the occluders *and* their shadows (umbra and penumbra) on t
 that ``gbuffer(setup.scene, setup.camera)`` sees the penumbrae. ``SCENES`` maps a name to its
 factory, and ``get(name, **options)`` calls it (the CLI and the evaluation suite use these).
 
-Conventions chosen here (DESIGN.md is silent on them):
+Conventions chosen here (docs/design.md is silent on them):
 
 * World units are metres-like: occluders are about 1 unit across and float about 0.5 unit above
   the ground. y is up. The ground is always ``scene.meshes[0]`` (named ``"ground"``): one square
@@ -37,7 +37,7 @@ Conventions chosen here (DESIGN.md is silent on them):
   the occluders' vertices and their shadow on the ground, including the penumbra cast from the
   light's extreme points, fit centred in the central 90% of the image. Its up vector is +y.
 * Perforated meshes use binary alpha textures (values 0 and 1, float32) and per-vertex uvs
-  following DESIGN.md section 2 (``alpha[i, j]`` covers u in [j/W, (j+1)/W), v in [i/H, (i+1)/H);
+  following docs/design.md section 2 (``alpha[i, j]`` covers u in [j/W, (j+1)/W), v in [i/H, (i+1)/H);
   uvs repeat).
 * Everything is deterministic: random scenes use ``numpy.random.default_rng(seed)`` only.
 
@@ -86,7 +86,7 @@ LIGHT_KINDS = ("rect", "disk", "sphere", "ellipsoid", "point")
 MODELS = {"bunny": "bunny.obj", "bone": "bone.ply", "cow": "cow.obj"}
 
 # Default gap under each model: the bone lies flat (0.18 of its length high), so resting on the
-# ground it would cast almost no visible penumbra; it floats like seed 002's bone instead.
+# ground it would cast almost no visible penumbra; it floats like Annen et al. 2008's bone instead.
 _MODEL_ELEVATION = {"bunny": 0.0, "bone": 0.3, "cow": 0.0}
 
 
@@ -165,10 +165,11 @@ def ground_sphere(
 ) -> Setup:
     """A sphere floating over the ground: the simplest soft-shadow case.
 
-    The canonical sphere-over-a-plane configuration (not a figure of the seeds): a smooth convex
+    The canonical sphere-over-a-plane configuration (not a figure of the papers): a smooth convex
     caster whose penumbra widens linearly with the light's size and the gap to the ground, the
-    quantities the papers vary in their light-size experiments (seed 000, Fig. 12; seed 004,
-    Fig. 8).
+    quantities the papers vary in their light-size experiments (Sintorn et
+    al. 2008, Sample Based Visibility for Soft Shadows, Fig. 12; Marrs et al. 2018,
+    View-warped Multi-view Soft Shadows, Fig. 8).
 
     Parameters
     ----------
@@ -284,8 +285,9 @@ def columns(
 ) -> Setup:
     """A row of closed columns standing on the ground.
 
-    Mirrors the "columns" test scene of seed 000 (Sintorn et al. 2008, Section 5: "columns of 840
-    triangles"); the default (5 cylinders of 42 segments) has exactly 840 triangles. Shadows of
+    Mirrors the "columns" test scene of Sintorn et al. 2008, Sample Based Visibility for
+    Soft Shadows (Section 5: "columns of 840 triangles"); the default (5 cylinders of 42
+    segments) has exactly 840 triangles. Shadows of
     neighbouring columns overlap, and each shadow runs from hard at the column's foot to wide
     penumbra at its top.
 
@@ -336,7 +338,7 @@ def columns(
         "columns",
         [mesh],
         f"{n} {kind} columns ({len(faces)} triangles), {column_height:g} high, standing on the ground "
-        "(seed 000, Section 5).",
+        "(Sintorn et al. 2008, Section 5).",
         light=light, light_size=light_size, light_position=light_position, light_distance=light_distance,
         light_dir=(-150.0, 55.0), camera_dir=(20.0, 38.0),
         width=width, height=height, fov_y=fov_y, ground_size=ground_size,
@@ -363,8 +365,9 @@ def torus_knot(
 ) -> Setup:
     """A (p, q) torus knot lying flat over the ground, of chosen tessellation.
 
-    Mirrors seed 000's "torus-knot of varying tessellation degrees" (Sintorn et al. 2008,
-    Fig. 11: 1.2k, 12k and 24k triangles; Fig. 12: 6k triangles). The default,
+    Mirrors the "torus-knot of varying tessellation degrees" of Sintorn et al. 2008, Sample
+    Based Visibility for Soft Shadows (Fig. 11: 1.2k, 12k and 24k triangles; Fig. 12: 6k
+    triangles). The default,
     192 x 16 segments, has 6144 triangles.
 
     Parameters
@@ -423,7 +426,7 @@ def torus_knot(
         "torus_knot",
         [mesh],
         f"({p}, {q}) torus knot, {tube_segments} x {radial_segments} segments ({len(faces)} triangles), "
-        "floating over the ground (seed 000, Figs. 11-12).",
+        "floating over the ground (Sintorn et al. 2008, Figs. 11-12).",
         light=light, light_size=light_size, light_position=light_position, light_distance=light_distance,
         light_dir=(-50.0, 65.0), camera_dir=(20.0, 45.0),
         width=width, height=height, fov_y=fov_y, ground_size=ground_size,
@@ -448,10 +451,11 @@ def fence(
     fov_y: float = 40.0,
     ground_size: float | None = None,
 ) -> Setup:
-    """A fence of perforated (alpha-textured) vertical quads: seed 001's S-triangles.
+    """A fence of perforated (alpha-textured) vertical quads: the S-triangles of Forest et al. 2009.
 
-    Mirrors the fences of seed 001 (Forest et al. 2009, Fig. 1, Fig. 4 and Fig. 11a: "a fence
-    represented by 2 perforated triangles"). Each panel is one quad (2 triangles) whose uvs run
+    Mirrors the fences of Forest et al. 2009, Soft Textured Shadow Volume (Fig. 1, Fig. 4 and
+    Fig. 11a: "a fence represented by 2 perforated triangles"). Each panel is one quad (2
+    triangles) whose uvs run
     over [0, ku] x [0, kv], repeating a binary tile from :func:`fence_texture` ku x kv times.
     Panels stand one behind the other, staggered along x, so that their shadows overlap (the
     occluder-fusion case where summed visibility coefficients fail). :func:`fence_mesh` builds
@@ -490,7 +494,7 @@ def fence(
         "fence",
         meshes,
         f"{len(meshes)} perforated fence panels ({pattern}, {tile.shape[1]}x{tile.shape[0]} tile repeated "
-        f"{reps[0]}x{reps[1]}; {2 * len(meshes)} triangles) (seed 001, Figs. 1, 4, 11a).",
+        f"{reps[0]}x{reps[1]}; {2 * len(meshes)} triangles) (Forest et al. 2009, Figs. 1, 4, 11a).",
         light=light, light_size=light_size, light_position=light_position, light_distance=light_distance,
         light_dir=(195.0, 50.0), camera_dir=(15.0, 45.0),
         width=width, height=height, fov_y=fov_y, ground_size=ground_size,
@@ -517,7 +521,8 @@ def fence_mesh(
 ) -> Setup:
     """The fence of :func:`fence` modelled as explicit opaque geometry.
 
-    Mirrors seed 001, Fig. 11b ("the fence represented by its corresponding mesh") and the
+    Mirrors Forest et al. 2009, Soft Textured Shadow Volume, Fig. 11b ("the fence represented
+    by its corresponding mesh") and the
     ray-traced mesh reference of Fig. 4c. The opaque texels of each panel are merged greedily
     into texel-aligned rectangles (runs along u, then identical runs stacked along v), each two
     triangles lying in the panel's plane, so the mesh covers exactly the opaque texels'
@@ -548,7 +553,7 @@ def fence_mesh(
         "fence_mesh",
         meshes,
         f"{len(meshes)} fence panels ({pattern}) as explicit opaque geometry ({n_tri} triangles) "
-        "(seed 001, Fig. 11b).",
+        "(Forest et al. 2009, Fig. 11b).",
         frame_by=quads,
         light=light, light_size=light_size, light_position=light_position, light_distance=light_distance,
         light_dir=(195.0, 50.0), camera_dir=(15.0, 45.0),
@@ -577,9 +582,11 @@ def leaves(
 ) -> Setup:
     """A tree: a crown of many randomly oriented, alpha-textured leaf quads over a trunk.
 
-    Mirrors the foliage of seed 001 (Forest et al. 2009, the "Greece" scene of Figs. 7c and 10:
-    "26,150 S-triangles (two per leaf)") and the leaves of seed 000 and seed 003 (Fig. 10, palm
-    tree). Leaves are uniformly distributed in an ellipsoidal crown, with uniformly random
+    Mirrors the foliage of Forest et al. 2009, Soft Textured Shadow Volume (the "Greece"
+    scene of Figs. 7c and 10: "26,150 S-triangles (two per leaf)") and the leaves of Sintorn et
+    al. 2008, Sample Based Visibility for Soft Shadows, and of Schwarz and Stamminger 2008,
+    Quality Scalability of Soft Shadow Mapping (Fig. 10, palm tree). Leaves are uniformly
+    distributed in an ellipsoidal crown, with uniformly random
     normals and in-plane rotations; every leaf is one quad (2 triangles) with uvs over [0, 1]^2
     showing the mask of :func:`leaf_texture`.
 
@@ -650,7 +657,7 @@ def leaves(
         "leaves",
         [trunk, leaf_mesh],
         f"Tree: {n} perforated leaf quads ({2 * n} triangles) in a crown over a trunk ({len(tf)} triangles) "
-        "(seed 001, Greece scene).",
+        "(Forest et al. 2009, Greece scene).",
         light=light, light_size=light_size, light_position=light_position, light_distance=light_distance,
         light_dir=(-50.0, 65.0), camera_dir=(20.0, 35.0),
         width=width, height=height, fov_y=fov_y, ground_size=ground_size,
@@ -678,8 +685,10 @@ def hairball(
 ) -> Setup:
     """A ball of many thin random tubes: high depth complexity, a hard case for shadow maps.
 
-    Mirrors seed 000's hairball (Sintorn et al. 2008, Section 5: a hairball of 44k triangles) and
-    the thin geometry of seed 004 (Fig. 10: thin occluders fall between depth-map texels). Each
+    Mirrors the hairball of Sintorn et al. 2008, Sample Based Visibility for Soft Shadows
+    (Section 5: a hairball of 44k triangles) and the thin geometry of Marrs et al. 2018,
+    View-warped Multi-view Soft Shadows (Fig. 10: thin occluders fall between depth-map
+    texels). Each
     strand is a smooth random walk inside the ball (reflected at its surface), swept as a closed
     tube of ``sides`` sides with flat end caps; strands intersect each other freely (the union of
     closed tubes is still a valid closed caster for back-face-only shadow casting).
@@ -693,7 +702,7 @@ def hairball(
     sides : int
         Sides of each tube's cross-section (>= 3). The mesh has
         ``strands * (2 * sides * segments + 2 * (sides - 2))`` triangles: 20,000 by default
-        (400 x 50); ``strands=880`` gives seed 000's 44k.
+        (400 x 50); ``strands=880`` gives Sintorn et al.'s 44k.
     seed : int
         Random seed; the same seed gives identical arrays.
     radius : float
@@ -758,7 +767,7 @@ def hairball(
         "hairball",
         [mesh],
         f"Hairball: {strands} random tubes of {segments} segments and {sides} sides ({len(faces)} triangles) "
-        "in a ball (seed 000, Section 5).",
+        "in a ball (Sintorn et al. 2008, Section 5).",
         light=light, light_size=light_size, light_position=light_position, light_distance=light_distance,
         light_dir=(-50.0, 65.0), camera_dir=(20.0, 40.0),
         width=width, height=height, fov_y=fov_y, ground_size=ground_size,
@@ -781,7 +790,7 @@ def sword(
     fov_y: float = 40.0,
     ground_size: float | None = None,
 ) -> Setup:
-    """A thin sword held tip down over the ground: seed 004's thin-occluder case (Figure 10).
+    """A thin sword held tip down over the ground: the thin-occluder case of Marrs et al. 2018 (Figure 10).
 
     The blade is only a few shadow-map texels wide and rises from its tip near the ground to the
     hilt. A blocker search sized for the nearest occluder (PCSS) spreads its taps wide under the
@@ -826,7 +835,7 @@ def sword(
         "sword",
         [mesh],
         f"A sword, blade {length:g} long and {w:g} wide, tip {tip:g} over the ground, tilted {tilt:g} degrees "
-        "(seed 004, Figure 10).",
+        "(Marrs et al. 2018, Figure 10).",
         light=light, light_size=light_size, light_position=light_position, light_distance=light_distance,
         light_dir=(-120.0, 60.0), camera_dir=(20.0, 45.0),
         width=width, height=height, fov_y=fov_y, ground_size=ground_size,
@@ -851,11 +860,12 @@ def load_model(
     """A real scanned mesh on the ground, read from pymeshlab's sample meshes.
 
     The meshes stand in for the papers' models: the Stanford bunny (``bunny.obj``, 56,172
-    triangles, watertight) for the single detailed closed caster of seeds 000, 002 and 004; a
+    triangles, watertight) for the single detailed closed caster of Sintorn et al. 2008, Annen
+    et al. 2008 and Marrs et al. 2018; a
     bone (``bone.ply``, 3,022 triangles, watertight after merging duplicate vertices) for
-    seed 002's "foot bone model" (Fig. 9); a cow (``cow.obj``, 5,804 triangles, watertight) for
-    an animal-like character with thin legs (seed 003's dinosaur, Fig. 10; seed 004's
-    characters, Figs. 8-10). The
+    Annen et al.'s "foot bone model" (Fig. 9); a cow (``cow.obj``, 5,804 triangles, watertight) for
+    an animal-like character with thin legs (Schwarz and Stamminger's dinosaur, Fig. 10; Marrs et
+    al.'s characters, Figs. 8-10). The
     files are located with ``importlib.util.find_spec("pymeshlab")`` (pymeshlab itself is not
     imported) and loaded with trimesh, which merges duplicate vertices.
 

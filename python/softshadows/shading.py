@@ -1,4 +1,4 @@
-"""Factored direct lighting: unshadowed irradiance times visibility (DESIGN.md section 3).
+"""Factored direct lighting: unshadowed irradiance times visibility (docs/design.md section 3).
 
 ``direct`` shades Lambertian receivers as ``albedo / pi * E(p) * V(p)``, where ``E`` is the
 irradiance the light would deliver without occluders and ``V`` the visibility a method computed.
@@ -35,7 +35,7 @@ Irradiance formulas
   optically thick ball looks like, and what Mitsuba's emitting ``sphere`` renders). A receiver
   inside the sphere gets ``pi L``.
 * **Ellipsoid**: seen from outside, an ellipsoid's silhouette is a planar ellipse (the image of
-  the unit sphere's silhouette circle under the axes, the virtual scaling of seed 000): the rect
+  the unit sphere's silhouette circle under the axes, the virtual scaling of Sintorn et al. 2008): the rect
   formula on an area-matched :data:`DISK_EDGES`-gon of that ellipse, as for a disk. ``pi L``
   inside.
 * **Point**: ``I max(0, cos theta) / r^2``.
@@ -61,7 +61,8 @@ def direct(gbuffer, light, visibility, albedo=0.8, *, intensity: float = 1.0, be
            scene=None) -> np.ndarray:
     """Outgoing radiance of Lambertian receivers under ``light``, factored as ``albedo/pi * E * V``.
 
-    With ``bent_normals=True`` the shading follows seed 000's smooth coherent model (section 4.3):
+    With ``bent_normals=True`` the shading follows the smooth coherent model of
+    Sintorn et al. 2008, Sample Based Visibility for Soft Shadows, section 4.3:
     each vertex gets the smallest ``max(0, n_f . l)`` over its adjacent faces ``f`` (``l`` from the
     vertex towards the light's center); each corner of the receiver's face keeps that value over
     the face's own cosine there, and ``E`` is scaled by the barycentric blend of the three. Light
@@ -118,7 +119,7 @@ def direct(gbuffer, light, visibility, albedo=0.8, *, intensity: float = 1.0, be
 
 def _bent_ratio(gbuffer, scene, light, points, normals, mask) -> np.ndarray:
     """Per receiver, the barycentric blend over its face's corners of the smallest adjacent-face
-    cosine at the corner over the face's own cosine there (seed 000, section 4.3)."""
+    cosine at the corner over the face's own cosine there (Sintorn et al. 2008, section 4.3)."""
     from .camera import GBuffer
     from .scene import Scene
 

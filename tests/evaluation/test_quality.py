@@ -40,8 +40,8 @@ def test_quality_bar(row):
 
 @pytest.mark.parametrize("scene", ["columns", "fence"])
 def test_exact_methods_match_the_oracle(scene):
-    # Seeds 000 and 001: alias-free bitmasks (exact mode), DCS and STSV compute the sampled
-    # visibility itself, so on the same samples their error is the oracle's.
+    # Sintorn et al. 2008 and Forest et al. 2009: alias-free bitmasks (exact mode), DCS and STSV
+    # compute the sampled visibility itself, so on the same samples their error is the oracle's.
     frame = measured(scene, "rect", 64)
     for method in ("stsv", "dcs"):
         if isinstance(frame.loc[method, "error"], str):

@@ -1,6 +1,6 @@
 //! softshadows-core: the algorithms of softshadows, free of Python.
 //!
-//! Layout (DESIGN.md section 1): [`geometry`] (meshes, BVH, cameras, G-buffers), [`light`]
+//! Layout (`docs/design.md` section 1): [`geometry`] (meshes, BVH, cameras, G-buffers), [`light`]
 //! (light shapes and sample patterns), [`raster`] (light frusta, depth rasterization, pyramids),
 //! [`methods`] (one module per soft-shadow method), [`gpu`] (the wgpu backend, feature `gpu`).
 //! Every fallible call returns [`Result`].

@@ -1,4 +1,4 @@
-//! A pinhole camera for G-buffers (DESIGN.md section 2).
+//! A pinhole camera for G-buffers (`docs/design.md` section 2).
 //!
 //! Conventions: a right-handed frame `right = forward x up`; pixel `(x, y)` has its center at the
 //! continuous coordinates `(x + 0.5, y + 0.5)`; `y` grows downward, so image row 0 is the top of

@@ -1,4 +1,4 @@
-//! G-buffers by ray casting: one primary ray through each pixel center (DESIGN.md section 2).
+//! G-buffers by ray casting: one primary ray through each pixel center (`docs/design.md` section 2).
 //!
 //! Choices: positions are interpolated from the hit triangle's vertices with the hit's
 //! barycentrics (they lie on the surface to within rounding, which keeps the receivers' normal

@@ -1,4 +1,4 @@
-//! Triangle meshes, binary alpha textures and the scene (DESIGN.md section 2).
+//! Triangle meshes, binary alpha textures and the scene (`docs/design.md` section 2).
 //!
 //! A mesh with uvs and an alpha texture is *perforated*: a texel with alpha >= 0.5 is opaque.
 //! `alpha[i, j]` covers u in [j/W, (j+1)/W) and v in [i/H, (i+1)/H); uvs wrap and lookups take the

@@ -1,4 +1,5 @@
-// Convolution soft shadow maps on the GPU (methods/cssm.rs, seed 002): the basis images, their
+// Convolution soft shadow maps on the GPU (methods/cssm.rs; Annen et al. 2008,
+// All-Frequency Shadows in Dynamic Scenes): the basis images, their
 // summed-area table (prefix sums along rows, then columns) and the two-stage lookup of Figure 2.
 //
 // The basis images come in groups of coefficients, each group's table in its own buffer, so a

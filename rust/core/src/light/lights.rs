@@ -1,4 +1,4 @@
-//! Light shapes (DESIGN.md section 2): point, rectangle, disk, volumetric sphere and volumetric
+//! Light shapes (`docs/design.md` section 2): point, rectangle, disk, volumetric sphere and volumetric
 //! ellipsoid, with an optional emission texture on rectangles and disks (textured lights weight
 //! their samples).
 //!
@@ -54,10 +54,11 @@ pub enum Shape {
     /// `u`, `v`: half-extent vectors; the light faces `normalize(u x v)`.
     Rect { center: Vec3, u: Vec3, v: Vec3 },
     Disk { center: Vec3, normal: Vec3, radius: f32 },
-    /// Emits from its whole volume (seed 000).
+    /// Emits from its whole volume (Sintorn et al. 2008, Sample Based Visibility for Soft Shadows).
     Sphere { center: Vec3, radius: f32 },
     /// Emits from its whole volume: the points `center + axes x` with `|x| <= 1`; the columns
-    /// of `axes` are the three mutually orthogonal semi-axes (seed 000 section 4.1).
+    /// of `axes` are the three mutually orthogonal semi-axes
+    /// (Sintorn et al. 2008, Sample Based Visibility for Soft Shadows, section 4.1).
     Ellipsoid { center: Vec3, axes: Mat3 },
 }
 

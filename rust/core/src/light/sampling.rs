@@ -1,14 +1,15 @@
-//! Light-sample patterns (DESIGN.md section 2) and the per-receiver sample sets every
+//! Light-sample patterns (`docs/design.md` section 2) and the per-receiver sample sets every
 //! sample-based method draws from.
 //!
 //! Patterns live in the light's unit parameter cube ([`crate::light::lights::Light::map`]):
 //! - `uniform`: independent uniform points;
 //! - `stratified`: a jittered grid when `n` is a perfect square (cube for spheres), else
 //!   Latin-hypercube (n-rooks) sampling;
-//! - `poisson`: Poisson-disk dart throwing with the minimum distances seed 001 section 4.1 fixes
-//!   experimentally for 16 and 64 samples on the unit square (0.2456139, 0.1076681), and for other
-//!   counts `c / sqrt(n)` with `c` interpolated in log n between those two (`n^(-1/3)` scaled alike
-//!   for spheres); when darts run out the radius shrinks by 1% and throwing resumes;
+//! - `poisson`: Poisson-disk dart throwing with the minimum distances that Forest et al. 2009
+//!   (section 4.1) fix experimentally for 16 and 64 samples on the unit square (0.2456139,
+//!   0.1076681), and for other counts `c / sqrt(n)` with `c` interpolated in log n between those
+//!   two (`n^(-1/3)` scaled alike for spheres); when darts run out the radius shrinks by 1% and
+//!   throwing resumes;
 //! - `sobol`: the (0,2)-sequence (Sobol dimensions 1-2, plus 3 for spheres) with a random digital
 //!   shift by the seed, which keeps every power-of-two prefix a (0,m,2)-net;
 //! - `halton`: radical inverses in bases 2, 3, 5 with a Cranley-Patterson shift by the seed.

@@ -1,5 +1,5 @@
 //! `alias_free`: sample-based visibility with alias-free shadow maps (Sintorn, Eisemann and
-//! Assarsson 2008, seed 000).
+//! Assarsson 2008, Sample Based Visibility for Soft Shadows using Alias-free Shadow Maps).
 //!
 //! The receivers (the paper's *view samples*) are stored in the light's shadow map instead of
 //! depths, so every receiver is tested exactly, whatever the map's resolution:
@@ -41,7 +41,7 @@
 //!    A view sample whose mask is full skips the remaining tests. With per-receiver rotation of the
 //!    samples (disk and sphere lights) a view sample's planes are rotated the other way instead, so
 //!    the one table serves every rotation (the paper's rotated lookups for symmetric lights). Samples behind the receiver's
-//!    tangent plane start blocked (DESIGN.md section 3), and a perforated caster's blocked samples
+//!    tangent plane start blocked (`docs/design.md` section 3), and a perforated caster's blocked samples
 //!    are kept only where the segment meets an opaque texel.
 //!
 //! 7. **Penumbra restriction** (section 4.3, `restrict_to_penumbra`): occlusion seen from a
@@ -768,7 +768,7 @@ fn mark_too_near_for_the_table(view: &mut [ViewSample], center: DVec3, radius: f
 }
 
 /// The initial bitmask of every list entry: the samples behind its view sample's tangent plane
-/// are blocked (DESIGN.md section 3).
+/// are blocked (`docs/design.md` section 3).
 fn initial_masks(lists: &ReceiverLists, view: &[ViewSample], samples: &LightSamples, center: DVec3) -> Vec<u64> {
     let words = samples.words;
     let mut masks = vec![0u64; lists.entries.len() * words];

@@ -377,7 +377,7 @@ impl LightPlane {
     }
 
     /// The samples behind the tangent plane of receiver `(p, n)` as set bits (they are blocked,
-    /// DESIGN.md section 3), and the fraction in front.
+    /// `docs/design.md` section 3), and the fraction in front.
     fn behind(&self, p: DVec3, n: DVec3) -> (Vec<u64>, f64) {
         let mut bits = vec![0u64; self.samples.len().div_ceil(64)];
         let mut front = 0usize;

@@ -1,5 +1,6 @@
 //! `cssm`: convolution soft shadow maps (Annen, Dong, Mertens, Bekaert, Seidel and Kautz 2008,
-//! seed 002), built on convolution shadow maps (Annen et al. 2007).
+//! Real-time, All-Frequency Shadows in Dynamic Scenes), built on convolution shadow maps (Annen et
+//! al. 2007).
 //!
 //! One depth map is rendered from the light's center. Its linear depths are normalized to
 //! `ẑ ∈ [0, 1]` over the depth range of the map's occluders and the receivers (empty texels read as

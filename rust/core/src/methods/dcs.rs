@@ -1,7 +1,7 @@
 //! `dcs`: depth complexity sampling (Forest, Barthe and Paulin 2008), the exact object-based
-//! framework of seed 001 (section 3.2) for opaque meshes.
+//! framework of Forest et al. 2009, Soft Textured Shadow Volume (section 3.2), for opaque meshes.
 //!
-//! For each receiver, with shadow-ray origin `p' = p + epsilon n` (DESIGN.md section 3), DCS
+//! For each receiver, with shadow-ray origin `p' = p + epsilon n` (`docs/design.md` section 3), DCS
 //! counts the faces between `p'` and every light sample, its *depth complexity*; a sample is
 //! visible when its count is 0 (and it lies in front of the receiver's tangent plane):
 //!

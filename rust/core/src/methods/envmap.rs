@@ -1,6 +1,6 @@
 //! `envmap`: the greedy decomposition of an environment map into square area lights (Annen et
-//! al. 2008, seed 002 section 4.2), so that any single-light soft-shadow method can light a scene
-//! by an environment.
+//! al. 2008, All-Frequency Shadows in Dynamic Scenes, section 4.2), so that any single-light
+//! soft-shadow method can light a scene by an environment.
 //!
 //! The map is a cube map of six `N × N` faces; each texel's *energy* is its radiance (RGB) times
 //! its solid angle, and the greedy choices use the luminance `0.2126 R + 0.7152 G + 0.0722 B` of

@@ -1,4 +1,5 @@
-//! `mvr`: multi-view rasterization, the reference family of seed 004 (section 2.1; Herf and
+//! `mvr`: multi-view rasterization, the reference family of Marrs et al. 2018,
+//! View-warped Multi-view Soft Shadows (section 2.1; Herf and
 //! Heckbert 1996). One perspective depth map per light sample, every triangle rasterized into
 //! each (standard rasterization, perforated meshes alpha-tested), then per receiver the PCF shadow
 //! test on every map and their weighted average ([`crate::raster::multiview`]). With 512 views it
@@ -25,7 +26,7 @@ use crate::stats::Stats;
 /// Options shared by [`mvr`] and `vwss`'s lighting stage.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MultiViewOptions {
-    /// Side of every light-sample depth map in texels (default 1024, seed 004 section 4).
+    /// Side of every light-sample depth map in texels (default 1024, Marrs et al. 2018, section 4).
     pub resolution: usize,
     /// PCF taps per depth map: 1, 5 (the paper's, default) or an odd square (9, 25, ...).
     pub pcf: usize,

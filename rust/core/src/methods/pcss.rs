@@ -21,7 +21,8 @@
 //! the receiver's tangent plane at that tap ([`ReceiverDepth`]), unless a constant `bias` is given. A receiver facing away from the light's center gets 0,
 //! as in `shadow_map`.
 //!
-//! Its known failures, which seed 004 shows in Figure 10, are reproduced on purpose: thin
+//! Its known failures, which Marrs et al. 2018, View-warped Multi-view Soft Shadows shows in
+//! Figure 10, are reproduced on purpose: thin
 //! occluders that fall between the search taps are missed, and a single average blocker depth
 //! cannot represent occluders at very different depths (occluder fusion).
 
@@ -45,7 +46,7 @@ pub const MAX_TAPS: usize = 4096;
 /// Options of [`pcss`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PcssOptions {
-    /// Depth-map side in texels (default 1024, seed 004 section 4).
+    /// Depth-map side in texels (default 1024, Marrs et al. 2018, section 4).
     pub resolution: usize,
     /// Poisson taps of the blocker search (default 64).
     pub blocker_samples: usize,

@@ -1,5 +1,6 @@
 //! `penumbra_wedge`: soft shadow volumes with penumbra wedges (Assarsson and Akenine-Möller 2003),
-//! the approximate object-based framework of seed 001 (section 3.1), for opaque meshes.
+//! the approximate object-based framework of Forest et al. 2009, Soft Textured Shadow Volume
+//! (section 3.1), for opaque meshes.
 //!
 //! The visibility coefficient of a receiver (shadow-ray origin `p' = p + epsilon n`) starts from
 //! the hard shadow of the light's center `y0` (its shadow volume; here the segment `p' → y0`
@@ -14,7 +15,7 @@
 //!
 //! The approximations are the method's: silhouettes are found from the center only, and the
 //! coverages of different silhouette edges add up, so overlapping occluders are counted twice
-//! and their penumbrae come out too dark (seed 001, section 3.1 and Figure 4a). `dcs` counts per
+//! and their penumbrae come out too dark (Forest et al. 2009, section 3.1 and Figure 4a). `dcs` counts per
 //! sample instead and is exact.
 
 use crate::error::Result;

@@ -1,4 +1,4 @@
-//! The ray-traced oracle (DESIGN.md section 3).
+//! The ray-traced oracle (`docs/design.md` section 3).
 //!
 //! V(p) = sum_s w_s v(p, y_s) / sum_s w_s over the receiver's light samples (the weights are the
 //! emission-texture values, all 1 for untextured lights; a zero weight sum gives 0). v = 1 when

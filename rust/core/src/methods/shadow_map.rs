@@ -1,6 +1,7 @@
 //! `shadow_map`: hard shadows from one point by a classic depth map (Williams 1978), with depth
-//! bias and percentage-closer filtering (Reeves et al. 1987): the aliasing baseline of seeds 000
-//! and 004.
+//! bias and percentage-closer filtering (Reeves et al. 1987): the aliasing baseline of Sintorn et
+//! al. 2008 (Sample Based Visibility for Soft Shadows) and Marrs et al. 2018 (View-warped
+//! Multi-view Soft Shadows).
 //!
 //! The shadow-casting point is the frustum's eye: a point light's position, or the center of an
 //! area or sphere light (so an area light gets the hard shadow of its center). Unless an explicit
@@ -10,7 +11,7 @@
 //! compared with `pcf × pcf` texels around its own:
 //!
 //! - a receiver facing away from the eye (`n · (eye − p) <= 0`) gets 0, as for a point light in
-//!   the ray-traced definition (DESIGN.md section 3); an invalid receiver (no hit) gets 0;
+//!   the ray-traced definition (`docs/design.md` section 3); an invalid receiver (no hit) gets 0;
 //! - a receiver nearer than the near plane, or projecting outside the map (possible only with an
 //!   explicit frustum), gets 1 (lit): the map says nothing about it;
 //! - otherwise the fraction of taps with `receiver_depth − bias <= stored_depth` (taps outside the

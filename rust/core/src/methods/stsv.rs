@@ -1,4 +1,5 @@
-//! `stsv`: soft textured shadow volumes (Forest, Barthe, Guennebaud and Paulin 2009, seed 001)
+//! `stsv`: soft textured shadow volumes (Forest, Barthe, Guennebaud and Paulin 2009,
+//! Soft Textured Shadow Volume)
 //! for perforated triangles, combined with an object-based method for the opaque meshes.
 //!
 //! For each perforated triangle `t` and each receiver inside its volume, every light sample is
@@ -31,7 +32,7 @@
 //! `Opaque::Bitmask` (`alias_free`'s exact bitmasks, OR-ed with the STSV masks), `Opaque::Dcs`
 //! (each blocked sample adds one to its depth complexity) or `Opaque::PenumbraWedge` (the
 //! STSV's occluded fraction is added to the wedges' visibility coefficient: approximate, the
-//! overlaps of opaque and perforated occluders count twice, seed 001 Figure 4a).
+//! overlaps of opaque and perforated occluders count twice, Forest et al. 2009, Figure 4a).
 
 use crate::error::{Error, Result};
 use crate::geometry::bvh::Bvh;
@@ -49,7 +50,7 @@ use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// How the opaque meshes cast (seed 001 section 3 and Algorithm 2).
+/// How the opaque meshes cast (Forest et al. 2009, section 3 and Algorithm 2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Opaque {
     /// `alias_free`'s exact sample bitmasks, OR-ed with the STSV masks.

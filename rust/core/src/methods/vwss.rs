@@ -1,4 +1,5 @@
-//! `vwss`: view-warped multi-view soft shadows (Marrs, Watson and Healey 2018, seed 004).
+//! `vwss`: view-warped multi-view soft shadows (Marrs, Watson and Healey 2018, View-warped
+//! Multi-view Soft Shadows for Local Area Lights).
 //!
 //! The depth maps of [`mvr`](crate::methods::mvr) are made without rasterizing the scene once
 //! per light sample: the occluders are rasterized once into a multi-view point cloud, and the

@@ -439,7 +439,7 @@ pub enum FaceFilter {
     /// Only triangles facing away from the eye.
     BackFacing,
     /// Back-facing triangles of meshes flagged `closed`, every triangle of the other meshes (a
-    /// closed caster's back faces suffice and need no depth bias, seed 000).
+    /// closed caster's back faces suffice and need no depth bias, Sintorn et al. 2008).
     BackFacingIfClosed,
     /// Front-facing triangles of meshes flagged `closed`, every triangle of the other meshes
     /// (back-face culling that keeps open, one-sided meshes such as quads and planes).

@@ -7,7 +7,8 @@
 //! extent `k · h · (z_r − z) / (z_r · z)` texels around the receiver's own texel, with
 //! `k = width / (2 tan_half_x)` texels per unit of `x/z` (likewise for `y`). This is Fernando's
 //! `LIGHT_SIZE_UV · (z_r − NEAR) / z_r` written for a perspective map, and at a blocker depth `z` it
-//! is the parallel-planes penumbra estimate mapped into the map (seed 002, Figure 2).
+//! is the parallel-planes penumbra estimate mapped into the map (Annen et al.
+//! 2008, All-Frequency Shadows in Dynamic Scenes, Figure 2).
 
 use crate::light::lights::Light;
 use crate::raster::depth::LightFrustum;

@@ -1,9 +1,9 @@
 //! Multi-view shadow mapping: one perspective depth map per light sample, and the per-receiver
 //! weighted average of their PCF shadow tests (Herf and Heckbert 1996; the lighting stage of
-//! seed 004's `mvr` and `vwss`).
+//! `mvr` and `vwss`, Marrs et al. 2018, View-warped Multi-view Soft Shadows).
 //!
 //! Every view of a [`ViewSet`] has its eye at one light sample and shares one orientation,
-//! field of view, depth range and resolution (seed 004 section 3.1: "the eye's fields of view
+//! field of view, depth range and resolution (Marrs et al. 2018, section 3.1: "the eye's fields of view
 //! match the respective fields of view of the target light sample's depth-map views"). The
 //! orientation is the one [`LightFrustum::fit`] picks from the light's center for the receivers'
 //! bounds; the square field of view is the smallest that holds the receivers' bounding box from
@@ -11,7 +11,7 @@
 //!
 //! Visibility is `V(p) = Σ_s w_s · PCF_s(p) / Σ_s w_s` with `w_s` the light's emission weight at
 //! sample `s` (1 without a texture). A view whose eye lies behind the receiver's tangent plane
-//! contributes 0, as in the ray-traced definition (DESIGN.md section 3).
+//! contributes 0, as in the ray-traced definition (`docs/design.md` section 3).
 
 use crate::error::{Error, Result};
 use crate::geometry::receivers::Receivers;

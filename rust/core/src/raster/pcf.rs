@@ -131,7 +131,7 @@ impl PcfKernel {
     }
 
     /// A kernel of `taps` taps in all: 1 (the texel itself), 5 (the texel and its four edge
-    /// neighbours: the 5-sample filter of seed 004's Tables 1–2) or the square of an odd side
+    /// neighbours: the 5-sample filter of Marrs et al. 2018, Tables 1–2) or the square of an odd side
     /// (9 = 3 × 3, 25 = 5 × 5, ...).
     pub fn with_taps(taps: usize) -> Result<Self> {
         if taps == 5 {

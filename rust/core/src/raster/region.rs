@@ -1,6 +1,7 @@
 //! Convex regions in texel space and their conservative coverage: the influence regions of
-//! seed 000's soft alias-free shadow maps (the union of a triangle's projections from every light
-//! point) are convex hulls of projected points, rasterized so that every texel they touch is
+//! the soft alias-free shadow maps of Sintorn et al. 2008, Sample Based Visibility for Soft
+//! Shadows (the union of a triangle's projections from every light point) are convex hulls of
+//! projected points, rasterized so that every texel they touch is
 //! visited.
 
 use glam::DVec2;
