@@ -190,3 +190,17 @@ def test_the_memory_limit_takes_exact_integers_and_no_bools():
             ss.set_memory_limit(2**64)
     finally:
         ss.set_memory_limit(None)
+
+
+def test_a_camera_built_directly_takes_any_array_like_and_checks_its_fields():
+    # Camera(...) passed its fields to the core as given: float64 arrays raised "type mismatch
+    # from=float64, to=float32" there, and a zero width was not refused by name.
+    direct = ss.Camera(np.float64([2.5, 2.5, 2.5]), [0, 0.3, 0], (0, 1, 0), 45, 16, 12)
+    looked = ss.Camera.look_at((2.5, 2.5, 2.5), (0, 0.3, 0), fov_y=45, width=16, height=12)
+    assert direct.eye.dtype == np.float32 and np.array_equal(direct.eye, looked.eye)
+    scene = ss.scenes.get("columns").scene
+    np.testing.assert_array_equal(ss.gbuffer(scene, direct).positions, ss.gbuffer(scene, looked).positions)
+    with pytest.raises(ValueError, match="^width:"):
+        ss.Camera(direct.eye, direct.target, direct.up, 45, 0, 12)
+    with pytest.raises(ValueError, match="^eye:"):
+        ss.Camera([0, np.nan, 0], direct.target, direct.up, 45, 16, 12)

@@ -32,6 +32,15 @@ class Camera:
     width: int
     height: int
 
+    def __post_init__(self):
+        # Built directly as well as through look_at: any array_like of 3 finite numbers (a
+        # float64 array raised a TypeError in the core's conversion) and checked sizes.
+        for name in ("eye", "target", "up"):
+            object.__setattr__(self, name, v.vec3(name, getattr(self, name)))
+        object.__setattr__(self, "fov_y", v.fov_y(self.fov_y))
+        object.__setattr__(self, "width", v.positive_int("width", self.width))
+        object.__setattr__(self, "height", v.positive_int("height", self.height))
+
     @classmethod
     def look_at(cls, eye, target, up=(0, 1, 0), fov_y: float = 45.0, width: int = 512, height: int = 512) -> "Camera":
         """A camera at ``eye`` looking at ``target``.
@@ -44,9 +53,6 @@ class Camera:
         width, height : int
             Resolution in pixels, >= 1.
         """
-        eye, target, up = v.vec3("eye", eye), v.vec3("target", target), v.vec3("up", up)
-        width, height = v.positive_int("width", width), v.positive_int("height", height)
-        fov_y = v.fov_y(fov_y)
         cam = cls(eye, target, up, fov_y, width, height)
         cam.native()  # validates eye != target and up not parallel to the view direction
         return cam
