@@ -226,7 +226,7 @@ def _read_until_closed(reader, deadline):
     return None
 
 
-@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs os.fork")
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="os.fork does not exist on this platform (Windows); the test forks a child after GPU calls, which only POSIX systems can do")
 def test_a_forked_child_builds_its_own_gpu_context_and_gets_the_parents_results(adapter):
     calls = _every_gpu_method()
     # The parent's context and every method's pipelines exist before the fork.

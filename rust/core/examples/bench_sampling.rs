@@ -7,33 +7,16 @@
 //! the quadratic loop takes minutes from about 10,000 on). `--fast-only n...` times the grid
 //! version alone, for counts the quadratic loop cannot reach.
 
-use softshadows_core::light::sampling::{poisson_radius, unit_pattern, Pattern, Rng};
+use softshadows_core::light::sampling::{poisson_testing_every_point, unit_pattern, Pattern, Rng};
 use std::process::ExitCode;
 use std::time::Instant;
 
 /// The stream `unit_pattern` draws its darts from.
 const DART_STREAM: u64 = 0x5A4D;
 
-/// Dart throwing as first written: every dart tested against every kept point.
+/// Dart throwing as first written, from the same dart stream as `unit_pattern`.
 fn quadratic_poisson(n: usize, dim: usize, seed: u64) -> Vec<[f32; 3]> {
-    let mut rng = Rng::stream(seed, DART_STREAM);
-    let mut radius = poisson_radius(n, dim);
-    let mut pts: Vec<[f32; 3]> = Vec::with_capacity(n);
-    let darts_per_radius = 2000 * n.max(1);
-    while pts.len() < n {
-        let r2 = radius * radius;
-        let mut darts = 0;
-        while pts.len() < n && darts < darts_per_radius {
-            darts += 1;
-            let mut c = [0.0f32; 3];
-            c.iter_mut().take(dim).for_each(|x| *x = rng.next_f32());
-            if pts.iter().all(|q| (0..dim).map(|d| (q[d] - c[d]).powi(2)).sum::<f32>() >= r2) {
-                pts.push(c);
-            }
-        }
-        radius *= 0.99;
-    }
-    pts
+    poisson_testing_every_point(n, dim, &mut Rng::stream(seed, DART_STREAM))
 }
 
 fn timed<T>(f: impl FnOnce() -> T) -> (f64, T) {

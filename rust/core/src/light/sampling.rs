@@ -443,6 +443,28 @@ impl<const D: usize> DartGrid<D> {
     }
 }
 
+/// [`poisson`]'s darts with every dart tested against every kept point, as dart throwing was
+/// first written here (quadratic in `n`): the reference the grid's points are checked against
+/// (bit for bit) and the peer of the sampling benchmark.
+pub fn poisson_testing_every_point(n: usize, dim: usize, rng: &mut Rng) -> Vec<[f32; 3]> {
+    let mut radius = poisson_radius(n, dim);
+    let mut pts: Vec<[f32; 3]> = Vec::with_capacity(n);
+    let darts_per_radius = 2000 * n.max(1);
+    while pts.len() < n {
+        let r2 = radius * radius;
+        let mut darts = 0;
+        while pts.len() < n && darts < darts_per_radius {
+            darts += 1;
+            let c = point(dim, |_| rng.next_f32());
+            if pts.iter().all(|q| (0..dim).map(|d| (q[d] - c[d]).powi(2)).sum::<f32>() >= r2) {
+                pts.push(c);
+            }
+        }
+        radius *= 0.99;
+    }
+    pts
+}
+
 /// The `i`-th component of Sobol dimension `d` (0: van der Corput, 1: x+1, 2: x^2+x+1) as a 32-bit fraction.
 fn sobol(i: u32, d: usize) -> u32 {
     let mut v = [0u32; 32];
@@ -703,27 +725,6 @@ mod tests {
         }
     }
 
-    /// Dart throwing as first written: every dart tested against every kept point.
-    fn poisson_reference(n: usize, dim: usize, rng: &mut Rng) -> Vec<[f32; 3]> {
-        let mut radius = poisson_radius(n, dim);
-        let mut pts: Vec<[f32; 3]> = Vec::with_capacity(n);
-        let darts_per_radius = 2000 * n.max(1);
-        while pts.len() < n {
-            let r2 = radius * radius;
-            let mut darts = 0;
-            while pts.len() < n && darts < darts_per_radius {
-                darts += 1;
-                let c = point(dim, |_| rng.next_f32());
-                let far = pts.iter().all(|q| (0..dim).map(|d| (q[d] - c[d]).powi(2)).sum::<f32>() >= r2);
-                if far {
-                    pts.push(c);
-                }
-            }
-            radius *= 0.99;
-        }
-        pts
-    }
-
     fn bits(pts: &[[f32; 3]]) -> Vec<[u32; 3]> {
         pts.iter().map(|p| p.map(f32::to_bits)).collect()
     }
@@ -738,7 +739,7 @@ mod tests {
                 for n in counts {
                     let (mut grid_rng, mut reference_rng) = (Rng::stream(seed, 0x5A4D), Rng::stream(seed, 0x5A4D));
                     let grid = poisson(n, dim, &mut grid_rng);
-                    let reference = poisson_reference(n, dim, &mut reference_rng);
+                    let reference = poisson_testing_every_point(n, dim, &mut reference_rng);
                     assert_eq!(grid.len(), n);
                     assert_eq!(bits(&grid), bits(&reference), "n {n}, dim {dim}, seed {seed}");
                     // The very same number of darts was drawn.

@@ -102,46 +102,33 @@ fn trace_all(
     if samples.is_shared() && !light.is_textured() {
         return trace_shared(scene, bvh, receivers, samples.pattern_for(0, 0), epsilon, out);
     }
+    // Each round's receivers `offset..offset + part.len()` trace their own samples.
     let mut rays = 0;
     interrupt::rounds(out, interrupt::round_len(CHUNK, samples.count() as u64 * Work::RAY), |offset, part| {
-        rays += trace_round(scene, bvh, light, receivers, samples, epsilon, offset, part);
+        rays += part
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .map_init(
+                || (Vec::with_capacity(samples.count()), Vec::with_capacity(samples.count()), Traced::default()),
+                |(ys, ws, traced), (c, chunk)| {
+                    let mut rays = 0;
+                    for (k, v) in chunk.iter_mut().enumerate() {
+                        let i = offset + c * CHUNK + k;
+                        if !receivers.valid[i] {
+                            continue;
+                        }
+                        let (p, n) = (receivers.points[i], receivers.normals[i]);
+                        samples.fill(light, i, receivers.pixel(i), ys, ws);
+                        let (vis, count) = receiver_visibility(scene, bvh, p, n, epsilon, ys, ws, traced);
+                        *v = vis;
+                        rays += count;
+                    }
+                    rays
+                },
+            )
+            .sum::<u64>();
     })?;
     Ok(rays)
-}
-
-/// [`trace_all`] for receivers `offset..offset + part.len()`, each tracing its own samples.
-#[allow(clippy::too_many_arguments)]
-fn trace_round(
-    scene: &Scene,
-    bvh: &Bvh,
-    light: &Light,
-    receivers: &Receivers,
-    samples: &SampleSet,
-    epsilon: f32,
-    offset: usize,
-    part: &mut [f32],
-) -> u64 {
-    part.par_chunks_mut(CHUNK)
-        .enumerate()
-        .map_init(
-            || (Vec::with_capacity(samples.count()), Vec::with_capacity(samples.count()), Traced::default()),
-            |(ys, ws, traced), (c, chunk)| {
-                let mut rays = 0;
-                for (k, v) in chunk.iter_mut().enumerate() {
-                    let i = offset + c * CHUNK + k;
-                    if !receivers.valid[i] {
-                        continue;
-                    }
-                    let (p, n) = (receivers.points[i], receivers.normals[i]);
-                    samples.fill(light, i, receivers.pixel(i), ys, ws);
-                    let (vis, count) = receiver_visibility(scene, bvh, p, n, epsilon, ys, ws, traced);
-                    *v = vis;
-                    rays += count;
-                }
-                rays
-            },
-        )
-        .sum()
 }
 
 /// Receivers of one tile, at most the lanes of a packet ([`Bvh::occluded_converging_lanes`]).
