@@ -1,38 +1,71 @@
 """The demo runs end to end at a small size and writes what it promises."""
 
 import json
+import math
 
 import numpy as np
+import pytest
 
-from softshadows import cli, io
+from softshadows import cli, io, metrics
+
+
+def _strict(constant):
+    raise ValueError(f"metrics.json holds {constant}, which is not JSON")
 
 
 def test_demo_writes_grid_exr_and_tables(tmp_path, monkeypatch):
     monkeypatch.setenv("SOFTSHADOWS_CACHE", str(tmp_path / "cache"))
     out = tmp_path / "demo"
     assert cli.main(["demo", "--out", str(out), "--size", "48", "--samples", "16", "--reference-samples", "64"]) == 0
-    table = json.loads((out / "metrics.json").read_text())["methods"]
+    table = json.loads((out / "metrics.json").read_text(), parse_constant=_strict)["methods"]
     assert set(table) >= {"ray_traced", "shadow_map"}
     for name, m in table.items():
+        assert set(m) == {*metrics.SUMMARY_KEYS, "seconds"}
         assert 0 <= m["rmse"] <= 1 and -1 <= m["ssim"] <= 1 and m["seconds"] > 0
+        assert m["psnr"] == pytest.approx(-20 * math.log10(m["rmse"]))
         vis = io.read_exr(out / f"{name}.exr")
         assert vis.shape == (48, 48) and np.all((vis >= 0) & (vis <= 1))
-    # ray_traced with 16 samples estimates the 64-sample reference better than hard shadows do.
+    # ray_traced with 16 samples estimates the 64-sample reference better than hard shadows do,
+    # and the hard shadow's error is in the penumbra, which it does not have.
     assert table["ray_traced"]["rmse"] < table["shadow_map"]["rmse"]
+    assert table["shadow_map"]["rmse.penumbra"] > max(table["shadow_map"]["rmse.umbra"], table["shadow_map"]["rmse.lit"])
     assert (out / "demo.png").stat().st_size > 10_000
-    assert "| ray_traced |" in (out / "metrics.md").read_text()
+    page = (out / "metrics.md").read_text()
+    assert "| method | RMSE | PSNR (dB) | SSIM | FLIP | RMSE umbra | RMSE penumbra | RMSE lit | seconds |" in page
+    assert "| ray_traced |" in page
+
+
+@pytest.mark.parametrize(
+    "options, name",
+    [({"scene": "column"}, "scene"), ({"size": 0}, "size"), ({"samples": 2.5}, "samples"), ({"reference_samples": -1}, "reference_samples")],
+)
+def test_demo_checks_its_arguments_before_it_creates_the_folder(tmp_path, options, name):
+    out = tmp_path / "demo"
+    with pytest.raises(ValueError, match=f"^{name}:"):
+        cli.demo(out, **options)
+    assert not out.exists()
+
+
+def test_demo_command_refuses_a_bad_scene_before_it_creates_the_folder(tmp_path, capsys):
+    out = tmp_path / "demo"
+    with pytest.raises(SystemExit) as done:
+        cli.main(["demo", "--out", str(out), "--scene", "column"])
+    assert done.value.code == 2 and not out.exists()
+    err = capsys.readouterr().err
+    assert "argument --scene: invalid choice: 'column'" in err and "'columns'" in err and "Traceback" not in err
 
 
 def test_evaluate_command_writes_the_report(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("SOFTSHADOWS_CACHE", str(tmp_path / "cache"))
     out = tmp_path / "evaluation"
     args = ["evaluate", "--scenes", "columns,fence", "--methods", "ray_traced,stsv,dcs", "--lights", "rect",
-            "--size", "32", "--samples", "16", "--reference-samples", "64", "--out", str(out)]
+            "--size", "32", "--samples", "16", "--reference-samples", "64", "--out", str(out), "--latex"]
     assert cli.main(args) == 0
     page = (out / "report.md").read_text()
     assert "## columns, rect light" in page and "## fence, rect light" in page
     # dcs refuses the perforated fence and says so; stsv takes it.
     assert "| dcs | refused:" in page and page.count("| stsv |") + page.count("| **stsv** |") == 2
-    for name in ("results.csv", "pareto.png", "columns_rect.png", "fence_rect.png"):
+    for name in ("results.csv", "results.tex", "pareto.png", "columns_rect.png", "fence_rect.png"):
         assert (out / name).stat().st_size > 0
+    assert "stsv" in (out / "results.tex").read_text()
     assert "wrote" in capsys.readouterr().out

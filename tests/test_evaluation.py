@@ -1,5 +1,8 @@
 """The evaluation suite's engine: rows, refusals, the Pareto front, the report and the cache."""
 
+import io
+import math
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -20,9 +23,14 @@ def test_rows_per_scene_light_and_method_with_refusals(cache):
     assert len(frame) == 6 and set(frame["method"]) == {"ray_traced", "shadow_map", "backprojection"}
     refused = frame[frame["error"].notna()]
     assert list(zip(refused["light"], refused["method"])) == [("sphere", "backprojection")]
-    assert "planar" in refused["error"].iloc[0] and refused["rmse"].isna().all()
+    assert "planar" in refused["error"].iloc[0] and refused[list(ss.metrics.SUMMARY_KEYS)].isna().all(axis=None)
     done = frame[frame["error"].isna()]
     assert done["rmse"].between(0, 1).all() and done["ssim"].between(-1, 1).all() and (done["seconds"] > 0).all()
+    assert np.allclose(done["psnr"], -20 * np.log10(done["rmse"]))
+    # The columns' scene has all three regions under both lights, and hard shadows err in the penumbra most.
+    assert done[["rmse.umbra", "rmse.penumbra", "rmse.lit"]].notna().all(axis=None)
+    hard = done[done["method"] == "shadow_map"]
+    assert (hard["rmse.penumbra"] > hard["rmse.lit"]).all() and (hard["rmse.penumbra"] > hard["rmse.umbra"]).all()
     # Each method's own stats come along, and the exact oracle beats the hard shadow map.
     assert done.loc[done["method"] == "ray_traced", "stats.rays"].gt(0).all()
     for light in ("rect", "sphere"):
@@ -57,6 +65,62 @@ def test_report_and_cached_references(cache, tmp_path, monkeypatch):
     # ... until an input changes.
     ss.evaluate(["columns"], ["pcss"], **{**kwargs, "reference_samples": 65})
     assert calls
+
+
+class _Terminal(io.StringIO):
+    """A stderr that says it is a terminal, as tqdm asks before it draws."""
+
+    def isatty(self):
+        return True
+
+
+def test_one_progress_bar_on_a_terminal_and_none_in_a_log(cache, monkeypatch, capsys):
+    run = dict(size=16, reference_samples=16, repeat=1)
+    ss.evaluate(["columns"], ["shadow_map"], **run)  # pytest's captured stderr is no terminal
+    assert capsys.readouterr().err == ""
+    terminal = _Terminal()
+    monkeypatch.setattr("sys.stderr", terminal)
+    ss.evaluate(["columns"], ["shadow_map"], lights=("disk",), **run)  # a new reference: Mitsuba traces
+    drawn = terminal.getvalue()
+    assert "columns/disk" in drawn and "mitsuba_visibility" not in drawn
+
+
+def _frame():
+    """Rows like evaluate()'s on an 8x8 ramp: an exact method, a hard one, a refusal, two setups."""
+    ref = np.tile(np.linspace(0, 1, 8), (8, 1))
+    rows = []
+    for scene in ("ramp", "other"):
+        for name, vis, seconds in [("ray_traced", ref, 2.0), ("shadow_map", 1.0 * (ref > 0.5), 0.1)]:
+            rows.append({"scene": scene, "light": "rect", "method": name, **ss.metrics.summary(vis, ref), "seconds": seconds,
+                         "error": None})
+    rows.append({"scene": "ramp", "light": "rect", "method": "dcs", **dict.fromkeys(ss.metrics.SUMMARY_KEYS, np.nan),
+                 "seconds": np.nan, "error": "dcs: refused"})
+    return pd.DataFrame(rows)
+
+
+def test_report_shows_psnr_and_the_region_split_and_writes_latex_on_request(tmp_path):
+    frame = _frame()
+    page = evaluation.report(frame, tmp_path / "plain")
+    assert not (tmp_path / "plain" / "results.tex").exists()
+    text = page.read_text()
+    assert "| method | RMSE | PSNR (dB) | SSIM | FLIP | RMSE umbra | RMSE penumbra | RMSE lit | seconds |" in text
+    hard = frame.iloc[1]
+    assert (f"| **shadow_map** | {hard['rmse']:.4f} | {hard['psnr']:.2f} | {hard['ssim']:.4f} | {hard['flip']:.4f} | "
+            f"0.0000 | {hard['rmse.penumbra']:.4f} | 0.0000 | 0.100 |") in text
+    assert "| **ray_traced** | 0.0000 | inf |" in text and "| dcs | refused: dcs: refused |" in text
+    evaluation.report(frame, tmp_path / "paper", latex=True)
+    tex = (tmp_path / "paper" / "results.tex").read_text()
+    assert tex == evaluation.latex_table(frame) + "\n"
+    lines = tex.splitlines()
+    assert lines[0] == r"\begin{tabular}{lllrrrrrrrr}" and lines[1] == r"\toprule" and lines[-1] == r"\end{tabular}"
+    assert r"ramp & rect & \bfseries ray\_traced & 0.0000 & $\infty$ & 1.0000 &" in tex
+    assert r"ramp & rect & dcs & -- & -- & -- & -- & -- & -- & -- & -- \\" in tex
+    assert len([line for line in lines if line.endswith(r"\\")]) == 1 + len(frame)
+
+
+def test_latex_table_names_missing_columns():
+    with pytest.raises(ValueError, match=r"frame: missing columns \['psnr'"):
+        evaluation.latex_table(_frame().drop(columns=["psnr"]))
 
 
 def test_readme_table_is_rewritten_between_its_markers(tmp_path):

@@ -150,6 +150,18 @@ def test_alias_free_on_the_gpu_equals_the_cpu_bit_for_bit(adapter, scene, light,
         assert gpu_stats[key] == cpu_stats[key], key
 
 
+def test_alias_free_on_the_gpu_around_a_lamp_in_a_room(adapter):
+    # One GPU pass per cube face around the light, each face's receivers their own lists.
+    from test_lights_among_geometry import LIGHTS, room, wall_receivers
+
+    scene, light, rx = room(), LIGHTS["rect"], wall_receivers(12)
+    samples = light.samples(64, pattern="poisson", seed=5)
+    exact = ss.ray_traced(scene, light, rx, samples=samples)
+    gpu, stats = ss.alias_free(scene, light, rx, samples=samples, lut=None, backend="gpu", return_stats=True)
+    assert stats["light_faces"] == 6
+    np.testing.assert_array_equal(gpu, exact)
+
+
 def test_gpu_calls_from_8_threads_at_once_equal_serial_calls(adapter):
     s = ss.scenes.get("columns").with_size(32, 32)
     gb = ss.gbuffer(s.scene, s.camera)

@@ -122,3 +122,87 @@ def test_reading_a_pipe_is_refused_instead_of_blocking(tmp_path):
     os.mkfifo(fifo)
     with pytest.raises(ValueError, match="not a regular file"):
         io.read_exr(fifo)
+
+
+def _srgb(x):
+    """The IEC 61966-2-1 encoding, written out independently of io.tonemap."""
+    x = np.asarray(x, np.float64)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)
+
+
+def test_write_png_exposure_auto_shows_dim_radiance_bright(tmp_path):
+    import matplotlib.image
+
+    # A shaded image as shading.direct returns it: radiance peaking at 0.06, a black background.
+    radiance = np.zeros((10, 10), np.float32)
+    radiance[1:9, 1:9] = np.linspace(0.01, 0.06, 64).reshape(8, 8)
+    io.write_png(tmp_path / "shaded.png", radiance, exposure="auto")
+    back = matplotlib.image.imread(tmp_path / "shaded.png")[..., 0]
+    lit = radiance[radiance > 0]
+    scale = 1 / np.percentile(lit, io.AUTO_PERCENTILE)
+    np.testing.assert_allclose(back, _srgb(np.clip(radiance * scale, 0, 1)), atol=2 / 255)  # 8 bits, 256-entry gray LUT
+    assert back.max() == 1 and back[0, 0] == 0  # the bright end is white, the background black
+
+
+def test_write_png_explicit_exposure_scales_then_encodes(tmp_path):
+    import matplotlib.image
+
+    rgb = np.zeros((2, 2, 3))
+    rgb[0, 0] = [0.05, 0.01, 0.2]  # exposure 10: 0.5, 0.1 and 2 (clipped to 1)
+    io.write_png(tmp_path / "rgb.png", rgb, exposure=10)
+    back = matplotlib.image.imread(tmp_path / "rgb.png")
+    np.testing.assert_allclose(back[0, 0, :3], _srgb([0.5, 0.1, 1.0]), atol=1 / 255)
+
+
+def test_auto_exposure_ignores_the_black_background():
+    shaded = np.zeros((20, 20, 3))
+    shaded[5:7, 5:7] = [0.02, 0.04, 0.01]  # 4 lit pixels out of 400: a percentile of all pixels would be 0
+    assert io.auto_exposure(shaded) == pytest.approx(25.0)
+    assert io.auto_exposure(np.zeros((3, 3))) == 1.0
+
+
+def test_tonemap_keeps_alpha_and_clips_negative_radiance():
+    rgba = np.array([[[-0.5, 0.5, 4.0, 0.25]]])
+    out = io.tonemap(rgba, exposure=1.0)
+    assert out.dtype == np.float32
+    np.testing.assert_allclose(out[0, 0], [0, _srgb(0.5), 1, 0.25], atol=1e-6)
+
+
+@pytest.mark.parametrize("writer, name, ext", [(io.write_exr, "x.jpg", ".exr"), (io.write_exr, "x.png", ".exr"),
+                                               (io.write_png, "x.exr", ".png"), (io.write_png, "x.jpg", ".png")])
+def test_writers_refuse_another_formats_extension(tmp_path, writer, name, ext):
+    with pytest.raises(ValueError, match=rf"path: .*{name}.*name it .*x\{ext}"):
+        writer(tmp_path / name, np.zeros((2, 2)))
+    assert list(tmp_path.iterdir()) == []
+    # The format's own extension in any case, or none (a device such as /dev/full), is written.
+    writer(tmp_path / ("y" + ext.upper()), np.zeros((2, 2)))
+    writer(tmp_path / "y", np.zeros((2, 2)))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["y", "y" + ext.upper()]
+
+
+def test_read_exr_names_a_png_it_is_given(tmp_path):
+    io.write_png(tmp_path / "view.png", np.zeros((2, 2)))
+    with pytest.raises(ValueError, match="is a PNG image, not an OpenEXR file; read it with matplotlib.image.imread"):
+        io.read_exr(tmp_path / "view.png")
+    (tmp_path / "notes.exr").write_text("not an image")
+    with pytest.raises(ValueError, match="not an OpenEXR file"):
+        io.read_exr(tmp_path / "notes.exr")
+
+
+@pytest.mark.parametrize(
+    "kw, name",
+    [
+        ({"exposure": "bright"}, "exposure"),
+        ({"exposure": 0}, "exposure"),
+        ({"exposure": "auto", "vmax": 2}, "vmax"),
+        ({"exposure": 2.0, "cmap": "magma"}, "cmap"),
+    ],
+)
+def test_exposure_arguments_name_themselves(tmp_path, kw, name):
+    with pytest.raises(ValueError, match=name):
+        io.write_png(tmp_path / "a.png", np.zeros((2, 2)), **kw)
+
+
+def test_exposure_refuses_display_encoded_uint8(tmp_path):
+    with pytest.raises(ValueError, match="exposure: a uint8 image is already encoded"):
+        io.write_png(tmp_path / "a.png", np.zeros((2, 2), np.uint8), exposure="auto")

@@ -1,6 +1,8 @@
-"""Image metrics (metrics.py): known values, masks, and argument checks."""
+"""Image metrics (metrics.py): known values, masks, the region split, and argument checks."""
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import pytest
@@ -19,7 +21,11 @@ def test_identical_images_are_perfect():
     assert metrics.rmse(a, a) == 0
     assert metrics.ssim(a, a) == pytest.approx(1.0)
     assert metrics.flip(a, a) == pytest.approx(0.0, abs=1e-6)
-    assert metrics.summary(a, a) == pytest.approx({"rmse": 0.0, "ssim": 1.0, "flip": 0.0}, abs=1e-6)
+    out = metrics.summary(a, a)
+    assert tuple(out) == metrics.SUMMARY_KEYS and out["psnr"] == math.inf
+    assert {k: out[k] for k in ("rmse", "ssim", "flip")} == pytest.approx({"rmse": 0.0, "ssim": 1.0, "flip": 0.0}, abs=1e-6)
+    # smooth_image lies in [0.1, 0.9]: all penumbra, no umbra and no lit pixels.
+    assert out["rmse.penumbra"] == 0 and math.isnan(out["rmse.umbra"]) and math.isnan(out["rmse.lit"])
 
 
 def test_rmse_value_and_mask():
@@ -92,9 +98,84 @@ def test_error_heatmap_colours():
     assert not np.allclose(absolute[0, 0], absolute[1, 1])
 
 
+def test_psnr_is_20_log10_of_peak_over_rmse():
+    ref = np.zeros((4, 5))
+    test = np.full((4, 5), 0.1)
+    assert metrics.psnr(test, ref) == pytest.approx(20.0)
+    assert metrics.psnr(test, ref, peak=2.0) == pytest.approx(20.0 + 20 * np.log10(2.0))
+    test[0] = 1.0  # outside the mask below
+    mask = np.ones((4, 5), bool)
+    mask[0] = False
+    assert metrics.psnr(test, ref, mask) == pytest.approx(20.0)
+    assert metrics.psnr(test, ref) == pytest.approx(-20 * np.log10(metrics.rmse(test, ref)))
+    assert metrics.psnr(ref, ref) == math.inf
+    assert metrics.psnr(np.full(3, 0.5), np.zeros(3)) == pytest.approx(20 * np.log10(2))  # explicit receivers
+
+
+def test_regions_split_the_mask_at_the_threshold():
+    ref = np.array([0.0, 0.01, 0.0101, 0.5, 0.9899, 0.99, 1.0])
+    split = metrics.regions(ref)
+    assert list(split) == list(metrics.REGIONS)
+    assert {k: m.nonzero()[0].tolist() for k, m in split.items()} == {"umbra": [0, 1], "penumbra": [2, 3, 4], "lit": [5, 6]}
+    exact = metrics.regions(ref, threshold=0)
+    assert exact["umbra"].nonzero()[0].tolist() == [0] and exact["lit"].nonzero()[0].tolist() == [6]
+    mask = np.array([True, False, True, True, False, True, False])
+    masked = metrics.regions(ref, mask)
+    assert not np.any(masked["umbra"] & masked["penumbra"]) and not np.any(masked["penumbra"] & masked["lit"])
+    np.testing.assert_array_equal(masked["umbra"] | masked["penumbra"] | masked["lit"], mask)
+    image = metrics.regions(ref[:6].reshape(2, 3))
+    assert image["penumbra"].shape == (2, 3) and image["penumbra"].sum() == 3
+
+
+def test_region_rmse_counts_each_region_alone():
+    ref = np.zeros((6, 8))
+    ref[:, 2:4] = np.linspace(0.2, 0.8, 6)[:, None]  # a penumbra band between umbra and lit
+    ref[:, 4:] = 1.0
+    test = ref.copy()
+    test[:, 2:4] += 0.1  # wrong only in the penumbra
+    penumbra = np.zeros(ref.shape, bool)
+    penumbra[:, 2:4] = True
+    split = metrics.region_rmse(test, ref)
+    assert split == {"umbra": 0.0, "penumbra": pytest.approx(0.1), "lit": 0.0}
+    assert split["penumbra"] == pytest.approx(metrics.rmse(test, ref, penumbra))
+    # The image-wide RMSE dilutes the same error by the flat regions around it.
+    assert metrics.rmse(test, ref) == pytest.approx(0.1 * np.sqrt(12 / 48))
+    lit_only = metrics.region_rmse(test[:, 4:], ref[:, 4:])
+    assert math.isnan(lit_only["umbra"]) and math.isnan(lit_only["penumbra"]) and lit_only["lit"] == 0
+
+
+def test_summary_of_explicit_receivers_gives_the_point_metrics_and_nan_for_image_metrics():
+    ref = np.array([0.0, 0.0, 0.4, 0.6, 1.0, 1.0])
+    test = np.array([0.0, 0.2, 0.4, 0.3, 1.0, 1.0])
+    out = metrics.summary(test, ref)
+    assert tuple(out) == metrics.SUMMARY_KEYS
+    assert math.isnan(out["ssim"]) and math.isnan(out["flip"])
+    assert out["rmse"] == pytest.approx(metrics.rmse(test, ref)) and out["psnr"] == pytest.approx(metrics.psnr(test, ref))
+    assert out["rmse.umbra"] == pytest.approx(0.2 / np.sqrt(2)) and out["rmse.penumbra"] == pytest.approx(0.3 / np.sqrt(2))
+    assert out["rmse.lit"] == 0
+    mask = np.array([True, False, True, True, True, True])
+    assert metrics.summary(test, ref, mask)["rmse.umbra"] == 0
+
+
+def test_summary_of_images_that_are_not_visibility_has_no_region_split():
+    ref = np.repeat(smooth_image()[..., None], 3, axis=-1)
+    out = metrics.summary(np.clip(ref + 0.05, 0, 1), ref)
+    assert out["rmse"] == pytest.approx(0.05) and all(math.isfinite(out[k]) for k in ("psnr", "ssim", "flip"))
+    assert all(math.isnan(out[f"rmse.{k}"]) for k in metrics.REGIONS)
+    radiance = 3 * smooth_image()  # grayscale, but beyond [0, 1]
+    assert all(math.isnan(metrics.summary(radiance, radiance)[f"rmse.{k}"]) for k in metrics.REGIONS)
+
+
 @pytest.mark.parametrize(
     "call, name",
     [
+        (lambda: metrics.psnr(np.zeros(4), np.ones(4), peak=0), "peak"),
+        (lambda: metrics.regions(np.zeros((8, 8, 3))), "ref"),
+        (lambda: metrics.regions(np.full(4, 1.5)), "ref"),
+        (lambda: metrics.regions(np.zeros(4), threshold=0.5), "threshold"),
+        (lambda: metrics.regions(np.zeros(4), threshold=-0.1), "threshold"),
+        (lambda: metrics.regions(np.zeros(4), np.ones(3, bool)), "mask"),
+        (lambda: metrics.region_rmse(np.zeros(4), np.zeros(5)), "ref"),
         (lambda: metrics.rmse(np.zeros((4, 4)), np.zeros((4, 5))), "ref"),
         (lambda: metrics.rmse(np.zeros((4, 4)), np.zeros((4, 4)), np.ones((3, 3), bool)), "mask"),
         (lambda: metrics.rmse(np.zeros((4, 4)), np.zeros((4, 4)), np.zeros((4, 4), bool)), "mask"),

@@ -1,6 +1,10 @@
-"""Pictures: sample scatter plots lie in the light's plane."""
+"""Pictures: sample scatter plots lie in the light's plane; grids fit a notebook and leave pyplot alone."""
+
+import subprocess
+import sys
 
 import numpy as np
+import pytest
 
 import softshadows as ss
 
@@ -14,3 +18,61 @@ def test_show_samples_projects_onto_the_light_plane():
     # The plane's principal axes: spread 2 along u, 0.5 along v (in some order and sign).
     spans = sorted(np.ptp(np.asarray(xy), axis=0))
     assert spans[1] > 3.5 and 0.8 < spans[0] < 1.0
+
+
+def _visibility(n: int):
+    """A reference gradient and n results, each a little brighter."""
+    reference = np.tile(np.linspace(0, 1, 24), (16, 1))
+    return reference, {f"method {k}": np.clip(reference + 0.01 * k, 0, 1) for k in range(n)}
+
+
+def test_plotting_leaves_the_users_backend_alone():
+    # In a fresh interpreter: the backend is process-wide, and "svg" stands in for Qt, Tk or ipympl.
+    code = (
+        "import matplotlib; matplotlib.use('svg'); import numpy as np; import softshadows as ss; "
+        "ss.plot.comparison_grid(np.zeros((4, 4)), {'a': np.ones((4, 4))}); "
+        "ss.plot.show_samples(ss.PointLight((0, 1, 0)), np.zeros((3, 3))); "
+        "print(matplotlib.get_backend())"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "svg"
+
+
+def test_figures_are_not_left_registered_with_pyplot(tmp_path):
+    import matplotlib.pyplot as plt
+
+    before = plt.get_fignums()
+    reference, results = _visibility(2)
+    fig = ss.plot.comparison_grid(reference, results)
+    saved = ss.plot.comparison_grid(reference, results, path=tmp_path / "grid.png")
+    ax = ss.plot.show_samples(ss.PointLight((0, 1, 0)), np.zeros((3, 3)))
+    assert plt.get_fignums() == before
+    assert fig.canvas.manager is None and saved.canvas.manager is None and ax.figure.canvas.manager is None
+    assert (tmp_path / "grid.png").read_bytes().startswith(b"\x89PNG")
+
+
+def test_a_grid_of_twelve_methods_wraps_to_a_notebook_width():
+    reference, results = _visibility(12)
+    fig = ss.plot.comparison_grid(reference, results)
+    width, height = fig.get_size_inches()
+    assert width <= ss.plot.MAX_WIDTH and width < height  # was 13 x 2.6 = 33.8 in wide, 5.6 in tall
+    assert len(fig.axes) == 26  # a visibility and an error panel for the reference and each method
+    tops = fig.axes[::2]
+    assert [ax.get_title() for ax in tops] == ["reference", *results]
+    columns = {round(ax.get_position().x0, 3) for ax in tops}
+    rows = {round(ax.get_position().y0, 3) for ax in tops}
+    assert len(columns) <= ss.plot.MAX_COLUMNS and len(rows) == 3
+
+
+def test_a_grid_draws_into_a_pyplot_figure_to_show():
+    import matplotlib.pyplot as plt
+
+    fig = plt.figure()
+    try:
+        reference, results = _visibility(1)
+        assert ss.plot.comparison_grid(reference, results, figure=fig) is fig
+        assert len(fig.axes) == 4 and plt.fignum_exists(fig.number)
+    finally:
+        plt.close(fig)
+    with pytest.raises(ValueError, match="figure: expected a matplotlib.figure.Figure"):
+        ss.plot.comparison_grid(reference, results, figure="new")

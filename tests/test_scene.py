@@ -39,3 +39,24 @@ def test_gbuffer_sees_the_right_faces_and_msaa_depths():
     assert gb.sample_depths.shape == (32, 32, 4)
     center_depth = np.linalg.norm(gb.positions - cam.eye, axis=-1)
     assert np.all(np.abs(gb.sample_depths.mean(-1) - center_depth) < 0.1)
+
+
+def test_mesh_repr_separates_the_name_from_the_counts():
+    tri = ss.Mesh([[0, 0, 0], [1, 0, 0], [0, 0, 1]], [[0, 1, 2]], name="ground")
+    assert repr(tri) == "Mesh('ground', 3 vertices, 1 face, closed=False)"  # was "Mesh(ground3 vertices, 1 faces, ...)"
+    quad = trimesh.creation.box()
+    perforated = ss.Mesh(quad.vertices, quad.faces, uvs=np.zeros((8, 2)), alpha=np.ones((64, 16)), closed=True)
+    assert repr(perforated) == "Mesh(8 vertices, 12 faces, alpha 64x16, closed=True)"
+
+
+def test_scene_repr_names_its_first_meshes():
+    tri = ss.Mesh([[0, 0, 0], [1, 0, 0], [0, 0, 1]], [[0, 1, 2]])
+    named = [ss.Mesh(tri.vertices, tri.faces, name=f"m{k}") for k in range(6)]
+    assert repr(ss.Scene(named[:1])) == "Scene(1 mesh ['m0'], 1 face)"
+    assert repr(ss.Scene(named)) == "Scene(6 meshes ['m0', 'm1', 'm2', 'm3', ...], 6 faces)"
+
+
+def test_gbuffer_repr_gives_its_size_not_its_arrays():
+    setup = ss.scenes.get("parallel_plates", width=40, height=30)
+    gb = ss.gbuffer(setup.scene, setup.camera)
+    assert repr(gb) == f"GBuffer(40x30 pixels, {int(gb.mask.sum())} hit, msaa=1)"  # was every array in full

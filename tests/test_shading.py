@@ -3,6 +3,8 @@ integration, and the unit scale against Mitsuba renders of an unoccluded plane."
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -172,6 +174,19 @@ def test_sphere_inside_and_point_light():
     pts = np.array([[0.0, 0, 0], [2.0, 0, 0], [0, 0, 3.0]])
     e = shading.unshadowed_irradiance(pts, np.tile([0, 0, 1.0], (3, 1)), point, intensity=4.0)
     np.testing.assert_allclose(e, [1.0, 4.0 * np.cos(np.pi / 4) / 8, 0.0])
+
+
+def test_a_receiver_at_an_ellipsoids_centre_gets_pi_without_a_runtime_warning():
+    light = EllipsoidLight([0.2, -0.1, 1.6], [[0.5, 0.1, 0.0], [-0.04, 0.2, 0.0], [0.0, 0.0, 0.12]])
+    outside = np.array([[0.1, 0.3, 0.0]])
+    pts = np.concatenate([[light.center, light.center + [0.05, 0, 0]], outside])
+    normals = np.tile([0, 0, 1.0], (3, 1))
+    with warnings.catch_warnings():
+        # The centre once gave its silhouette a zero tangent: 0 / 0 in the frame, then discarded.
+        warnings.simplefilter("error", RuntimeWarning)
+        e = shading.unshadowed_irradiance(pts, normals, light)
+    np.testing.assert_allclose(e[:2], np.pi)  # inside the light: pi L
+    assert e[2] == shading.unshadowed_irradiance(outside, normals[:1], light)[0] > 0
 
 
 def test_textured_rect_sums_texels():

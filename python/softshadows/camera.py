@@ -127,6 +127,12 @@ class GBuffer:
     def shape(self) -> tuple:
         return self.mask.shape
 
+    def __repr__(self) -> str:
+        # The arrays are the bulk of a G-buffer: its size and coverage say what a reader needs.
+        h, w = self.mask.shape
+        msaa = 1 if self.sample_depths is None else self.sample_depths.shape[2]
+        return f"GBuffer({w}x{h} pixels, {int(self.mask.sum())} hit, msaa={msaa})"
+
     def _flat(self):
         h, w = self.mask.shape
         return self.positions.reshape(-1, 3), self.normals.reshape(-1, 3), self.mask.reshape(-1), w, h
@@ -145,6 +151,13 @@ def gbuffer(scene, camera: Camera, msaa: int = 1) -> GBuffer:
     Returns
     -------
     GBuffer
+
+    Examples
+    --------
+    >>> from softshadows import gbuffer, scenes
+    >>> setup = scenes.get("parallel_plates", width=32, height=24)
+    >>> gbuffer(setup.scene, setup.camera, msaa=4)
+    GBuffer(32x24 pixels, 655 hit, msaa=4)
     """
     if isinstance(msaa, bool) or not isinstance(msaa, (int, np.integer)) or msaa not in (1, 2, 4, 8, 16):
         raise ValueError(f"msaa: expected one of 1, 2, 4, 8, 16, got {msaa!r}")

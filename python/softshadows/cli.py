@@ -2,18 +2,29 @@
 
 ``softshadows demo [--out DIR]`` runs every method on a built-in scene against a Mitsuba
 reference and writes a picture grid, EXR files and a metrics table (Markdown and JSON).
-``softshadows evaluate --scenes A,B --methods X,Y --lights rect,disk --out DIR`` runs the
-evaluation suite (:mod:`softshadows.evaluation`) and writes its report.
+``softshadows evaluate --scenes A,B --methods X,Y --lights rect,disk --out DIR [--latex]`` runs
+the evaluation suite (:mod:`softshadows.evaluation`) and writes its report.
 ``softshadows reproduce [--papers KEYS] [--tier fast|paper] [--out DIR]`` measures the claims
 ledger (:mod:`softshadows.claims`) and writes ``claims.md``, ``claims.csv`` and the figures.
+``softshadows --version`` prints the version; ``--help`` on any command lists its options with
+their defaults.
+
+Names (scenes, methods, lights, papers, claim ids) and sizes are checked before anything is
+written or rendered: a bad one ends the command with a usage message listing the valid choices.
+Progress bars are drawn only when stderr is a terminal, one per command, so that logs of a run
+hold no carriage-return lines.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import time
 from pathlib import Path
+
+from . import __version__
+from . import _validate as v
 
 
 def _run_methods(setup, gb, samples, progress):
@@ -31,12 +42,17 @@ def _run_methods(setup, gb, samples, progress):
     return results, seconds
 
 
-def demo(out: Path, *, scene: str = "columns", size: int = 256, samples: int = 64, reference_samples: int = 1024) -> dict:
+def demo(out, *, scene: str = "columns", size: int = 256, samples: int = 64, reference_samples: int = 1024,
+         progress: bool = True) -> dict:
     """Runs the demo and returns the metrics table as a dict of method name to metrics.
+
+    Writes into ``out``: ``demo.png`` (the comparison grid), ``<method>.exr`` and
+    ``reference.exr`` (visibility), ``metrics.md`` and ``metrics.json``. The arguments are checked
+    before ``out`` is created.
 
     Parameters
     ----------
-    out : Path
+    out : str or Path
         Output folder (created).
     scene : str
         A name from ``softshadows.scenes.SCENES``.
@@ -46,6 +62,23 @@ def demo(out: Path, *, scene: str = "columns", size: int = 256, samples: int = 6
         Light samples for the sample-based methods (Poisson, seed 0, shared by all).
     reference_samples : int
         Light samples of the Mitsuba ``ray_test`` reference.
+    progress : bool
+        Show a progress bar, only when stderr is a terminal.
+
+    Returns
+    -------
+    dict of str to dict
+        Per method, :func:`softshadows.metrics.summary` against the reference over the hit
+        pixels and ``seconds``. In ``metrics.json`` a non-finite value (the infinite PSNR of an
+        exact result, the NaN of a region without pixels) is ``null``, so that the file is JSON.
+
+    Examples
+    --------
+    >>> from softshadows import cli
+    >>> cli.demo("demo", scene="column")
+    Traceback (most recent call last):
+    ...
+    ValueError: scene: expected a name from ['ground_sphere', ...], got 'column'
     """
     from tqdm.auto import tqdm
 
@@ -53,17 +86,27 @@ def demo(out: Path, *, scene: str = "columns", size: int = 256, samples: int = 6
     from .camera import gbuffer
     from .methods import METHODS
 
-    out.mkdir(parents=True, exist_ok=True)
+    if not isinstance(scene, str) or scene not in scenes.SCENES:
+        raise ValueError(f"scene: expected a name from {list(scenes.SCENES)}, got {scene!r}")
+    size, samples = v.positive_int("size", size), v.positive_int("samples", samples)
+    reference_samples = v.positive_int("reference_samples", reference_samples)
+    try:
+        out = Path(out)
+    except TypeError:
+        raise TypeError(f"out: expected a str or os.PathLike, got {type(out).__name__}") from None
     setup = scenes.get(scene, width=size, height=size)
-    with tqdm(total=len(METHODS) + 2, desc="gbuffer", unit="step") as progress:
+    out.mkdir(parents=True, exist_ok=True)
+    # disable=None: tqdm draws only on a terminal.
+    with tqdm(total=len(METHODS) + 2, desc="gbuffer", unit="step", disable=None if progress else True) as bar:
         gb = gbuffer(setup.scene, setup.camera)
-        progress.update()
-        progress.set_description("mitsuba reference")
+        bar.update()
+        bar.set_description("mitsuba reference")
         ref_samples = setup.light.samples(reference_samples, pattern="sobol", seed=1)
-        ref = reference.mitsuba_visibility(setup.scene, setup.light, gb, ref_samples)
-        progress.update()
+        # Its own bar would nest in this one: one bar per command.
+        ref = reference.mitsuba_visibility(setup.scene, setup.light, gb, ref_samples, progress=False)
+        bar.update()
         shared = setup.light.samples(samples, pattern="poisson", seed=0)
-        results, seconds = _run_methods(setup, gb, shared, progress)
+        results, seconds = _run_methods(setup, gb, shared, bar)
 
     table = {}
     for name, vis in results.items():
@@ -73,47 +116,127 @@ def demo(out: Path, *, scene: str = "columns", size: int = 256, samples: int = 6
     titles = {n: f"RMSE {m['rmse']:.4f}" for n, m in table.items()}
     plot.comparison_grid(ref, results, gb.mask, path=out / "demo.png", titles=titles)
     meta = {"scene": scene, "size": size, "samples": samples, "reference": f"mitsuba ray_test, {reference_samples} samples"}
-    (out / "metrics.json").write_text(json.dumps({"setup": meta, "methods": table}, indent=2))
+    strict = {name: {k: x if math.isfinite(x) else None for k, x in m.items()} for name, m in table.items()}
+    (out / "metrics.json").write_text(json.dumps({"setup": meta, "methods": strict}, indent=2, allow_nan=False))
     (out / "metrics.md").write_text(_markdown(meta, table))
     return table
+
+
+#: The demo table's columns: key, heading, decimals.
+_DEMO_COLUMNS = (("rmse", "RMSE", 4), ("psnr", "PSNR (dB)", 2), ("ssim", "SSIM", 4), ("flip", "FLIP", 4),
+                 ("rmse.umbra", "RMSE umbra", 4), ("rmse.penumbra", "RMSE penumbra", 4), ("rmse.lit", "RMSE lit", 4),
+                 ("seconds", "seconds", 3))
 
 
 def _markdown(meta: dict, table: dict) -> str:
     lines = [
         f"# softshadows demo: `{meta['scene']}`, {meta['size']}x{meta['size']}",
         "",
-        f"Reference: {meta['reference']}. Sample-based methods: {meta['samples']} Poisson samples.",
+        f"Reference: {meta['reference']}. Sample-based methods: {meta['samples']} Poisson samples. Umbra, penumbra "
+        "and lit: pixels by their reference visibility (softshadows.metrics.regions); a dash where a region has no pixels.",
         "",
-        "| method | RMSE | SSIM | FLIP | seconds |",
-        "|---|---|---|---|---|",
+        "| method | " + " | ".join(heading for _, heading, _ in _DEMO_COLUMNS) + " |",
+        "|---|" + "---|" * len(_DEMO_COLUMNS),
     ]
     for name, m in table.items():
-        lines.append(f"| {name} | {m['rmse']:.4f} | {m['ssim']:.4f} | {m['flip']:.4f} | {m['seconds']:.3f} |")
+        cells = ("-" if math.isnan(m[key]) else f"{m[key]:.{digits}f}" for key, _, digits in _DEMO_COLUMNS)
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
+class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
+    """``--help`` with each option's default, except options without one (``None``: the help says
+    what happens then) and flags (off unless given)."""
+
+    def _get_help_string(self, action):
+        if action.default is None or action.default is False:
+            return action.help
+        return super()._get_help_string(action)
+
+
+def _name_list(allowed, what: str):
+    """An argparse ``type``: comma-separated names, each from ``allowed``, as a list."""
+
+    def parse(text: str) -> list:
+        names = [t.strip() for t in text.split(",") if t.strip()]
+        unknown = [n for n in names if n not in allowed]
+        if unknown:
+            raise argparse.ArgumentTypeError(f"unknown {what} {', '.join(map(repr, unknown))}; choose from {', '.join(allowed)}")
+        if not names:
+            raise argparse.ArgumentTypeError(f"expected comma-separated {what} names from {', '.join(allowed)}")
+        return names
+
+    return parse
+
+
+def _positive_int(text: str) -> int:
+    """An argparse ``type``: a positive integer."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return value
+
+
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="softshadows", description=__doc__.splitlines()[0])
+    """The ``softshadows`` command: parses ``argv`` and runs the chosen command.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments after the program name; default ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        The exit status: 0 on success, 1 when a claim's measurement broke (``reproduce``). Bad
+        arguments exit through ``SystemExit(2)`` with a usage message, as argparse does.
+
+    Examples
+    --------
+    >>> from softshadows import cli
+    >>> try:
+    ...     cli.main(["--version"])
+    ... except SystemExit as done:
+    ...     print("exit status", done.code)
+    softshadows ...
+    exit status 0
+    """
+    from . import claims
+    from .methods import METHODS
+    from .scenes import LIGHT_KINDS, SCENES
+
+    parser = argparse.ArgumentParser(prog="softshadows", formatter_class=_Formatter,
+                                     description="Real-time soft-shadow methods, measured against exact and Mitsuba references.")
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
-    d = sub.add_parser("demo", help="run every method on a built-in scene against Mitsuba")
-    d.add_argument("--out", type=Path, default=Path("demo"), help="output folder (default: ./demo)")
-    d.add_argument("--scene", default="columns", help="scene name from softshadows.scenes.SCENES")
-    d.add_argument("--size", type=int, default=256, help="image width and height in pixels")
-    d.add_argument("--samples", type=int, default=64, help="light samples for sample-based methods")
-    d.add_argument("--reference-samples", type=int, default=1024, help="light samples of the Mitsuba reference")
-    e = sub.add_parser("evaluate", help="every method on every scene and light against Mitsuba, as a report")
-    e.add_argument("--scenes", default="columns", help="comma-separated scene names (default: columns)")
-    e.add_argument("--methods", default=None, help="comma-separated method names (default: all)")
-    e.add_argument("--lights", default="rect", help="comma-separated light kinds (default: rect)")
-    e.add_argument("--size", type=int, default=128, help="image width and height in pixels")
-    e.add_argument("--samples", type=int, default=64, help="light samples for sample-based methods")
-    e.add_argument("--reference-samples", type=int, default=4096, help="light samples of the Mitsuba reference")
-    e.add_argument("--out", type=Path, default=Path("evaluation"), help="output folder (default: ./evaluation)")
+    d = sub.add_parser("demo", help="run every method on a built-in scene against Mitsuba", formatter_class=_Formatter)
+    d.add_argument("--out", type=Path, default=Path("demo"), help="output folder")
+    d.add_argument("--scene", default="columns", choices=list(SCENES), metavar="SCENE",
+                   help=f"scene name, one of {', '.join(SCENES)}")
+    d.add_argument("--size", type=_positive_int, default=256, help="image width and height in pixels")
+    d.add_argument("--samples", type=_positive_int, default=64, help="light samples for sample-based methods")
+    d.add_argument("--reference-samples", type=_positive_int, default=1024, help="light samples of the Mitsuba reference")
+    e = sub.add_parser("evaluate", help="every method on every scene and light against Mitsuba, as a report", formatter_class=_Formatter)
+    e.add_argument("--scenes", type=_name_list(SCENES, "scene"), default="columns",
+                   help=f"comma-separated scene names from {', '.join(SCENES)}")
+    e.add_argument("--methods", type=_name_list(METHODS, "method"), default=None,
+                   help=f"comma-separated method names from {', '.join(METHODS)}; default all")
+    e.add_argument("--lights", type=_name_list(LIGHT_KINDS, "light"), default="rect",
+                   help=f"comma-separated light kinds from {', '.join(LIGHT_KINDS)}")
+    e.add_argument("--size", type=_positive_int, default=128, help="image width and height in pixels")
+    e.add_argument("--samples", type=_positive_int, default=64, help="light samples for sample-based methods")
+    e.add_argument("--reference-samples", type=_positive_int, default=4096, help="light samples of the Mitsuba reference")
+    e.add_argument("--out", type=Path, default=Path("evaluation"), help="output folder")
+    e.add_argument("--latex", action="store_true", help="also write the results as a LaTeX table, results.tex")
     e.add_argument("--readme", type=Path, default=None, help="also rewrite the results table of this README")
-    r = sub.add_parser("reproduce", help="measure every claim of the five papers (the claims ledger)",
-                       formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    r.add_argument("--papers", default=None, help="comma-separated paper keys (sintorn08, forest09, annen08, schwarz08, marrs18); default all")
-    r.add_argument("--ids", default=None, help="comma-separated claim ids; default all of the papers'")
+    r = sub.add_parser("reproduce", help="measure every claim of the five papers (the claims ledger)", formatter_class=_Formatter)
+    r.add_argument("--papers", type=_name_list(claims.PAPERS, "paper"), default=None,
+                   help=f"comma-separated paper keys from {', '.join(claims.PAPERS)}; default all")
+    r.add_argument("--ids", type=_name_list(claims.CLAIMS, "claim id"), default=None,
+                   help="comma-separated claim ids (softshadows.claims.CLAIMS); default all of the papers'")
     r.add_argument("--tier", choices=("fast", "paper"), default="fast",
                    help="fast: small sizes, minutes; paper: the papers' own sizes, up to an hour")
     r.add_argument("--out", type=Path, default=Path("claims"), help="output folder for claims.md, claims.csv and the figures")
@@ -124,11 +247,12 @@ def main(argv=None) -> int:
     if args.command == "evaluate":
         return _evaluate(args)
     if args.command == "reproduce":
-        return _reproduce(args, parser)
+        return _reproduce(args, r)
     table = demo(args.out, scene=args.scene, size=args.size, samples=args.samples, reference_samples=args.reference_samples)
     width = max(map(len, table))
     for name, m in table.items():
-        print(f"{name:<{width}}  RMSE {m['rmse']:.4f}  SSIM {m['ssim']:.4f}  FLIP {m['flip']:.4f}  {m['seconds']:.3f} s")
+        print(f"{name:<{width}}  RMSE {m['rmse']:.4f}  PSNR {m['psnr']:.2f} dB  SSIM {m['ssim']:.4f}  FLIP {m['flip']:.4f}  "
+              f"{m['seconds']:.3f} s")
     print(f"wrote {args.out / 'demo.png'}, metrics.md, metrics.json and EXR files")
     return 0
 
@@ -136,35 +260,26 @@ def main(argv=None) -> int:
 def _evaluate(args) -> int:
     from .evaluation import evaluate, report, update_readme
 
-    split = lambda text: [t.strip() for t in text.split(",") if t.strip()]  # noqa: E731
-    frame = evaluate(
-        split(args.scenes),
-        None if args.methods is None else split(args.methods),
-        lights=split(args.lights),
-        size=args.size,
-        samples=args.samples,
-        reference_samples=args.reference_samples,
-        keep_images=True,
-    )
-    page = report(frame, args.out)
+    frame = evaluate(args.scenes, args.methods, lights=args.lights, size=args.size, samples=args.samples,
+                     reference_samples=args.reference_samples, keep_images=True)
+    page = report(frame, args.out, latex=args.latex)
     if args.readme is not None:
         update_readme(frame, args.readme)
-    print(frame[["scene", "light", "method", "rmse", "ssim", "flip", "seconds"]].to_string(index=False, float_format="%.4f"))
-    print(f"wrote {page}, results.csv, pareto.png and the comparison grids")
+    print(frame[["scene", "light", "method", "rmse", "psnr", "ssim", "flip", "seconds"]].to_string(index=False, float_format="%.4f"))
+    print(f"wrote {page}, results.csv, {'results.tex, ' if args.latex else ''}pareto.png and the comparison grids")
     return 0
 
 
 def _reproduce(args, parser) -> int:
     from . import claims
 
-    split = lambda text: None if text is None else [t.strip() for t in text.split(",") if t.strip()]  # noqa: E731
     if args.record is not None and args.tier != "fast":
         parser.error("--record: only the fast tier is recorded as the tests' expectations")
-    try:
-        frame = claims.reproduce(split(args.papers), tier=args.tier, ids=split(args.ids), out=args.out,
-                                 figures=not args.no_figures)
-    except ValueError as err:
-        parser.error(str(err))
+    if args.papers is not None and args.ids is not None:
+        outside = [i for i in args.ids if claims.CLAIMS[i].paper.key not in args.papers]
+        if outside:
+            parser.error(f"--ids: {', '.join(outside)} not among the claims of --papers {','.join(args.papers)}")
+    frame = claims.reproduce(args.papers, tier=args.tier, ids=args.ids, out=args.out, figures=not args.no_figures)
     print(frame[["id", "ours", "verdict"]].to_string(index=False, max_colwidth=70))
     print(f"wrote {args.out / 'claims.md'}, claims.csv and the figures")
     broken = frame[~frame["verdict"].isin(claims.VERDICTS)]

@@ -360,7 +360,7 @@ def environment(scene, lights, receivers, *, method: str = "cssm", albedo=0.8, d
     if progress:
         from tqdm.auto import tqdm
 
-        lights = tqdm(lights, desc=f"environment ({method})")
+        lights = tqdm(lights, desc=f"environment ({method})", disable=None)  # only on a terminal
     for light in lights:
         irradiance = light.solid_angle * np.maximum(normals.astype(np.float64) @ light.direction, 0.0)
         if not np.any(irradiance[mask] > 0):

@@ -2,8 +2,13 @@
 
 Users pick a soft-shadow method by its error and its cost on their kind of scene; :func:`evaluate`
 measures both on the same receivers, light samples and reference, and :func:`report` turns the
-table into a Markdown page, comparison grids and a time-versus-error chart with the Pareto front.
-``softshadows evaluate`` on the command line runs both.
+table into a Markdown page, comparison grids and a time-versus-error chart with the Pareto front,
+and :func:`latex_table` into a table for a paper. ``softshadows evaluate`` on the command line runs
+both.
+
+Each row holds every metric of :func:`softshadows.metrics.summary`: RMSE, PSNR, SSIM and FLIP over
+the hit pixels, and the RMSE over the umbra, the penumbra and the lit pixels of the reference
+(:func:`softshadows.metrics.regions`), where soft-shadow methods differ most.
 
 The reference of each scene and light is Mitsuba's own ``ray_test`` on ``reference_samples``
 Sobol samples (:func:`softshadows.reference.mitsuba_visibility`), cached on disk by input hash,
@@ -19,7 +24,22 @@ import numpy as np
 
 from . import _validate as v
 
-__all__ = ["evaluate", "sweep", "report", "pareto_front", "results_table", "update_readme"]
+__all__ = ["evaluate", "sweep", "report", "latex_table", "pareto_front", "results_table", "update_readme"]
+
+#: The metric columns of :func:`report` and :func:`latex_table`: column, heading, decimals.
+_TABLE_COLUMNS = (
+    ("rmse", "RMSE", 4),
+    ("psnr", "PSNR (dB)", 2),
+    ("ssim", "SSIM", 4),
+    ("flip", "FLIP", 4),
+    ("rmse.umbra", "RMSE umbra", 4),
+    ("rmse.penumbra", "RMSE penumbra", 4),
+    ("rmse.lit", "RMSE lit", 4),
+    ("seconds", "seconds", 3),
+)
+
+#: The columns :func:`report` and :func:`latex_table` need.
+_REPORT_COLUMNS = ("scene", "light", "method", "error") + tuple(c for c, _, _ in _TABLE_COLUMNS)
 
 
 def evaluate(
@@ -68,16 +88,29 @@ def evaluate(
         Keep every visibility image, the reference and the mask in ``frame.attrs["images"]``
         (keyed by ``(scene, light)``) for :func:`report`'s grids.
     progress : bool
-        Show a progress bar.
+        Show one progress bar for the whole run (the references' own bars are off), and only when
+        stderr is a terminal, so that logs get no carriage-return lines.
 
     Returns
     -------
     pandas.DataFrame
-        One row per scene, light and method: ``scene``, ``light``, ``method``, ``rmse``, ``ssim``,
-        ``flip`` (over the hit pixels), ``seconds`` (wall-clock, fastest of ``repeat`` runs),
+        One row per scene, light and method: ``scene``, ``light``, ``method``, the metrics of
+        :func:`softshadows.metrics.summary` over the hit pixels (``rmse``, ``psnr``, ``ssim``,
+        ``flip``, ``rmse.umbra``, ``rmse.penumbra``, ``rmse.lit``; a region without pixels is
+        NaN), ``seconds`` (wall-clock, fastest of ``repeat`` runs),
         ``shaded.rmse`` and ``shaded.flip`` with ``shaded``, ``error`` (why a method refused the setup,
         e.g. a non-planar light for ``backprojection``; metrics are NaN then) and every stat the
         method reports, as ``stats.<name>`` columns.
+
+    Examples
+    --------
+    Every name is checked before the first reference, which can take minutes:
+
+    >>> import softshadows as ss
+    >>> ss.evaluate(["columns"], ["ray_trace"])
+    Traceback (most recent call last):
+    ...
+    ValueError: methods: unknown ['ray_trace']; expected names from ['ray_traced', ...]
     """
     import pandas as pd
     from tqdm.auto import tqdm
@@ -97,13 +130,15 @@ def evaluate(
     options = _options(options, METHODS)
     rows, images = [], {}
     setups = [(s, k) for s in scenes for k in lights]
-    with tqdm(total=len(setups) * (len(names) + 1), desc="evaluate", unit="run", disable=not progress) as bar:
+    # disable=None: tqdm draws only on a terminal.
+    with tqdm(total=len(setups) * (len(names) + 1), desc="evaluate", unit="run", disable=None if progress else True) as bar:
         for scene_name, kind in setups:
             bar.set_description(f"{scene_name}/{kind}: reference")
             setup = scene_library.get(scene_name, light=kind, width=size, height=size)
             gb = gbuffer(setup.scene, setup.camera)
             ref_samples = setup.light.samples(reference_samples, pattern="sobol", seed=1)
-            ref = reference.mitsuba_visibility(setup.scene, setup.light, gb, ref_samples, progress=progress)
+            # Its own bar would nest in this one: one bar per run.
+            ref = reference.mitsuba_visibility(setup.scene, setup.light, gb, ref_samples, progress=False)
             bar.update()
             shared = setup.light.samples(samples, pattern="poisson", seed=0)
             render = reference.mitsuba_render(setup.scene, setup.light, setup.camera, spp=render_spp)[..., 0] if shaded else None
@@ -120,7 +155,7 @@ def evaluate(
                         vis, stats = METHODS[name](setup.scene, setup.light, gb, return_stats=True, **kwargs)
                         seconds.append(time.perf_counter() - start)
                 except ValueError as refusal:
-                    row.update(rmse=np.nan, ssim=np.nan, flip=np.nan, seconds=np.nan, error=str(refusal))
+                    row.update(dict.fromkeys(metrics.SUMMARY_KEYS, np.nan), seconds=np.nan, error=str(refusal))
                 else:
                     row.update(metrics.summary(vis, ref, gb.mask), seconds=min(seconds))
                     if render is not None:
@@ -163,13 +198,24 @@ def sweep(method: str, parameters: dict, *, scenes=("columns",), lights=("rect",
         Dask ``distributed.Client(...).get_executor()`` runs them on a cluster. Workers share
         the on-disk reference cache when they share a file system.
     progress : bool
-        Show a progress bar.
+        Show a progress bar over the tasks, only when stderr is a terminal.
 
     Returns
     -------
     pandas.DataFrame
-        One row per task, in grid order: ``scene``, ``light``, ``method``, the parameters, ``rmse``,
-        ``ssim``, ``flip``, ``seconds`` and ``error``.
+        One row per task, in grid order: ``scene``, ``light``, ``method``, the parameters, the
+        metrics of :func:`softshadows.metrics.summary` (as in :func:`evaluate`), ``seconds`` and
+        ``error``.
+
+    Examples
+    --------
+    The grid is checked before any worker starts:
+
+    >>> import softshadows as ss
+    >>> ss.sweep("backprojection", {"budget": 8})
+    Traceback (most recent call last):
+    ...
+    ValueError: parameters: 'budget' needs a sequence of values, got 8
     """
     import itertools
     import multiprocessing
@@ -206,7 +252,8 @@ def sweep(method: str, parameters: dict, *, scenes=("columns",), lights=("rect",
         # Spawned, not forked: a forked child would inherit a thread pool without its threads.
         executor = ProcessPoolExecutor(max_workers=os.cpu_count(), mp_context=multiprocessing.get_context("spawn"))
     try:
-        records = list(tqdm(executor.map(_sweep_task, tasks), total=len(tasks), desc=f"sweep {method}", disable=not progress))
+        records = list(tqdm(executor.map(_sweep_task, tasks), total=len(tasks), desc=f"sweep {method}",
+                            disable=None if progress else True))
     finally:
         if own:
             executor.shutdown()
@@ -235,7 +282,7 @@ def _sweep_task(task) -> dict:
     try:
         vis = METHODS[method](setup.scene, setup.light, gb, **kwargs)
     except ValueError as refusal:
-        return {**record, "rmse": np.nan, "ssim": np.nan, "flip": np.nan, "seconds": np.nan, "error": str(refusal)}
+        return {**record, **dict.fromkeys(metrics.SUMMARY_KEYS, np.nan), "seconds": np.nan, "error": str(refusal)}
     seconds = time.perf_counter() - start
     return {**record, **metrics.summary(vis, ref, gb.mask), "seconds": seconds}
 
@@ -243,7 +290,28 @@ def _sweep_task(task) -> dict:
 def pareto_front(frame, x: str = "seconds", y: str = "rmse"):
     """Whether each row is on the Pareto front of ``(x, y)`` among its rows: no other row is at
     least as low in both and lower in one (faster and as accurate, or as fast and more accurate).
-    Rows with NaN are not. Returns a boolean Series; :func:`report` applies it per scene and light."""
+    Rows with NaN are not. Returns a boolean Series; :func:`report` applies it per scene and light.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Rows to compare, with numeric columns ``x`` and ``y``.
+    x, y : str
+        The two costs, lower is better (default seconds and RMSE).
+
+    Returns
+    -------
+    pandas.Series of bool
+        On ``frame``'s index.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from softshadows import evaluation
+    >>> frame = pd.DataFrame({"seconds": [1.0, 2.0, 3.0], "rmse": [0.2, 0.1, 0.1]})
+    >>> evaluation.pareto_front(frame).tolist()  # the third is as accurate as the second, and slower
+    [True, True, False]
+    """
     _columns(frame, (x, y))
     try:
         values = frame[[x, y]].to_numpy(dtype=float)
@@ -259,10 +327,11 @@ def pareto_front(frame, x: str = "seconds", y: str = "rmse"):
     return pd.Series(front, index=frame.index, name="pareto", dtype=bool)  # bool even with no rows
 
 
-def report(frame, out) -> Path:
+def report(frame, out, *, latex: bool = False) -> Path:
     """Writes the evaluation report: ``report.md`` (a table per scene and light, the Pareto-front
     methods in bold), ``results.csv``, ``pareto.png`` (seconds against RMSE, one point per row,
-    the front joined) and, when ``frame`` kept its images, one comparison grid per scene and light.
+    the front joined), when ``frame`` kept its images one comparison grid per scene and light, and
+    with ``latex`` the table for a paper, ``results.tex`` (:func:`latex_table`).
 
     Parameters
     ----------
@@ -270,39 +339,61 @@ def report(frame, out) -> Path:
         From :func:`evaluate`.
     out : str or Path
         Output folder (created).
+    latex : bool
+        Also write ``results.tex``.
 
     Returns
     -------
     Path
         The Markdown page.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> import numpy as np, pandas as pd
+    >>> from softshadows import evaluation, metrics
+    >>> ref = np.tile(np.linspace(0, 1, 8), (8, 1))
+    >>> rows = [{"scene": "ramp", "light": "rect", "method": name, **metrics.summary(vis, ref), "seconds": seconds,
+    ...          "error": None} for name, vis, seconds in [("exact", ref, 2.0), ("hard", 1.0 * (ref > 0.5), 0.1)]]
+    >>> with tempfile.TemporaryDirectory() as out:
+    ...     page = evaluation.report(pd.DataFrame(rows), out, latex=True)
+    ...     print(sorted(p.name for p in page.parent.iterdir()))
+    ...     print(next(line for line in page.read_text().splitlines() if "exact" in line))
+    ['pareto.png', 'report.md', 'results.csv', 'results.tex']
+    | **exact** | 0.0000 | inf | 1.0000 | 0.0000 | 0.0000 | 0.0000 | 0.0000 | 2.000 |
     """
     import matplotlib.pyplot as plt
-    import pandas as pd
 
-    from . import plot
+    from . import metrics, plot
 
-    _columns(frame, ("scene", "light", "method", "rmse", "ssim", "flip", "seconds", "error"))
+    _columns(frame, _REPORT_COLUMNS)
     try:
         out = Path(out)
     except TypeError:
         raise TypeError(f"out: expected a str or os.PathLike, got {type(out).__name__}") from None
     out.mkdir(parents=True, exist_ok=True)
-    fronts = [pareto_front(group) for _, group in frame.groupby(["scene", "light"], sort=False)]
-    frame = frame.assign(pareto=pd.concat(fronts).reindex(frame.index))
+    frame = _with_pareto(frame)
     frame.to_csv(out / "results.csv", index=False)
+    if latex:
+        (out / "results.tex").write_text(latex_table(frame) + "\n")
     setup = frame.attrs.get("setup", {})
     lines = ["# softshadows evaluation", ""]
     if setup:
         lines += [f"{setup['size']}x{setup['size']} receivers; sample-based methods: {setup['samples']} Poisson samples; "
                   f"reference: {setup['reference']}. Bold: on the time-versus-RMSE Pareto front of its scene and light.", ""]
+    threshold = metrics.REGION_THRESHOLD
+    lines += [f"Umbra, penumbra and lit: pixels whose reference visibility is <= {threshold:g}, between, and >= {1 - threshold:g} "
+              "(`softshadows.metrics.regions`); a dash where a region has no pixels.", ""]
+    headings = [heading for _, heading, _ in _TABLE_COLUMNS]
     for (scene, light), group in frame.groupby(["scene", "light"], sort=False):
-        lines += [f"## {scene}, {light} light", "", "| method | RMSE | SSIM | FLIP | seconds |", "|---|---|---|---|---|"]
+        lines += [f"## {scene}, {light} light", "", "| method | " + " | ".join(headings) + " |",
+                  "|---|" + "---|" * len(headings)]
         for _, r in group.iterrows():
             if r["error"] is not None and isinstance(r["error"], str):
-                lines.append(f"| {r['method']} | refused: {r['error']} | | | |")
+                lines.append(f"| {r['method']} | refused: {r['error']} |" + " |" * (len(headings) - 1))
                 continue
             name = f"**{r['method']}**" if r["pareto"] else r["method"]
-            lines.append(f"| {name} | {r['rmse']:.4f} | {r['ssim']:.4f} | {r['flip']:.4f} | {r['seconds']:.3f} |")
+            lines.append(f"| {name} | " + " | ".join(_number(r[c], digits) for c, _, digits in _TABLE_COLUMNS) + " |")
         images = frame.attrs.get("images", {}).get((scene, light))
         if images:
             grid = f"{scene}_{light}.png"
@@ -329,6 +420,73 @@ def report(frame, out) -> Path:
     page = out / "report.md"
     page.write_text("\n".join(lines))
     return page
+
+
+def latex_table(frame) -> str:
+    r"""The results as a LaTeX ``tabular`` for a paper: one row per scene, light and method, the
+    columns of the Markdown report (RMSE, PSNR, SSIM, FLIP, the RMSE over umbra, penumbra and lit
+    pixels, seconds), the methods on the time-versus-RMSE Pareto front of their scene and light in
+    bold.
+
+    The rules are booktabs' (``\usepackage{booktabs}`` in the preamble); a method that refused a
+    setup and a region without pixels read ``--``. Made by pandas' ``Styler.to_latex``, which
+    needs jinja2.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        From :func:`evaluate` or :func:`sweep` (all of :func:`softshadows.metrics.summary`'s
+        columns, ``seconds`` and ``error``).
+
+    Returns
+    -------
+    str
+        The ``tabular`` environment, to ``\input`` inside a ``table``.
+
+    Examples
+    --------
+    >>> import numpy as np, pandas as pd
+    >>> from softshadows import evaluation, metrics
+    >>> ref = np.tile(np.linspace(0, 1, 8), (8, 1))
+    >>> rows = [{"scene": "ramp", "light": "rect", "method": name, **metrics.summary(vis, ref), "seconds": seconds,
+    ...          "error": None} for name, vis, seconds in [("ray_traced", ref, 2.0), ("shadow_map", 1.0 * (ref > 0.5), 0.1)]]
+    >>> print(evaluation.latex_table(pd.DataFrame(rows)))  # doctest: +NORMALIZE_WHITESPACE
+    \begin{tabular}{lllrrrrrrrr}
+    \toprule
+    scene & light & method & RMSE & PSNR (dB) & SSIM & FLIP & RMSE umbra & RMSE penumbra & RMSE lit & seconds \\
+    \midrule
+    ramp & rect & \bfseries ray\_traced & 0.0000 & $\infty$ & 1.0000 & 0.0000 & 0.0000 & 0.0000 & 0.0000 & 2.000 \\
+    ramp & rect & \bfseries shadow\_map & ... \\
+    \bottomrule
+    \end{tabular}
+    """
+    _columns(frame, _REPORT_COLUMNS)
+    frame = _with_pareto(frame)
+    headings = {column: heading for column, heading, _ in _TABLE_COLUMNS}
+    table = frame[["scene", "light", "method", *headings]].rename(columns=headings).reset_index(drop=True)
+    formats = {heading: _latex_formatter(digits) for column, heading, digits in _TABLE_COLUMNS}
+    bold = ["font-weight: bold;" if front else "" for front in frame["pareto"]]
+    styler = (table.style.format(formats, na_rep="--", escape="latex").format_index(escape="latex", axis=1)
+              .apply(lambda _: bold, subset=["method"]).hide(axis="index"))
+    return styler.to_latex(hrules=True, convert_css=True, column_format="lll" + "r" * len(_TABLE_COLUMNS)).rstrip("\n")
+
+
+def _latex_formatter(digits: int):
+    """A cell formatter with ``digits`` decimals, and the exact result's infinite PSNR as a symbol."""
+    return lambda x: r"$\infty$" if x == np.inf else f"{x:.{digits}f}"
+
+
+def _number(value, digits: int) -> str:
+    """A Markdown cell: ``digits`` decimals, a dash for NaN (a region without pixels)."""
+    return "-" if np.isnan(value) else f"{value:.{digits}f}"
+
+
+def _with_pareto(frame):
+    """``frame`` with a ``pareto`` column: on the time-versus-RMSE front of its scene and light."""
+    import pandas as pd
+
+    fronts = [pareto_front(group) for _, group in frame.groupby(["scene", "light"], sort=False)]
+    return frame.assign(pareto=pd.concat(fronts).reindex(frame.index))
 
 
 def _rmse_of(group, method: str) -> float:

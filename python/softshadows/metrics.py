@@ -1,11 +1,12 @@
 """Image metrics for comparing a method's result with a reference (docs/design.md section 3).
 
 All functions take ``test`` and ``ref`` of the same shape: visibility images (H, W) in [0, 1],
-or RGB images (H, W, 3); ``rmse`` also takes flat (K,) visibility of explicit receivers. The
-optional ``mask`` (H, W) (or (K,)) selects the pixels that count, normally the G-buffer's hit
-mask; a metric over an empty mask is refused.
+or RGB images (H, W, 3); ``rmse``, ``psnr``, ``regions``, ``region_rmse`` and ``summary`` also
+take flat (K,) visibility of explicit receivers. The optional ``mask`` (H, W) (or (K,)) selects
+the pixels that count, normally the G-buffer's hit mask; a metric over an empty mask is refused.
 
 * ``rmse``: root mean square difference over the masked pixels (and channels).
+* ``psnr``: ``20 log10(peak / rmse)`` in decibels, ``peak=1`` for visibility; inf when exact.
 * ``ssim``: ``skimage.metrics.structural_similarity`` with ``data_range=1`` and its default 7x7
   uniform window; with a mask, the full SSIM map is averaged over the masked pixels (windows
   near the mask border still see unmasked pixels, whose values are whatever the images hold:
@@ -14,18 +15,39 @@ mask; a metric over an empty mask is refused.
   replicated to RGB. ``dynamic_range="LDR"`` (default) treats values as displayed sRGB values
   clipped to [0, 1], which is how visibility images are viewed; use ``"HDR"`` for radiance.
   With a mask, the mean of the FLIP error map over the masked pixels.
+* ``regions`` and ``region_rmse``: the receivers split by the reference visibility into umbra
+  (``ref <= threshold``), penumbra and lit (``ref >= 1 - threshold``), and the RMSE over each;
+  :data:`REGION_THRESHOLD` says why the default threshold is 0.01 rather than exactly 0 and 1.
+  Soft-shadow methods differ mostly in the penumbra, which is often a small part of the image:
+  an image-wide RMSE hides a method that gets the penumbra wrong and the large flat regions right.
+* ``summary``: all of them at once (:data:`SUMMARY_KEYS`), NaN where one does not apply.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
 from . import _validate as v
 
-__all__ = ["rmse", "ssim", "flip", "error_heatmap", "summary"]
+__all__ = ["rmse", "psnr", "ssim", "flip", "regions", "region_rmse", "error_heatmap", "summary"]
 
 #: Colour of masked-out pixels in heatmaps.
 MASKED_GRAY = (0.5, 0.5, 0.5)
+
+#: Reference visibility at or below which a receiver is in the umbra, and at or above one minus
+#: which it is lit (:func:`regions`). Not exactly 0 and 1: the reference is an estimate from a
+#: finite number of light samples, and with exact bounds a receiver that one of 4096 rays reaches
+#: past an occluder's silhouette would count as penumbra. A 1 % fringe is about two and a half
+#: steps of an 8-bit display, which leaves the penumbra the visible soft transition.
+REGION_THRESHOLD = 0.01
+
+#: The keys of :func:`summary`, in order.
+SUMMARY_KEYS = ("rmse", "psnr", "ssim", "flip", "rmse.umbra", "rmse.penumbra", "rmse.lit")
+
+#: The regions of :func:`regions`, in order from dark to bright.
+REGIONS = ("umbra", "penumbra", "lit")
 
 
 def rmse(test, ref, mask=None) -> float:
@@ -41,6 +63,14 @@ def rmse(test, ref, mask=None) -> float:
     Returns
     -------
     float
+        In the units of the inputs (visibility: fraction of the light, 0 to 1).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from softshadows import metrics
+    >>> metrics.rmse(np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(4))
+    0.5
     """
     t, r, m = _inputs(test, ref, mask, images_only=False)
     # Scaled by the largest difference, so that errors near 1e200 do not square to inf.
@@ -49,6 +79,39 @@ def rmse(test, ref, mask=None) -> float:
     if scale == 0:
         return 0.0
     return float(2 * scale * np.sqrt(np.mean((d / scale) ** 2)))
+
+
+def psnr(test, ref, mask=None, *, peak: float = 1.0) -> float:
+    """Peak signal-to-noise ratio ``20 log10(peak / RMSE)`` over the masked pixels.
+
+    Parameters
+    ----------
+    test, ref : array_like, shape (H, W), (H, W, 3) or (K,)
+        Same shape; finite.
+    mask : array_like of bool, shape (H, W) or (K,), optional
+        Pixels that count; all by default.
+    peak : float
+        The largest possible value, in the units of the inputs: 1 for visibility (default);
+        for radiance, the brightest value the comparison should count as full scale.
+
+    Returns
+    -------
+    float
+        Decibels; higher is better, ``inf`` when ``test`` equals ``ref`` over the mask.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from softshadows import metrics
+    >>> round(metrics.psnr(np.full(4, 0.1), np.zeros(4)), 6)  # RMSE 0.1: 20 dB
+    20.0
+    >>> metrics.psnr(np.zeros(4), np.zeros(4))
+    inf
+    """
+    peak = v.positive("peak", peak)
+    error = rmse(test, ref, mask)
+    # Two logarithms: peak / error overflows for a tiny error and a large peak.
+    return math.inf if error == 0 else float(20 * (math.log10(peak) - math.log10(error)))
 
 
 def ssim(test, ref, mask=None) -> float:
@@ -64,6 +127,15 @@ def ssim(test, ref, mask=None) -> float:
     Returns
     -------
     float
+        In [-1, 1]; 1 for identical images.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from softshadows import metrics
+    >>> ramp = np.linspace(0, 1, 64).reshape(8, 8)
+    >>> metrics.ssim(ramp, ramp), round(metrics.ssim(np.clip(ramp + 0.1, 0, 1), ramp), 4)
+    (1.0, 0.9682)
     """
     from skimage.metrics import structural_similarity
 
@@ -101,6 +173,15 @@ def flip(test, ref, mask=None, *, dynamic_range: str = "LDR") -> float:
     Returns
     -------
     float
+        In [0, 1]; 0 for identical images.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from softshadows import metrics
+    >>> ramp = np.linspace(0, 1, 64).reshape(8, 8)
+    >>> metrics.flip(ramp, ramp), 0 < metrics.flip(np.clip(ramp + 0.1, 0, 1), ramp) < 1
+    (0.0, True)
     """
     import flip_evaluator
 
@@ -162,6 +243,14 @@ def error_heatmap(test, ref, mask=None, *, vmax: float | None = None, signed: bo
     Returns
     -------
     ndarray, shape (H, W, 3), float32 in [0, 1]
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from softshadows import metrics
+    >>> img = metrics.error_heatmap(np.array([[0.5, 0.0]]), np.zeros((1, 2)), np.array([[True, False]]))
+    >>> img.shape, bool(img[0, 0, 0] > img[0, 0, 2]), img[0, 1].tolist()  # too bright: red; masked: gray
+    ((1, 2, 3), True, [0.5, 0.5, 0.5])
     """
     import matplotlib
 
@@ -186,20 +275,121 @@ def error_heatmap(test, ref, mask=None, *, vmax: float | None = None, signed: bo
     return rgb
 
 
-def summary(test, ref, mask=None) -> dict:
-    """RMSE, SSIM and FLIP together.
+def regions(ref, mask=None, *, threshold: float = REGION_THRESHOLD) -> dict:
+    """The masked receivers split into umbra, penumbra and lit by their reference visibility.
 
     Parameters
     ----------
-    test, ref : array_like, shape (H, W) or (H, W, 3)
-    mask : array_like of bool, shape (H, W), optional
+    ref : array_like, shape (H, W) or (K,)
+        Reference visibility, in [0, 1].
+    mask : array_like of bool, shape (H, W) or (K,), optional
+        Receivers that count; all by default.
+    threshold : float
+        Umbra where ``ref <= threshold``, lit where ``ref >= 1 - threshold``, penumbra between;
+        in [0, 0.5), default :data:`REGION_THRESHOLD` (0.01, see there for why). Receivers that
+        face away from the light have visibility 0 and so count as umbra.
 
     Returns
     -------
-    dict
-        ``{"rmse": float, "ssim": float, "flip": float}``.
+    dict of str to ndarray of bool
+        ``{"umbra": ..., "penumbra": ..., "lit": ...}``, each of ``ref``'s shape; disjoint, and
+        together the mask.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from softshadows import metrics
+    >>> split = metrics.regions(np.array([0.0, 0.005, 0.5, 0.995, 1.0]))
+    >>> {name: where.nonzero()[0].tolist() for name, where in split.items()}
+    {'umbra': [0, 1], 'penumbra': [2], 'lit': [3, 4]}
     """
-    return {"rmse": rmse(test, ref, mask), "ssim": ssim(test, ref, mask), "flip": flip(test, ref, mask)}
+    _, r, m = _inputs(ref, ref, mask, images_only=False)
+    if r.ndim == 3:
+        raise ValueError(f"ref: regions are classified from visibility of shape (H, W) or (K,), got {r.shape}; "
+                         "pass the reference visibility, not a shaded image")
+    if r.min() < 0 or r.max() > 1:
+        raise ValueError(f"ref: regions are classified from visibility in [0, 1], got values in [{r.min():g}, {r.max():g}]")
+    threshold = v.positive("threshold", threshold, allow_zero=True)
+    if threshold >= 0.5:
+        raise ValueError(f"threshold: must be below 0.5 (umbra and lit would overlap), got {threshold:g}")
+    umbra, lit = m & (r <= threshold), m & (r >= 1 - threshold)
+    return {"umbra": umbra, "penumbra": m & ~umbra & ~lit, "lit": lit}
+
+
+def region_rmse(test, ref, mask=None, *, threshold: float = REGION_THRESHOLD) -> dict:
+    """The RMSE over the umbra, the penumbra and the lit receivers (:func:`regions`).
+
+    Parameters
+    ----------
+    test, ref : array_like, shape (H, W) or (K,)
+        Visibility, same shape; ``ref`` in [0, 1] classifies the receivers.
+    mask : array_like of bool, shape (H, W) or (K,), optional
+        Receivers that count; all by default.
+    threshold : float
+        As in :func:`regions`.
+
+    Returns
+    -------
+    dict of str to float
+        ``{"umbra": ..., "penumbra": ..., "lit": ...}``; NaN for a region without receivers (a
+        large light may leave no umbra).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from softshadows import metrics
+    >>> ref = np.array([0.0, 0.5, 1.0, 1.0])
+    >>> {name: round(error, 4) for name, error in metrics.region_rmse(np.array([0.0, 0.3, 1.0, 0.9]), ref).items()}
+    {'umbra': 0.0, 'penumbra': 0.2, 'lit': 0.0707}
+    >>> metrics.region_rmse(np.ones(2), np.ones(2))["umbra"]
+    nan
+    """
+    t, r, _ = _inputs(test, ref, mask, images_only=False)
+    split = regions(r, mask, threshold=threshold)
+    return {name: rmse(t, r, where) if where.any() else math.nan for name, where in split.items()}
+
+
+def summary(test, ref, mask=None, *, threshold: float = REGION_THRESHOLD) -> dict:
+    """Every metric of this module that applies to the inputs, as :data:`SUMMARY_KEYS`.
+
+    Parameters
+    ----------
+    test, ref : array_like, shape (H, W), (H, W, 3) or (K,)
+        Same shape; SSIM needs H and W >= 7.
+    mask : array_like of bool, shape (H, W) or (K,), optional
+        Pixels or receivers that count; all by default.
+    threshold : float
+        The region split's threshold (:func:`regions`).
+
+    Returns
+    -------
+    dict of str to float
+        ``rmse``, ``psnr`` (dB, peak 1), ``ssim``, ``flip`` and the region split ``rmse.umbra``,
+        ``rmse.penumbra``, ``rmse.lit``. NaN where a metric does not apply: ``ssim`` and ``flip``
+        for (K,) explicit receivers, as both compare pixel neighbourhoods (SSIM's 7x7 window,
+        FLIP's filters at a viewing distance) that scattered points do not have; the region split
+        for an RGB ``ref`` or one outside [0, 1], which is not visibility; and a region with no
+        receivers.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from softshadows import metrics
+    >>> ref = np.array([0.0, 0.5, 1.0, 1.0])
+    >>> test = np.array([0.0, 0.3, 1.0, 0.9])
+    >>> {key: round(value, 4) for key, value in metrics.summary(test, ref).items()}  # doctest: +NORMALIZE_WHITESPACE
+    {'rmse': 0.1118, 'psnr': 19.0309, 'ssim': nan, 'flip': nan,
+     'rmse.umbra': 0.0, 'rmse.penumbra': 0.2, 'rmse.lit': 0.0707}
+    """
+    t, r, m = _inputs(test, ref, mask, images_only=False)
+    out = {"rmse": rmse(t, r, m), "psnr": psnr(t, r, m)}
+    points = t.ndim == 1
+    out["ssim"] = math.nan if points else ssim(t, r, m)
+    out["flip"] = math.nan if points else flip(t, r, m)
+    visibility = r.ndim < 3 and r.min() >= 0 and r.max() <= 1
+    split = region_rmse(t, r, m, threshold=threshold) if visibility else dict.fromkeys(REGIONS, math.nan)
+    out.update({f"rmse.{name}": value for name, value in split.items()})
+    return out
 
 
 def _inputs(test, ref, mask, *, images_only: bool = True):

@@ -1,27 +1,37 @@
-"""Pictures: visibility and error side by side, the way people compare shadow methods."""
+"""Pictures: visibility and error side by side, the way people compare shadow methods.
+
+The figures are ``matplotlib.figure.Figure`` objects made without pyplot: importing or calling
+this module never changes the matplotlib backend, and no figure is left registered with pyplot
+(nothing to close). In Jupyter a returned figure shows as the cell's value or with
+``display(fig)``; to show one with ``plt.show()`` in a window, draw it into a pyplot figure
+(``comparison_grid(..., figure=plt.figure())``, ``show_samples(..., ax=plt.gca())``).
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["comparison_grid", "show_samples"]
+__all__ = ["comparison_grid", "show_samples", "NO_HIT", "MAX_COLUMNS", "MAX_WIDTH"]
 
 #: The colour of pixels that hit no surface, so they never read as shadow.
 NO_HIT = (0.55, 0.68, 0.82)
+#: Columns of a comparison grid before it wraps into another row of panels.
+MAX_COLUMNS = 5
+#: Width of a comparison grid in inches: it fits a notebook cell (about 12 in at 100 dpi).
+MAX_WIDTH = 12.0
+#: Width of one column in inches when few columns leave room for it.
+_COLUMN_WIDTH = 2.6
+#: Inches for the titles above a pair of panels (up to two lines) and the error panel's title.
+_TITLES_HEIGHT = 0.9
 
 
-def _pyplot():
-    import matplotlib
+def comparison_grid(reference, results: dict, mask=None, *, path=None, titles: dict | None = None, vmax: float = 0.25,
+                    figure=None):
+    """One panel per method: visibility on top, signed error against the reference below it.
 
-    if matplotlib.get_backend().lower() not in ("agg", "module://matplotlib_inline.backend_inline"):
-        matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
-def comparison_grid(reference, results: dict, mask=None, *, path=None, titles: dict | None = None, vmax: float = 0.25):
-    """A grid with one column per method: visibility on top, signed error against the reference below.
+    Panels run left to right, the reference first, and wrap after :data:`MAX_COLUMNS` into
+    further rows (balanced: 13 panels make 3 rows of 5, 5 and 3); the figure is at most
+    :data:`MAX_WIDTH` inches wide.
 
     Parameters
     ----------
@@ -32,19 +42,37 @@ def comparison_grid(reference, results: dict, mask=None, *, path=None, titles: d
     mask : ndarray, shape (H, W), bool, optional
         Pixels that hit a surface; others are drawn in :data:`NO_HIT` blue on top and gray below.
     path : str or Path, optional
-        Where to save the PNG; the figure is returned either way.
+        Where to save the PNG (110 dpi); the figure is returned either way.
     titles : dict of str to str, optional
-        Extra text under each column title (e.g. the RMSE).
+        Extra text under each panel title (e.g. the RMSE).
     vmax : float
         Error magnitude mapped to full red / blue.
+    figure : matplotlib.figure.Figure, optional
+        A figure to draw into, e.g. ``plt.figure()`` to show it with ``plt.show()``; it is
+        cleared and resized. By default a new figure that pyplot does not know about.
 
     Returns
     -------
     matplotlib.figure.Figure
+        Two axes per panel (visibility, then its error), in panel order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from softshadows import plot
+    >>> reference = np.tile(np.linspace(0, 1, 16), (16, 1))
+    >>> results = {f"method {k}": np.clip(reference + 0.02 * k, 0, 1) for k in range(12)}
+    >>> fig = plot.comparison_grid(reference, results)
+    >>> len(fig.axes), fig.get_size_inches().round(1).tolist()     # 13 panels: 3 rows of at most 5
+    (26, [12.0, 17.1])
+    >>> fig.canvas.manager is None                                  # not registered with pyplot
+    True
     """
-    from .metrics import _inputs, error_heatmap
+    import matplotlib
+    from matplotlib.figure import Figure
 
     from . import _validate as v
+    from .metrics import _inputs, error_heatmap
 
     # Checked here, so that a refusal names this function's arguments, not error_heatmap's.
     reference = v.array("reference", reference, np.float64, (None, None))
@@ -56,23 +84,36 @@ def comparison_grid(reference, results: dict, mask=None, *, path=None, titles: d
     if mask is not None:
         mask = _inputs(reference, reference, mask)[2]  # as the metrics take it: bool or 0/1, (H, W), not empty
     vmax = v.positive("vmax", vmax)
-    plt = _pyplot()
-    cols = {"reference": reference, **results}
-    cmap = plt.get_cmap("gray").with_extremes(bad=NO_HIT)
-    fig, axes = plt.subplots(2, len(cols), figsize=(2.6 * len(cols), 5.6), squeeze=False)
-    for k, (name, vis) in enumerate(cols.items()):
+    if figure is not None and not isinstance(figure, Figure):
+        raise ValueError(f"figure: expected a matplotlib.figure.Figure such as plt.figure(), got {type(figure).__name__}")
+    panels = {"reference": reference, **results}
+    rows = -(-len(panels) // MAX_COLUMNS)
+    cols = -(-len(panels) // rows)
+    width = min(_COLUMN_WIDTH, MAX_WIDTH / cols)
+    # A strip-shaped image would otherwise make a figure hundreds of inches tall (or flat).
+    aspect = min(max(reference.shape[0] / reference.shape[1], 0.25), 4.0)
+    size = (cols * width, rows * (2 * width * aspect + _TITLES_HEIGHT))
+    if figure is None:
+        fig = Figure(figsize=size, layout="constrained")
+    else:
+        fig = figure
+        fig.clear()
+        fig.set_size_inches(size)
+        fig.set_layout_engine("constrained")
+    cmap = matplotlib.colormaps["gray"].with_extremes(bad=NO_HIT)
+    grid = fig.add_gridspec(2 * rows, cols)
+    for k, (name, vis) in enumerate(panels.items()):
+        row, col = divmod(k, cols)
+        top, bottom = fig.add_subplot(grid[2 * row, col]), fig.add_subplot(grid[2 * row + 1, col])
         sub = (titles or {}).get(name, "")
-        shown = vis if mask is None else np.where(mask, vis, np.nan)
-        axes[0, k].imshow(shown, cmap=cmap, vmin=0, vmax=1, interpolation="nearest")
-        axes[0, k].set_title(name + (f"\n{sub}" if sub else ""), fontsize=9)
-        axes[1, k].imshow(error_heatmap(vis, reference, mask, vmax=vmax), interpolation="nearest")
-        axes[1, k].set_title("error" if name != "reference" else f"error scale ±{vmax}", fontsize=8)
-    for ax in axes.ravel():
-        ax.set_axis_off()
-    fig.tight_layout()
+        top.imshow(vis if mask is None else np.where(mask, vis, np.nan), cmap=cmap, vmin=0, vmax=1, interpolation="nearest")
+        top.set_title(name + (f"\n{sub}" if sub else ""), fontsize=9)
+        bottom.imshow(error_heatmap(vis, reference, mask, vmax=vmax), interpolation="nearest")
+        bottom.set_title("error" if name != "reference" else f"error scale ±{vmax}", fontsize=8)
+        top.set_axis_off()
+        bottom.set_axis_off()
     if path is not None:
         fig.savefig(path, dpi=110)
-        plt.close(fig)
     return fig
 
 
@@ -82,19 +123,39 @@ def show_samples(light, samples, *, ax=None, title: str | None = None):
     Parameters
     ----------
     light : a light
+        Its ``center`` (or a point light's ``position``) is the origin of the plot.
     samples : ndarray, shape (S, 3)
+        Points on the light, world units.
+    ax : matplotlib.axes.Axes, optional
+        Where to plot, e.g. ``plt.gca()``; by default the axes of a new 3 x 3 in figure that
+        pyplot does not know about.
+    title : str, optional
+        Default: the number of samples.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> light = ss.RectLight((0, 5, 0), (2, 0, 0), (0, 0, 0.5))
+    >>> ax = ss.plot.show_samples(light, light.samples(16, seed=0))
+    >>> ax.get_title(), ax.figure.canvas.manager is None
+    ('16 samples', True)
     """
+    from matplotlib.figure import Figure
+
     from . import _validate as v
 
     center = getattr(light, "center", getattr(light, "position", None))
     if center is None:
         raise ValueError(f"light: expected a softshadows light, got {type(light).__name__}")
     pts = v.array("samples", samples, np.float64, (None, 3)) - np.asarray(center, dtype=np.float64)
-    plt = _pyplot()
     _, _, vt = np.linalg.svd(pts if len(pts) > 1 else np.eye(3), full_matrices=False)
     xy = pts @ vt[:2].T
     if ax is None:
-        _, ax = plt.subplots(figsize=(3, 3))
+        ax = Figure(figsize=(3, 3), layout="constrained").add_subplot()
     ax.scatter(xy[:, 0], xy[:, 1], s=6)
     ax.set_aspect("equal")
     ax.set_title(title or f"{len(pts)} samples", fontsize=9)

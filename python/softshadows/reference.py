@@ -409,7 +409,7 @@ def _visibility(tracer, points, normals, samples, eps, weights, progress) -> np.
     per_batch = max(1, RAYS_PER_CALL // n_samples)
     ys = samples.astype(np.float64)
     out = np.empty(len(points), np.float64)
-    with tqdm(total=len(points) * n_samples, unit="ray", unit_scale=True, disable=not progress,
+    with tqdm(total=len(points) * n_samples, unit="ray", unit_scale=True, disable=None if progress else True,
               desc="mitsuba_visibility", leave=False) as bar:
         for k0 in range(0, len(points), per_batch):
             p, n = points[k0:k0 + per_batch], normals[k0:k0 + per_batch]

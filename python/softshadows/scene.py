@@ -30,6 +30,14 @@ class Mesh:
         triangles cast shadows and skip their depth bias.
     name : str, optional
         A label for reports.
+
+    Examples
+    --------
+    >>> from softshadows import Mesh
+    >>> Mesh([[0, 0, 0], [1, 0, 0], [0, 0, 1]], [[0, 1, 2]], name="ground")
+    Mesh('ground', 3 vertices, 1 face, closed=False)
+    >>> Mesh([[0, 0, 0], [1, 0, 0], [0, 0, 1]], [[0, 1, 2]], uvs=[[0, 0], [1, 0], [0, 1]], alpha=[[1, 0]])
+    Mesh(3 vertices, 1 face, alpha 1x2, closed=False)
     """
 
     def __init__(self, vertices, faces, *, uvs=None, alpha=None, closed: bool = False, name: str | None = None):
@@ -58,8 +66,11 @@ class Mesh:
         return self.alpha is not None
 
     def __repr__(self) -> str:
-        extra = f", alpha={self.alpha.shape}" if self.perforated else ""
-        return f"Mesh({self.name or ''!s}{len(self.vertices)} vertices, {len(self.faces)} faces{extra}, closed={self.closed})"
+        parts = [] if self.name is None else [repr(self.name)]
+        parts += [_count(len(self.vertices), "vertex", "vertices"), _count(len(self.faces), "face", "faces")]
+        if self.perforated:
+            parts.append("alpha {}x{}".format(*self.alpha.shape))
+        return f"Mesh({', '.join(parts)}, closed={self.closed})"
 
 
 class Scene:
@@ -69,6 +80,13 @@ class Scene:
     ----------
     meshes : sequence of Mesh
         At least one triangle in all.
+
+    Examples
+    --------
+    >>> from softshadows import Mesh, Scene
+    >>> tri = Mesh([[0, 0, 0], [1, 0, 0], [0, 0, 1]], [[0, 1, 2]], name="ground")
+    >>> Scene([tri, Mesh(tri.vertices + [0, 1, 0], tri.faces)])
+    Scene(2 meshes ['ground', None], 2 faces)
     """
 
     def __init__(self, meshes):
@@ -182,4 +200,15 @@ class Scene:
         return self._native
 
     def __repr__(self) -> str:
-        return f"Scene({len(self.meshes)} meshes, {self.num_faces} faces)"
+        shown = ", ".join(repr(m.name) for m in self.meshes[:_NAMES_SHOWN]) + (", ..." if len(self.meshes) > _NAMES_SHOWN else "")
+        meshes = _count(len(self.meshes), "mesh", "meshes")
+        return f"Scene({meshes} [{shown}], {_count(self.num_faces, 'face', 'faces')})"
+
+
+#: Mesh names a Scene's repr lists before "...".
+_NAMES_SHOWN = 4
+
+
+def _count(n: int, one: str, many: str) -> str:
+    """``n`` with the noun in the singular or plural: "1 face", "12 faces"."""
+    return f"{n} {one if n == 1 else many}"

@@ -88,7 +88,20 @@ def direct(gbuffer, light, visibility, albedo=0.8, *, intensity: float = 1.0, be
     Returns
     -------
     ndarray, shape (H, W) or (K,) for a scalar albedo, with a trailing 3 for an RGB one, float32
-        Radiance in W m^-2 sr^-1; 0 where the G-buffer mask is False.
+        Radiance in W m^-2 sr^-1; 0 where the G-buffer mask is False. Often far below 1: write
+        it for viewing with ``softshadows.io.write_png(path, radiance, exposure="auto")``.
+
+    Examples
+    --------
+    A receiver 2 units below a point light of intensity 4 gets E = 4 / 2^2 = 1 W m^-2; half
+    visible, with albedo 0.8, it sends 0.8 / pi x 1 x 0.5:
+
+    >>> from softshadows import PointLight, shading
+    >>> receiver = ([[0, 0, 0]], [[0, 0, 1]])                 # (points, normals)
+    >>> shading.direct(receiver, PointLight((0, 0, 2)), [0.5], intensity=4.0).round(4)
+    array([0.1273], dtype=float32)
+    >>> shading.direct(receiver, PointLight((0, 0, 2)), [0.5], (0.8, 0.4, 0.2), intensity=4.0).round(4)
+    array([[0.1273, 0.0637, 0.0318]], dtype=float32)
     """
     rx = as_receivers(gbuffer)
     vis = v.array("visibility", visibility, np.float64, rx.shape)
@@ -179,6 +192,15 @@ def unshadowed_irradiance(points, normals, light, *, intensity: float = 1.0) -> 
     -------
     ndarray, shape (...), float64
         Irradiance in W m^-2 (>= 0).
+
+    Examples
+    --------
+    >>> from softshadows import PointLight, RectLight, shading
+    >>> shading.unshadowed_irradiance([[0, 0, 0]], [[0, 0, 1]], PointLight((0, 0, 2)), intensity=4.0)
+    array([1.])
+    >>> e = shading.unshadowed_irradiance([[0, 0, 0]], [[0, 0, 1]], RectLight((0, 0, 2), (1, 0, 0), (0, -1, 0)))
+    >>> e.round(4)                                            # a 2 x 2 square light of unit radiance
+    array([0.7523])
     """
     p = _float_array("points", points)
     if p.ndim < 1 or p.shape[-1] != 3:
@@ -334,8 +356,11 @@ def _ellipsoid_irradiance(p, n, center, axes, chunk: int = 2048):
     a = axes.T                                                 # columns: the semi-axes
     q = (p - center) @ np.linalg.inv(a).T                      # receivers where the light is the unit ball
     d2 = np.einsum("ki,ki->k", q, q)
-    inside = d2 <= 1
-    d = np.sqrt(np.where(inside, 2.0, d2))
+    out = np.full(len(p), np.pi)                               # inside the light: pi L
+    # Only receivers outside have a silhouette; at the centre (q = 0) its frame would be 0 / 0.
+    outside = np.flatnonzero(d2 > 1)
+    p, n, q = p[outside], n[outside], q[outside]
+    d = np.sqrt(d2[outside])
     u = q / d[:, None]
     # The unit sphere's silhouette from q: a circle about u / |q| of radius sqrt(1 - 1/|q|^2),
     # counter-clockwise about u (the side facing the receiver); area-matched as the disk's.
@@ -346,7 +371,6 @@ def _ellipsoid_irradiance(p, n, center, axes, chunk: int = 2048):
     k = DISK_EDGES
     radius = np.sqrt(1 - 1 / d**2) * np.sqrt(2 * np.pi / (k * np.sin(2 * np.pi / k)))
     phi = 2 * np.pi * np.arange(k) / k
-    out = np.full(len(p), np.pi)
     for s in range(0, len(p), chunk):
         r = slice(s, s + chunk)
         ring = np.cos(phi)[None, :, None] * t[r, None] + np.sin(phi)[None, :, None] * b[r, None]
@@ -354,7 +378,7 @@ def _ellipsoid_irradiance(p, n, center, axes, chunk: int = 2048):
         polygon = center + circle @ a.T
         if np.linalg.det(a) < 0:                               # a reflection reverses the winding
             polygon = polygon[:, ::-1]
-        out[r] = np.where(inside[r], np.pi, _polygon_irradiance(p[r], n[r], polygon))
+        out[outside[r]] = _polygon_irradiance(p[r], n[r], polygon)
     return out
 
 

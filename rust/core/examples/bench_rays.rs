@@ -23,7 +23,15 @@ fn sphere(center: Vec3, radius: f32, n: u32, m: u32) -> Mesh {
         let theta = PI * i as f32 / m as f32;
         for j in 0..=n {
             let phi = 2.0 * PI * (j % n) as f32 / n as f32;
-            pos.push(center + radius * Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()));
+            pos.push(
+                center
+                    + radius
+                        * Vec3::new(
+                            theta.sin() * phi.cos(),
+                            theta.cos(),
+                            theta.sin() * phi.sin(),
+                        ),
+            );
         }
     }
     let faces = (0..m)
@@ -40,7 +48,13 @@ fn sphere(center: Vec3, radius: f32, n: u32, m: u32) -> Mesh {
 fn ground(s: f32, k: u32) -> Mesh {
     let pos = (0..=k)
         .flat_map(|i| {
-            (0..=k).map(move |j| Vec3::new(-s + 2.0 * s * j as f32 / k as f32, 0.0, -s + 2.0 * s * i as f32 / k as f32))
+            (0..=k).map(move |j| {
+                Vec3::new(
+                    -s + 2.0 * s * j as f32 / k as f32,
+                    0.0,
+                    -s + 2.0 * s * i as f32 / k as f32,
+                )
+            })
         })
         .collect();
     let faces = (0..k)
@@ -51,17 +65,41 @@ fn ground(s: f32, k: u32) -> Mesh {
 }
 
 fn main() {
-    let threads: Vec<usize> = std::env::args().skip(1).filter_map(|a| a.parse().ok()).collect();
-    let threads = if threads.is_empty() { vec![1, 2] } else { threads };
-    let scene = Scene::new(vec![ground(4.0, 64), sphere(Vec3::new(0.0, 1.2, 0.0), 1.0, 240, 128)]).expect("scene");
-    let light = Light::rect(Vec3::new(1.0, 5.0, 0.5), Vec3::X * 0.75, Vec3::Z * 0.75).expect("light");
-    let cam =
-        Camera::look_at(Vec3::new(0.0, 5.0, 6.0), Vec3::new(0.0, 0.6, 0.0), Vec3::Y, 55.0, 256, 256).expect("camera");
-    let shared = SampleSet::generate(&light, 64, Pattern::Stratified, 1, 1, false, 0).expect("samples");
-    let rotated = SampleSet::generate(&light, 64, Pattern::Stratified, 1, 1, true, 0).expect("samples");
+    let threads: Vec<usize> = std::env::args()
+        .skip(1)
+        .filter_map(|a| a.parse().ok())
+        .collect();
+    let threads = if threads.is_empty() {
+        vec![1, 2]
+    } else {
+        threads
+    };
+    let scene = Scene::new(vec![
+        ground(4.0, 64),
+        sphere(Vec3::new(0.0, 1.2, 0.0), 1.0, 240, 128),
+    ])
+    .expect("scene");
+    let light =
+        Light::rect(Vec3::new(1.0, 5.0, 0.5), Vec3::X * 0.75, Vec3::Z * 0.75).expect("light");
+    let cam = Camera::look_at(
+        Vec3::new(0.0, 5.0, 6.0),
+        Vec3::new(0.0, 0.6, 0.0),
+        Vec3::Y,
+        55.0,
+        256,
+        256,
+    )
+    .expect("camera");
+    let shared =
+        SampleSet::generate(&light, 64, Pattern::Stratified, 1, 1, false, 0).expect("samples");
+    let rotated =
+        SampleSet::generate(&light, 64, Pattern::Stratified, 1, 1, true, 0).expect("samples");
     println!("triangles: {}", scene.num_faces());
     for t in threads {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(t).build().expect("pool");
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build()
+            .expect("pool");
         pool.install(|| {
             let start = Instant::now();
             let bvh = Bvh::build(&scene).expect("bvh");

@@ -45,7 +45,11 @@ fn side_by_side(n: usize, dim: usize) -> bool {
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let fast_only = args.first().is_some_and(|a| a == "--fast-only");
-    let counts: Result<Vec<usize>, _> = args.iter().skip(usize::from(fast_only)).map(|a| a.parse::<usize>()).collect();
+    let counts: Result<Vec<usize>, _> = args
+        .iter()
+        .skip(usize::from(fast_only))
+        .map(|a| a.parse::<usize>())
+        .collect();
     let counts = match counts {
         Ok(c) if c.is_empty() => vec![500, 1000, 2000],
         Ok(c) => c,
@@ -59,11 +63,18 @@ fn main() -> ExitCode {
         for dim in [2, 3] {
             if fast_only {
                 let (s, pts) = timed(|| unit_pattern(Pattern::Poisson, n, dim, 1));
-                println!("n {n:>7}  dim {dim}  grid {s:>9.4} s  ({} points)", pts.len());
+                println!(
+                    "n {n:>7}  dim {dim}  grid {s:>9.4} s  ({} points)",
+                    pts.len()
+                );
             } else {
                 same &= side_by_side(n, dim);
             }
         }
     }
-    if same { ExitCode::SUCCESS } else { ExitCode::FAILURE }
+    if same {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    }
 }

@@ -9,11 +9,19 @@ pub enum Error {
     /// Bad input: `arg` names the offending argument, `message` says what was expected and found.
     InvalidInput { arg: String, message: String },
     /// The request would need more memory than the configured limit; nothing was allocated.
-    TooLarge { what: String, bytes: u64, limit: u64 },
+    TooLarge {
+        what: String,
+        bytes: u64,
+        limit: u64,
+    },
     /// A resource outside the input is missing (no GPU adapter, ...).
     Unavailable(String),
     /// The request's estimated work is above the configured limit; nothing was computed.
-    TooMuchWork { what: String, operations: u64, limit: u64 },
+    TooMuchWork {
+        what: String,
+        operations: u64,
+        limit: u64,
+    },
     /// The call was stopped through its [`crate::interrupt::Cancel`] token.
     Interrupted,
 }
@@ -24,7 +32,10 @@ pub type Result<T> = std::result::Result<T, Error>;
 impl Error {
     /// A bad-input error naming `arg`.
     pub fn invalid(arg: impl Into<String>, message: impl Into<String>) -> Self {
-        Error::InvalidInput { arg: arg.into(), message: message.into() }
+        Error::InvalidInput {
+            arg: arg.into(),
+            message: message.into(),
+        }
     }
 }
 
@@ -63,5 +74,9 @@ fn human_bytes(bytes: u64) -> String {
         value /= 1024.0;
         unit += 1;
     }
-    if unit == 0 { format!("{bytes} bytes") } else { format!("{value:.2} {}", units[unit]) }
+    if unit == 0 {
+        format!("{bytes} bytes")
+    } else {
+        format!("{value:.2} {}", units[unit])
+    }
 }

@@ -67,7 +67,11 @@ pub fn watch() -> Watch {
 /// `Err(Error::Interrupted)` when the current call's token was raised.
 pub fn check() -> Result<()> {
     let requested = CURRENT.with(|c| c.borrow().as_ref().is_some_and(Cancel::is_requested));
-    if requested { Err(Error::Interrupted) } else { Ok(()) }
+    if requested {
+        Err(Error::Interrupted)
+    } else {
+        Ok(())
+    }
 }
 
 /// The work one round should hold per worker thread: about 2^21 elementary operations (rays,
@@ -84,7 +88,9 @@ pub fn round_len(unit: usize, cost: u64) -> usize {
     let threads = rayon::current_num_threads().max(1) as u64;
     let items = (ROUND_OPS_PER_THREAD * threads) / cost.max(1);
     let units = (items / unit as u64).max(threads);
-    usize::try_from(units).unwrap_or(usize::MAX / unit).saturating_mul(unit)
+    usize::try_from(units)
+        .unwrap_or(usize::MAX / unit)
+        .saturating_mul(unit)
 }
 
 /// Calls `f(offset, part)` on consecutive parts of `items` of `round` items each (the last may
@@ -105,7 +111,11 @@ pub fn par_map<T: Send>(n: usize, cost: u64, f: impl Fn(usize) -> T + Sync) -> R
     let mut out = Vec::with_capacity(n);
     for start in (0..n).step_by(round.max(1)) {
         check()?;
-        out.par_extend((start..n.min(start.saturating_add(round))).into_par_iter().map(&f));
+        out.par_extend(
+            (start..n.min(start.saturating_add(round)))
+                .into_par_iter()
+                .map(&f),
+        );
     }
     Ok(out)
 }
@@ -140,7 +150,10 @@ mod tests {
 
     #[test]
     fn a_parallel_map_in_rounds_keeps_order_and_stops_when_asked() {
-        assert_eq!(par_map(10_000, 1_000_000, |i| 2 * i), Ok((0..10_000).map(|i| 2 * i).collect::<Vec<_>>()));
+        assert_eq!(
+            par_map(10_000, 1_000_000, |i| 2 * i),
+            Ok((0..10_000).map(|i| 2 * i).collect::<Vec<_>>())
+        );
         let cancel = Cancel::new();
         cancel.request();
         assert_eq!(cancel.run(|| par_map(3, 1, |i| i)), Err(Error::Interrupted));

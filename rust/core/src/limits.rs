@@ -38,7 +38,11 @@ pub fn set_memory_limit(bytes: u64) {
 pub fn check_memory(what: &str, bytes: u64) -> Result<()> {
     let limit = memory_limit();
     if bytes > limit {
-        return Err(Error::TooLarge { what: what.to_string(), bytes, limit });
+        return Err(Error::TooLarge {
+            what: what.to_string(),
+            bytes,
+            limit,
+        });
     }
     Ok(())
 }
@@ -77,12 +81,16 @@ impl Work {
 
     /// Adds a loop of `counts` multiplied together operations (saturating).
     pub fn loop_of(self, counts: &[u64]) -> Self {
-        Work { operations: self.operations.saturating_add(bytes(counts)) }
+        Work {
+            operations: self.operations.saturating_add(bytes(counts)),
+        }
     }
 
     /// Adds another estimate.
     pub fn and(self, other: Work) -> Self {
-        Work { operations: self.operations.saturating_add(other.operations) }
+        Work {
+            operations: self.operations.saturating_add(other.operations),
+        }
     }
 
     pub fn operations(&self) -> u64 {
@@ -100,7 +108,11 @@ impl Work {
     pub fn refuse_above_limit(self, what: &str) -> Result<()> {
         let limit = work_limit();
         if self.operations > limit {
-            return Err(Error::TooMuchWork { what: what.to_string(), operations: self.operations, limit });
+            return Err(Error::TooMuchWork {
+                what: what.to_string(),
+                operations: self.operations,
+                limit,
+            });
         }
         Ok(())
     }
@@ -109,7 +121,9 @@ impl Work {
 /// The least work of an object-based method: every triangle set up (its influence region or
 /// volume), and every receiver-sample pair answered once.
 pub fn object_work(scene: &crate::geometry::mesh::Scene, receivers: usize, samples: usize) -> Work {
-    Work::default().loop_of(&[scene.num_faces() as u64, Work::TRIANGLE]).loop_of(&[receivers as u64, samples as u64])
+    Work::default()
+        .loop_of(&[scene.num_faces() as u64, Work::TRIANGLE])
+        .loop_of(&[receivers as u64, samples as u64])
 }
 
 /// `a * b * c` in u64 bytes, saturating, for estimates that must not overflow.
@@ -128,12 +142,16 @@ pub struct Peak {
 impl Peak {
     /// Adds a buffer of `counts` multiplied together bytes.
     pub fn buffer(self, counts: &[u64]) -> Self {
-        Peak { bytes: self.bytes.saturating_add(bytes(counts)) }
+        Peak {
+            bytes: self.bytes.saturating_add(bytes(counts)),
+        }
     }
 
     /// Adds another estimate (a shared stage's).
     pub fn and(self, other: Peak) -> Self {
-        Peak { bytes: self.bytes.saturating_add(other.bytes) }
+        Peak {
+            bytes: self.bytes.saturating_add(other.bytes),
+        }
     }
 
     pub fn bytes(&self) -> u64 {
@@ -154,21 +172,38 @@ mod tests {
 
     #[test]
     fn a_peak_sums_its_buffers_saturating_and_is_refused_above_the_limit() {
-        let peak = Peak::default().buffer(&[3, 4]).and(Peak::default().buffer(&[5]));
+        let peak = Peak::default()
+            .buffer(&[3, 4])
+            .and(Peak::default().buffer(&[5]));
         assert_eq!(peak.bytes(), 17);
-        assert_eq!(Peak::default().buffer(&[u64::MAX, 2]).buffer(&[1]).bytes(), u64::MAX);
+        assert_eq!(
+            Peak::default().buffer(&[u64::MAX, 2]).buffer(&[1]).bytes(),
+            u64::MAX
+        );
         let mut stats = Stats::default();
         assert!(peak.check("method", &mut stats).is_ok());
         assert_eq!(stats.get("peak_bytes"), Some(17.0));
-        let refused = Peak::default().buffer(&[u64::MAX]).check("method", &mut stats).unwrap_err().to_string();
-        assert!(refused.starts_with("method needs about 16.00 EiB (18446744073709551615 bytes)"), "{refused}");
-        assert!(refused.contains("softshadows.set_memory_limit"), "{refused}");
+        let refused = Peak::default()
+            .buffer(&[u64::MAX])
+            .check("method", &mut stats)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            refused.starts_with("method needs about 16.00 EiB (18446744073709551615 bytes)"),
+            "{refused}"
+        );
+        assert!(
+            refused.contains("softshadows.set_memory_limit"),
+            "{refused}"
+        );
     }
 
     #[test]
     fn work_is_refused_above_the_limit_with_its_estimate() {
         let mut stats = Stats::default();
-        let work = Work::default().loop_of(&[1000, 1_000_000_000, Work::RAY]).loop_of(&[5]);
+        let work = Work::default()
+            .loop_of(&[1000, 1_000_000_000, Work::RAY])
+            .loop_of(&[5]);
         assert_eq!(work.operations(), 100_000_000_000_005);
         let refused = work.check("ray_traced", &mut stats);
         assert_eq!(stats.get("work"), Some(1.00000000000005e14));
@@ -176,9 +211,17 @@ mod tests {
             Err(e) => e.to_string(),
             Ok(()) => String::from("accepted"),
         };
-        assert!(message.starts_with("ray_traced needs about 1.000e14 operations, above the work limit of 1.000e12"), "{message}");
+        assert!(
+            message.starts_with(
+                "ray_traced needs about 1.000e14 operations, above the work limit of 1.000e12"
+            ),
+            "{message}"
+        );
         assert!(message.contains("softshadows.set_work_limit"), "{message}");
         assert!(Work::default().loop_of(&[u64::MAX, 2]).operations() == u64::MAX);
-        assert!(Work::default().loop_of(&[DEFAULT_WORK_LIMIT]).check("m", &mut stats).is_ok());
+        assert!(Work::default()
+            .loop_of(&[DEFAULT_WORK_LIMIT])
+            .check("m", &mut stats)
+            .is_ok());
     }
 }

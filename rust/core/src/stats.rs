@@ -25,7 +25,10 @@ impl Stats {
 
     /// The value recorded under `name`.
     pub fn get(&self, name: &str) -> Option<f64> {
-        self.entries.iter().find(|(n, _)| n == name).map(|(_, v)| *v)
+        self.entries
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| *v)
     }
 
     /// Runs `f`, records its wall time as `"<stage>_seconds"` and returns its result.

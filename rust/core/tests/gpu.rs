@@ -13,9 +13,11 @@ use softshadows_core::light::sampling::{light_samples, Pattern, Rng, SampleSet};
 use softshadows_core::methods::cssm::{cssm, CssmOptions};
 use softshadows_core::methods::mvr::{mvr, MultiViewOptions};
 use softshadows_core::methods::pcss::{pcss, PcssOptions};
-use softshadows_core::raster::depth::{rasterize_depth, RasterOptions};
 use softshadows_core::methods::shadow_map::{shadow_map, ShadowMapOptions};
-use softshadows_core::methods::vwss::{generate_points, source_view, vwss, warp_points, Precision, VwssOptions};
+use softshadows_core::methods::vwss::{
+    generate_points, source_view, vwss, warp_points, Precision, VwssOptions,
+};
+use softshadows_core::raster::depth::{rasterize_depth, RasterOptions};
 use softshadows_core::raster::multiview::ViewSet;
 use std::sync::Mutex;
 
@@ -34,24 +36,57 @@ fn have_gpu() -> bool {
 
 /// A ground quad and a cloud of random triangles above it.
 fn scene() -> Scene {
-    let ground = [(-3.0, -3.0), (3.0, -3.0), (3.0, 3.0), (-3.0, 3.0)].map(|(x, z)| Vec3::new(x, 0.0, z));
-    let ground = Mesh::new(ground.to_vec(), vec![[0, 2, 1], [0, 3, 2]], None, None, false).unwrap();
+    let ground =
+        [(-3.0, -3.0), (3.0, -3.0), (3.0, 3.0), (-3.0, 3.0)].map(|(x, z)| Vec3::new(x, 0.0, z));
+    let ground = Mesh::new(
+        ground.to_vec(),
+        vec![[0, 2, 1], [0, 3, 2]],
+        None,
+        None,
+        false,
+    )
+    .unwrap();
     let mut rng = Rng::new(11);
     let mut pos = Vec::new();
     for _ in 0..300 {
-        let c = Vec3::new(4.0 * rng.next_f32() - 2.0, 0.5 + 1.5 * rng.next_f32(), 4.0 * rng.next_f32() - 2.0);
-        pos.extend((0..3).map(|_| c + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 0.6));
+        let c = Vec3::new(
+            4.0 * rng.next_f32() - 2.0,
+            0.5 + 1.5 * rng.next_f32(),
+            4.0 * rng.next_f32() - 2.0,
+        );
+        pos.extend(
+            (0..3).map(|_| {
+                c + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 0.6
+            }),
+        );
     }
     let faces = (0..300u32).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect();
-    Scene::new(vec![ground, Mesh::new(pos, faces, None, None, false).unwrap()]).unwrap()
+    Scene::new(vec![
+        ground,
+        Mesh::new(pos, faces, None, None, false).unwrap(),
+    ])
+    .unwrap()
 }
 
 fn light() -> Light {
-    Light::rect(Vec3::new(0.2, 4.0, 0.1), Vec3::new(0.5, 0.0, 0.0), Vec3::new(0.0, 0.0, -0.5)).unwrap()
+    Light::rect(
+        Vec3::new(0.2, 4.0, 0.1),
+        Vec3::new(0.5, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, -0.5),
+    )
+    .unwrap()
 }
 
 fn receivers(n: usize) -> Receivers {
-    let points = (0..n * n).map(|i| Vec3::new(-2.5 + 5.0 * (i % n) as f32 / n as f32, 0.0, -2.5 + 5.0 * (i / n) as f32 / n as f32)).collect();
+    let points = (0..n * n)
+        .map(|i| {
+            Vec3::new(
+                -2.5 + 5.0 * (i % n) as f32 / n as f32,
+                0.0,
+                -2.5 + 5.0 * (i / n) as f32 / n as f32,
+            )
+        })
+        .collect();
     Receivers::new(points, vec![Vec3::Y; n * n], vec![true; n * n], n, n).unwrap()
 }
 
@@ -60,7 +95,10 @@ fn maps_agree(limits: Option<DispatchLimits>, precision: Precision) {
     let (scene, light) = (scene(), light());
     let eyes = light_samples(&light, 6, Pattern::Poisson, 3, 0);
     let views = ViewSet::fit(&light, &eyes, receivers(8).bounds().unwrap(), 96).unwrap();
-    let opts = VwssOptions { precision, ..Default::default() };
+    let opts = VwssOptions {
+        precision,
+        ..Default::default()
+    };
     let source = source_view(&scene, &light, &views, &opts).unwrap();
     let points = generate_points(&scene, &source, &opts).unwrap();
     let cpu = warp_points(&points, &views.views).unwrap();
@@ -70,9 +108,23 @@ fn maps_agree(limits: Option<DispatchLimits>, precision: Precision) {
     let gpu = gpu.unwrap();
     assert_eq!(cpu.len(), gpu.len());
     for (k, (c, g)) in cpu.iter().zip(&gpu).enumerate() {
-        let differ = c.depth.iter().zip(&g.depth).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
-        assert_eq!(differ, 0, "view {k}: {differ} of {} texels differ", c.depth.len());
-        assert!(c.drawn_texels() > 1000, "view {k} holds {} texels", c.drawn_texels());
+        let differ = c
+            .depth
+            .iter()
+            .zip(&g.depth)
+            .filter(|(a, b)| a.to_bits() != b.to_bits())
+            .count();
+        assert_eq!(
+            differ,
+            0,
+            "view {k}: {differ} of {} texels differ",
+            c.depth.len()
+        );
+        assert!(
+            c.drawn_texels() > 1000,
+            "view {k} holds {} texels",
+            c.drawn_texels()
+        );
     }
 }
 
@@ -89,7 +141,13 @@ fn splitting_within_forced_low_limits_changes_nothing() {
     // 2 workgroups (128 points) per dispatch and bindings of two 96x96 maps: hundreds of
     // dispatches over three batches of views.
     if have_gpu() {
-        maps_agree(Some(DispatchLimits { workgroups: 2, binding_bytes: 2 * 96 * 96 * 4 }), Precision::Float32);
+        maps_agree(
+            Some(DispatchLimits {
+                workgroups: 2,
+                binding_bytes: 2 * 96 * 96 * 4,
+            }),
+            Precision::Float32,
+        );
     }
 }
 
@@ -104,17 +162,30 @@ fn gpu_visibility_equals_the_cpu_visibility() {
     let mut opts = VwssOptions::default();
     opts.multiview.resolution = 128;
     let cpu = vwss(&scene, &light, &rx, &samples, &opts).unwrap().0;
-    assert!(cpu.iter().any(|&v| v > 0.0 && v < 1.0), "the test scene must have penumbrae");
+    assert!(
+        cpu.iter().any(|&v| v > 0.0 && v < 1.0),
+        "the test scene must have penumbrae"
+    );
     // The adapter's limits; then bindings of two 128x128 maps (batches of two views, receivers
     // in three chunks) and 5 workgroups per dispatch.
-    for limits in [None, Some(DispatchLimits { workgroups: 5, binding_bytes: 2 * 128 * 128 * 4 })] {
+    for limits in [
+        None,
+        Some(DispatchLimits {
+            workgroups: 5,
+            binding_bytes: 2 * 128 * 128 * 4,
+        }),
+    ] {
         force_limits(limits).unwrap();
         let mut on_gpu = opts;
         on_gpu.multiview.backend = Backend::Gpu;
         let gpu = vwss(&scene, &light, &rx, &samples, &on_gpu);
         force_limits(None).unwrap();
         let gpu = gpu.unwrap().0;
-        let worst = cpu.iter().zip(&gpu).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+        let worst = cpu
+            .iter()
+            .zip(&gpu)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f32, f32::max);
         assert!(worst <= 1e-6, "{limits:?}: largest difference {worst}");
     }
 }
@@ -123,15 +194,34 @@ fn gpu_visibility_equals_the_cpu_visibility() {
 fn cssm_agrees(limits: Option<DispatchLimits>, order: usize, n: usize) {
     let _serial = LIMITS.lock().unwrap_or_else(|p| p.into_inner());
     let (scene, light, rx) = (scene(), light(), receivers(n));
-    let opts = CssmOptions { resolution: 64, order, ..Default::default() };
+    let opts = CssmOptions {
+        resolution: 64,
+        order,
+        ..Default::default()
+    };
     let cpu = cssm(&scene, &light, &rx, &opts).unwrap().0;
     force_limits(limits).unwrap();
-    let gpu = cssm(&scene, &light, &rx, &CssmOptions { backend: Backend::Gpu, ..opts });
+    let gpu = cssm(
+        &scene,
+        &light,
+        &rx,
+        &CssmOptions {
+            backend: Backend::Gpu,
+            ..opts
+        },
+    );
     force_limits(None).unwrap();
     let gpu = gpu.unwrap().0;
-    let worst = cpu.iter().zip(&gpu).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+    let worst = cpu
+        .iter()
+        .zip(&gpu)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f32, f32::max);
     assert!(worst <= 1e-3, "largest difference {worst}");
-    assert!(cpu.iter().any(|&v| v > 0.05 && v < 0.95), "the test scene must have penumbrae");
+    assert!(
+        cpu.iter().any(|&v| v > 0.05 && v < 0.95),
+        "the test scene must have penumbrae"
+    );
 }
 
 #[test]
@@ -150,7 +240,14 @@ fn gpu_cssm_splits_tables_receivers_and_dispatches_within_forced_low_limits() {
     if have_gpu() {
         let channel = 65 * 65 * 8;
         for channels in [9, 8] {
-            cssm_agrees(Some(DispatchLimits { workgroups: 3, binding_bytes: channels * channel }), 4, 96);
+            cssm_agrees(
+                Some(DispatchLimits {
+                    workgroups: 3,
+                    binding_bytes: channels * channel,
+                }),
+                4,
+                96,
+            );
         }
     }
 }
@@ -166,12 +263,34 @@ fn gpu_shadow_map_lookups_equal_the_cpu_lookups() {
     let _serial = LIMITS.lock().unwrap_or_else(|p| p.into_inner());
     let (scene, light, rx) = (scene(), light(), receivers(96));
     for (pcf, bias) in [(1, None), (5, None), (3, Some(0.01))] {
-        let opts = ShadowMapOptions { resolution: 256, pcf, bias, ..Default::default() };
+        let opts = ShadowMapOptions {
+            resolution: 256,
+            pcf,
+            bias,
+            ..Default::default()
+        };
         let cpu = shadow_map(&scene, &light, &rx, &opts).unwrap().0;
-        assert!(cpu.contains(&0.0) && cpu.contains(&1.0), "the test scene must have shadows");
-        for limits in [None, Some(DispatchLimits { workgroups: 2, binding_bytes: 256 * 256 * 4 })] {
+        assert!(
+            cpu.contains(&0.0) && cpu.contains(&1.0),
+            "the test scene must have shadows"
+        );
+        for limits in [
+            None,
+            Some(DispatchLimits {
+                workgroups: 2,
+                binding_bytes: 256 * 256 * 4,
+            }),
+        ] {
             force_limits(limits).unwrap();
-            let gpu = shadow_map(&scene, &light, &rx, &ShadowMapOptions { backend: Backend::Gpu, ..opts });
+            let gpu = shadow_map(
+                &scene,
+                &light,
+                &rx,
+                &ShadowMapOptions {
+                    backend: Backend::Gpu,
+                    ..opts
+                },
+            );
             force_limits(None).unwrap();
             assert_eq!(cpu, gpu.unwrap().0, "pcf {pcf}, bias {bias:?}, {limits:?}");
         }
@@ -188,12 +307,33 @@ fn gpu_pcss_equals_the_cpu_pcss() {
     let _serial = LIMITS.lock().unwrap_or_else(|p| p.into_inner());
     let (scene, light, rx) = (scene(), light(), receivers(96));
     for bias in [None, Some(0.02)] {
-        let opts = PcssOptions { resolution: 256, bias, ..Default::default() };
+        let opts = PcssOptions {
+            resolution: 256,
+            bias,
+            ..Default::default()
+        };
         let (cpu, cpu_stats) = pcss(&scene, &light, &rx, &opts).unwrap();
-        assert!(cpu.iter().any(|&v| v > 0.0 && v < 1.0), "the test scene must have penumbrae");
-        for limits in [None, Some(DispatchLimits { workgroups: 3, binding_bytes: 256 * 256 * 4 })] {
+        assert!(
+            cpu.iter().any(|&v| v > 0.0 && v < 1.0),
+            "the test scene must have penumbrae"
+        );
+        for limits in [
+            None,
+            Some(DispatchLimits {
+                workgroups: 3,
+                binding_bytes: 256 * 256 * 4,
+            }),
+        ] {
             force_limits(limits).unwrap();
-            let gpu = pcss(&scene, &light, &rx, &PcssOptions { backend: Backend::Gpu, ..opts });
+            let gpu = pcss(
+                &scene,
+                &light,
+                &rx,
+                &PcssOptions {
+                    backend: Backend::Gpu,
+                    ..opts
+                },
+            );
             force_limits(None).unwrap();
             let (gpu, gpu_stats) = gpu.unwrap();
             assert_eq!(cpu, gpu, "bias {bias:?}, {limits:?}");
@@ -209,15 +349,30 @@ fn mvr_maps_agree(limits: Option<DispatchLimits>, resolution: usize) {
     let eyes = light_samples(&light, 6, Pattern::Poisson, 3, 0);
     let views = ViewSet::fit(&light, &eyes, receivers(8).bounds().unwrap(), resolution).unwrap();
     force_limits(limits).unwrap();
-    let gpu = softshadows_core::gpu::mvr::Rasterizer::new(&scene).and_then(|r| r.maps(&views.views));
+    let gpu =
+        softshadows_core::gpu::mvr::Rasterizer::new(&scene).and_then(|r| r.maps(&views.views));
     force_limits(None).unwrap();
     let gpu = gpu.unwrap();
     for (k, (view, g)) in views.views.iter().zip(&gpu).enumerate() {
         let c = rasterize_depth(&scene, view, &RasterOptions::default()).unwrap();
-        let differ = c.depth.iter().zip(&g.depth).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
-        assert_eq!(differ, 0, "view {k}: {differ} of {} texels differ", c.depth.len());
+        let differ = c
+            .depth
+            .iter()
+            .zip(&g.depth)
+            .filter(|(a, b)| a.to_bits() != b.to_bits())
+            .count();
+        assert_eq!(
+            differ,
+            0,
+            "view {k}: {differ} of {} texels differ",
+            c.depth.len()
+        );
         assert_eq!(c.fragments, g.fragments, "view {k}");
-        assert!(c.drawn_texels() > 1000, "view {k} holds {} texels", c.drawn_texels());
+        assert!(
+            c.drawn_texels() > 1000,
+            "view {k} holds {} texels",
+            c.drawn_texels()
+        );
     }
 }
 
@@ -229,9 +384,21 @@ fn gpu_rasterized_maps_equal_the_cpu_maps_texel_for_texel() {
         // each.
         mvr_maps_agree(None, 1024);
         // 3 workgroups (192 triangles) per dispatch, bindings of two 128x128 maps.
-        mvr_maps_agree(Some(DispatchLimits { workgroups: 3, binding_bytes: 2 * 128 * 128 * 4 }), 128);
+        mvr_maps_agree(
+            Some(DispatchLimits {
+                workgroups: 3,
+                binding_bytes: 2 * 128 * 128 * 4,
+            }),
+            128,
+        );
         // 2 workgroups per dispatch dimension: the large triangles' indirect dispatch in rows.
-        mvr_maps_agree(Some(DispatchLimits { workgroups: 2, binding_bytes: 2 * 1024 * 1024 * 4 }), 1024);
+        mvr_maps_agree(
+            Some(DispatchLimits {
+                workgroups: 2,
+                binding_bytes: 2 * 1024 * 1024 * 4,
+            }),
+            1024,
+        );
         // At 3072^2 the ground's triangles span about 4.7M texels each, 74k per thread of one
         // workgroup: each is drawn in several workgroups' slots, within llvmpipe's loop limit per
         // invocation (see `mvr.wgsl`; before the slots such triangles were refused).
@@ -246,13 +413,33 @@ fn gpu_mvr_visibility_equals_the_cpu_visibility() {
     }
     let (scene, light, rx) = (scene(), light(), receivers(64));
     let samples = SampleSet::generate(&light, 12, Pattern::Poisson, 5, 1, false, 0).unwrap();
-    let opts = MultiViewOptions { resolution: 256, ..Default::default() };
+    let opts = MultiViewOptions {
+        resolution: 256,
+        ..Default::default()
+    };
     let (cpu, cpu_stats) = mvr(&scene, &light, &rx, &samples, &opts).unwrap();
-    let (gpu, gpu_stats) = mvr(&scene, &light, &rx, &samples, &MultiViewOptions { backend: Backend::Gpu, ..opts }).unwrap();
-    let worst = cpu.iter().zip(&gpu).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+    let (gpu, gpu_stats) = mvr(
+        &scene,
+        &light,
+        &rx,
+        &samples,
+        &MultiViewOptions {
+            backend: Backend::Gpu,
+            ..opts
+        },
+    )
+    .unwrap();
+    let worst = cpu
+        .iter()
+        .zip(&gpu)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f32, f32::max);
     assert!(worst <= 1e-6, "largest difference {worst}");
     assert_eq!(cpu_stats.get("fragments"), gpu_stats.get("fragments"));
-    assert!(cpu.iter().any(|&v| v > 0.0 && v < 1.0), "the test scene must have penumbrae");
+    assert!(
+        cpu.iter().any(|&v| v > 0.0 && v < 1.0),
+        "the test scene must have penumbrae"
+    );
 }
 
 #[test]
@@ -264,13 +451,24 @@ fn stage_times_are_the_gpus_own_passes_and_never_exceed_the_wall_clock() {
     let _serial = LIMITS.lock().unwrap_or_else(|p| p.into_inner());
     let gpu = context().unwrap();
     let (scene, light, rx) = (scene(), light(), receivers(64));
-    let opts = CssmOptions { resolution: 128, order: 8, backend: Backend::Gpu, ..Default::default() };
+    let opts = CssmOptions {
+        resolution: 128,
+        order: 8,
+        backend: Backend::Gpu,
+        ..Default::default()
+    };
     cssm(&scene, &light, &rx, &opts).unwrap();
     let start = std::time::Instant::now();
     let (_, stats) = cssm(&scene, &light, &rx, &opts).unwrap();
     let wall = start.elapsed().as_secs_f64();
-    let stages: Vec<f64> = ["basis_seconds", "prefilter_seconds", "lookup_seconds"].iter().map(|k| stats.get(k).unwrap()).collect();
-    eprintln!("timestamp queries: {}; stages {stages:?}, wall {wall}", gpu.has_timestamps());
+    let stages: Vec<f64> = ["basis_seconds", "prefilter_seconds", "lookup_seconds"]
+        .iter()
+        .map(|k| stats.get(k).unwrap())
+        .collect();
+    eprintln!(
+        "timestamp queries: {}; stages {stages:?}, wall {wall}",
+        gpu.has_timestamps()
+    );
     assert!(stages.iter().all(|&s| s > 0.0), "{stages:?}");
     assert!(stages.iter().sum::<f64>() <= wall, "{stages:?} > {wall}");
     // A scope that records no pass measures nothing on the GPU's clock, the wall clock elsewhere.

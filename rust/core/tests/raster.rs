@@ -3,20 +3,20 @@
 //! test), min/max pyramids, summed-area tables, mipmaps and the hard-shadow baseline.
 
 use glam::{DVec2, DVec3, Vec2, Vec3};
+use softshadows_core::geometry::bvh::Bvh;
+use softshadows_core::geometry::camera::Camera;
+use softshadows_core::geometry::gbuffer::gbuffer;
 use softshadows_core::geometry::mesh::{AlphaTexture, Mesh, Scene};
 use softshadows_core::geometry::receivers::Receivers;
 use softshadows_core::light::lights::Light;
 use softshadows_core::light::sampling::Rng;
+use softshadows_core::light::sampling::SampleSet;
+use softshadows_core::methods::ray_traced::{ray_traced, RayTracedOptions};
 use softshadows_core::methods::shadow_map::{shadow_map, ShadowMapOptions};
 use softshadows_core::raster::depth::{
     rasterize_depth, FaceFilter, LightFrustum, RasterMode, RasterOptions, Rasterizer, TexelRect,
 };
 use softshadows_core::raster::pyramid::{MinMaxPyramid, MipMap, MultiScaleMap, SummedAreaTable};
-use softshadows_core::geometry::bvh::Bvh;
-use softshadows_core::geometry::camera::Camera;
-use softshadows_core::geometry::gbuffer::gbuffer;
-use softshadows_core::light::sampling::SampleSet;
-use softshadows_core::methods::ray_traced::{ray_traced, RayTracedOptions};
 use softshadows_core::Error;
 
 // ---------------------------------------------------------------- helpers
@@ -34,7 +34,11 @@ fn at(f: &LightFrustum, sx: f64, sy: f64, z: f32) -> Vec3 {
 /// Texel coordinates of `p` in f64 (an independent, exact-as-possible projection).
 fn project64(f: &LightFrustum, p: Vec3) -> DVec3 {
     let d = p.as_dvec3() - f.eye.as_dvec3();
-    let v = DVec3::new(d.dot(f.right.as_dvec3()), d.dot(f.up.as_dvec3()), d.dot(f.forward.as_dvec3()));
+    let v = DVec3::new(
+        d.dot(f.right.as_dvec3()),
+        d.dot(f.up.as_dvec3()),
+        d.dot(f.forward.as_dvec3()),
+    );
     let sx = 0.5 * f.width as f64 * (1.0 + v.x / (v.z * f.tan_half_x as f64));
     let sy = 0.5 * f.height as f64 * (1.0 - v.y / (v.z * f.tan_half_y as f64));
     DVec3::new(sx, sy, v.z)
@@ -62,7 +66,12 @@ fn uniform(rng: &mut Rng, lo: f64, hi: f64) -> f64 {
 /// Area of the intersection of a triangle with the square [x, x+1] x [y, y+1] (Sutherland-Hodgman).
 fn overlap_area(tri: [DVec2; 3], x: f64, y: f64) -> f64 {
     let mut poly: Vec<DVec2> = tri.to_vec();
-    let planes: [(DVec2, f64); 4] = [(DVec2::X, x), (-DVec2::X, -(x + 1.0)), (DVec2::Y, y), (-DVec2::Y, -(y + 1.0))];
+    let planes: [(DVec2, f64); 4] = [
+        (DVec2::X, x),
+        (-DVec2::X, -(x + 1.0)),
+        (DVec2::Y, y),
+        (-DVec2::Y, -(y + 1.0)),
+    ];
     for (n, off) in planes {
         let mut out = Vec::new();
         for i in 0..poly.len() {
@@ -80,24 +89,49 @@ fn overlap_area(tri: [DVec2; 3], x: f64, y: f64) -> f64 {
             return 0.0;
         }
     }
-    (0..poly.len()).map(|i| poly[i].perp_dot(poly[(i + 1) % poly.len()])).sum::<f64>().abs() * 0.5
+    (0..poly.len())
+        .map(|i| poly[i].perp_dot(poly[(i + 1) % poly.len()]))
+        .sum::<f64>()
+        .abs()
+        * 0.5
 }
 
 // ---------------------------------------------------------------- frusta
 
 #[test]
 fn frustum_projects_and_unprojects() {
-    let f = LightFrustum::new(Vec3::new(1.0, 2.0, 3.0), Vec3::new(0.0, 0.0, -4.0), Vec3::Y, 50.0, 1.5, 0.1, 50.0, 300, 200)
-        .unwrap();
-    for (sx, sy, z) in [(0.0, 0.0, 1.0), (150.0, 100.0, 5.0), (299.5, 10.25, 20.0), (37.5, 199.0, 0.5)] {
+    let f = LightFrustum::new(
+        Vec3::new(1.0, 2.0, 3.0),
+        Vec3::new(0.0, 0.0, -4.0),
+        Vec3::Y,
+        50.0,
+        1.5,
+        0.1,
+        50.0,
+        300,
+        200,
+    )
+    .unwrap();
+    for (sx, sy, z) in [
+        (0.0, 0.0, 1.0),
+        (150.0, 100.0, 5.0),
+        (299.5, 10.25, 20.0),
+        (37.5, 199.0, 0.5),
+    ] {
         let p = f.unproject(sx, sy, z);
         let s = f.project(p).unwrap();
-        assert!((s - Vec3::new(sx, sy, z)).abs().max_element() < 1e-3, "{s} vs {sx},{sy},{z}");
+        assert!(
+            (s - Vec3::new(sx, sy, z)).abs().max_element() < 1e-3,
+            "{s} vs {sx},{sy},{z}"
+        );
     }
     // The center of the map looks down forward; row 0 is the top (+up).
     assert!((f.texel_ray(150.0, 100.0) - f.forward).length() < 1e-6);
     assert!(f.texel_ray(150.0, 0.0).dot(f.up) > 0.0);
-    assert!(f.project(f.eye + f.forward * 0.05).is_none(), "nearer than near");
+    assert!(
+        f.project(f.eye + f.forward * 0.05).is_none(),
+        "nearer than near"
+    );
     let w = f.texel_world_size(2.0);
     assert!((w - 2.0 * 2.0 * f.tan_half_x / 300.0).abs() < 1e-6);
 }
@@ -105,15 +139,26 @@ fn frustum_projects_and_unprojects() {
 #[test]
 fn fitted_frustum_contains_the_box_and_refuses_an_eye_inside() {
     let (lo, hi) = (Vec3::new(-2.0, 0.0, -1.0), Vec3::new(3.0, 0.5, 2.0));
-    for eye in [Vec3::new(0.0, 5.0, 0.0), Vec3::new(10.0, 1.0, 0.5), Vec3::new(2.9, 0.6, 1.9), Vec3::new(-1.0, -0.01, 0.0)] {
+    for eye in [
+        Vec3::new(0.0, 5.0, 0.0),
+        Vec3::new(10.0, 1.0, 0.5),
+        Vec3::new(2.9, 0.6, 1.9),
+        Vec3::new(-1.0, -0.01, 0.0),
+    ] {
         let f = LightFrustum::fit(eye, lo, hi, 256).unwrap();
         for i in 0..8 {
             let c = Vec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), hi, lo);
-            let (x, y, z) = f.texel_of(c).unwrap_or_else(|| panic!("corner {c} outside the frustum from {eye}"));
+            let (x, y, z) = f
+                .texel_of(c)
+                .unwrap_or_else(|| panic!("corner {c} outside the frustum from {eye}"));
             assert!(x < 256 && y < 256 && z >= f.near && z <= f.far);
         }
     }
-    for eye in [Vec3::new(0.0, 0.2, 0.0), Vec3::new(3.0, 0.5, 2.0), Vec3::new(0.0, 0.0, 0.0)] {
+    for eye in [
+        Vec3::new(0.0, 0.2, 0.0),
+        Vec3::new(3.0, 0.5, 2.0),
+        Vec3::new(0.0, 0.0, 0.0),
+    ] {
         match LightFrustum::fit(eye, lo, hi, 256) {
             Err(Error::InvalidInput { arg, message }) => {
                 assert_eq!(arg, "light");
@@ -123,8 +168,14 @@ fn fitted_frustum_contains_the_box_and_refuses_an_eye_inside() {
         }
     }
     assert!(LightFrustum::fit(Vec3::Y, lo, hi, 0).is_err());
-    assert!(LightFrustum::new(Vec3::ZERO, Vec3::Y, Vec3::Y, 60.0, 1.0, 0.1, 10.0, 8, 8).is_err(), "up parallel");
-    assert!(LightFrustum::new(Vec3::ZERO, -Vec3::Z, Vec3::Y, 60.0, 1.0, 1.0, 0.5, 8, 8).is_err(), "near > far");
+    assert!(
+        LightFrustum::new(Vec3::ZERO, Vec3::Y, Vec3::Y, 60.0, 1.0, 0.1, 10.0, 8, 8).is_err(),
+        "up parallel"
+    );
+    assert!(
+        LightFrustum::new(Vec3::ZERO, -Vec3::Z, Vec3::Y, 60.0, 1.0, 1.0, 0.5, 8, 8).is_err(),
+        "near > far"
+    );
 }
 
 // ---------------------------------------------------------------- standard rasterization
@@ -143,15 +194,32 @@ fn shared_edges_are_drawn_exactly_once() {
                 let (gx, gy) = ((i % k) as f64, (i / k) as f64);
                 // At most 0.2 cells per axis, so no quad folds over its diagonal.
                 let jitter = if trial == 0 { 0.0 } else { 0.2 * cell };
-                let sx = -18.0 + gx * cell + if gx > 0.0 && gx < (k - 1) as f64 { uniform(&mut rng, -jitter, jitter) } else { 0.0 };
-                let sy = -18.0 + gy * cell + if gy > 0.0 && gy < (k - 1) as f64 { uniform(&mut rng, -jitter, jitter) } else { 0.0 };
+                let sx = -18.0
+                    + gx * cell
+                    + if gx > 0.0 && gx < (k - 1) as f64 {
+                        uniform(&mut rng, -jitter, jitter)
+                    } else {
+                        0.0
+                    };
+                let sy = -18.0
+                    + gy * cell
+                    + if gy > 0.0 && gy < (k - 1) as f64 {
+                        uniform(&mut rng, -jitter, jitter)
+                    } else {
+                        0.0
+                    };
                 at(&f, sx, sy, uniform(&mut rng, 1.0, 10.0) as f32)
             })
             .collect();
         let mut tris = Vec::new();
         for y in 0..k - 1 {
             for x in 0..k - 1 {
-                let (a, b, c, d) = (y * k + x, y * k + x + 1, (y + 1) * k + x, (y + 1) * k + x + 1);
+                let (a, b, c, d) = (
+                    y * k + x,
+                    y * k + x + 1,
+                    (y + 1) * k + x,
+                    (y + 1) * k + x + 1,
+                );
                 if (x + y + trial) % 2 == 0 {
                     tris.push([grid[a], grid[b], grid[d]]);
                     tris.push([grid[a], grid[d], grid[c]]);
@@ -165,7 +233,10 @@ fn shared_edges_are_drawn_exactly_once() {
             let p = t.map(|v| project64(&f, v).truncate());
             (p[1] - p[0]).perp_dot(p[2] - p[0]).signum()
         };
-        assert!(tris.iter().all(|t| orient(t) == orient(&tris[0])), "the test mesh folds");
+        assert!(
+            tris.iter().all(|t| orient(t) == orient(&tris[0])),
+            "the test mesh folds"
+        );
         let (counts, _) = draw(&f, RasterMode::Standard, &tris);
         let bad = counts.iter().filter(|&&c| c != 1).count();
         assert_eq!(bad, 0, "trial {trial}: {bad} texels not drawn exactly once");
@@ -176,11 +247,18 @@ fn shared_edges_are_drawn_exactly_once() {
         let ring: Vec<Vec3> = (0..spokes)
             .map(|i| {
                 let a = std::f64::consts::TAU * i as f64 / spokes as f64;
-                at(&f, center.0 + 200.0 * a.cos(), center.1 + 200.0 * a.sin(), 5.0)
+                at(
+                    &f,
+                    center.0 + 200.0 * a.cos(),
+                    center.1 + 200.0 * a.sin(),
+                    5.0,
+                )
             })
             .collect();
         let c = at(&f, center.0, center.1, 5.0);
-        let tris: Vec<[Vec3; 3]> = (0..spokes).map(|i| [c, ring[i], ring[(i + 1) % spokes]]).collect();
+        let tris: Vec<[Vec3; 3]> = (0..spokes)
+            .map(|i| [c, ring[i], ring[(i + 1) % spokes]])
+            .collect();
         let (counts, _) = draw(&f, RasterMode::Standard, &tris);
         assert!(counts.iter().all(|&c| c == 1), "fan at {center:?}");
     }
@@ -193,7 +271,13 @@ fn a_plane_clipped_by_the_near_plane_has_no_cracks_or_overlaps() {
     let n = 96;
     let f = LightFrustum::new(Vec3::ZERO, -Vec3::Z, Vec3::Y, 100.0, 1.0, 0.3, 100.0, n, n).unwrap();
     let k = 21;
-    let pos = |i: usize, j: usize| Vec3::new(-60.0 + 120.0 * i as f32 / (k - 1) as f32, -0.2, 5.0 - 65.0 * j as f32 / (k - 1) as f32);
+    let pos = |i: usize, j: usize| {
+        Vec3::new(
+            -60.0 + 120.0 * i as f32 / (k - 1) as f32,
+            -0.2,
+            5.0 - 65.0 * j as f32 / (k - 1) as f32,
+        )
+    };
     let mut tris = Vec::new();
     for j in 0..k - 1 {
         for i in 0..k - 1 {
@@ -227,29 +311,55 @@ fn a_plane_clipped_by_the_near_plane_has_no_cracks_or_overlaps() {
             }
         }
     }
-    assert!(checked > n * n / 4 && clipped > n, "checked {checked}, clipped {clipped}");
+    assert!(
+        checked > n * n / 4 && clipped > n,
+        "checked {checked}, clipped {clipped}"
+    );
 }
 
 #[test]
 fn depth_is_perspective_correct() {
     let n = 128;
-    let f = LightFrustum::new(Vec3::new(0.5, 3.0, 1.0), Vec3::ZERO, Vec3::Y, 70.0, 1.3, 0.05, 50.0, n, n).unwrap();
+    let f = LightFrustum::new(
+        Vec3::new(0.5, 3.0, 1.0),
+        Vec3::ZERO,
+        Vec3::Y,
+        70.0,
+        1.3,
+        0.05,
+        50.0,
+        n,
+        n,
+    )
+    .unwrap();
     let mut rng = Rng::new(3);
     let mut tested = 0;
     for _ in 0..20 {
         let tri: [Vec3; 3] = std::array::from_fn(|_| {
-            Vec3::new(uniform(&mut rng, -2.0, 2.0) as f32, uniform(&mut rng, -1.5, 1.5) as f32, uniform(&mut rng, -2.0, 2.0) as f32)
+            Vec3::new(
+                uniform(&mut rng, -2.0, 2.0) as f32,
+                uniform(&mut rng, -1.5, 1.5) as f32,
+                uniform(&mut rng, -2.0, 2.0) as f32,
+            )
         });
         let [a, b, c] = tri.map(|v| v.as_dvec3());
         let nrm = (b - a).cross(c - a);
-        Rasterizer::new(&f, RasterMode::Standard).unwrap().triangle(&tri, TexelRect::full(n, n), |fr| {
-            let r = f.texel_ray(fr.x as f32 + 0.5, fr.y as f32 + 0.5).as_dvec3();
-            // eye + r t on the plane: n.(eye + r t - a) = 0, t = linear depth.
-            let t = nrm.dot(a - f.eye.as_dvec3()) / nrm.dot(r);
-            let err = (fr.depth as f64 - t).abs() / t;
-            assert!(err < 1e-5, "depth {} vs analytic {t} (rel {err:e})", fr.depth);
-            tested += 1;
-        });
+        Rasterizer::new(&f, RasterMode::Standard).unwrap().triangle(
+            &tri,
+            TexelRect::full(n, n),
+            |fr| {
+                let r = f.texel_ray(fr.x as f32 + 0.5, fr.y as f32 + 0.5).as_dvec3();
+                // eye + r t on the plane: n.(eye + r t - a) = 0, t = linear depth.
+                let t = nrm.dot(a - f.eye.as_dvec3()) / nrm.dot(r);
+                let err = (fr.depth as f64 - t).abs() / t;
+                assert!(
+                    err < 1e-5,
+                    "depth {} vs analytic {t} (rel {err:e})",
+                    fr.depth
+                );
+                tested += 1;
+            },
+        );
     }
     assert!(tested > 1000, "{tested}");
 }
@@ -260,7 +370,11 @@ fn near_clipping_keeps_the_visible_part_of_a_triangle() {
     let f = LightFrustum::new(Vec3::ZERO, -Vec3::Z, Vec3::Y, 90.0, 1.0, 0.5, 100.0, n, n).unwrap();
     // A horizontal triangle y = -0.3 with one vertex behind the eye (z = +2); the near plane at
     // 0.5 hides its part nearer than that.
-    let tri = [Vec3::new(-1.5, -0.3, -3.0), Vec3::new(1.5, -0.3, -3.0), Vec3::new(0.0, -0.3, 2.0)];
+    let tri = [
+        Vec3::new(-1.5, -0.3, -3.0),
+        Vec3::new(1.5, -0.3, -3.0),
+        Vec3::new(0.0, -0.3, 2.0),
+    ];
     let [a, b, c] = tri.map(|v| v.as_dvec3());
     let (counts, depth) = draw(&f, RasterMode::Standard, &[tri]);
     let (mut drawn, mut near_part, mut clipped) = (0, 0, 0);
@@ -283,7 +397,11 @@ fn near_clipping_keeps_the_visible_part_of_a_triangle() {
             let expect = margin > 0.0 && t >= 0.5;
             let clear = margin.abs() > 1e-3 && (t - 0.5).abs() > 1e-3;
             if clear {
-                assert_eq!(counts[k] == 1, expect, "texel {x},{y}: t={t} margin={margin}");
+                assert_eq!(
+                    counts[k] == 1,
+                    expect,
+                    "texel {x},{y}: t={t} margin={margin}"
+                );
                 clipped += usize::from(margin > 0.0 && t < 0.5);
             }
             if counts[k] == 1 {
@@ -293,10 +411,20 @@ fn near_clipping_keeps_the_visible_part_of_a_triangle() {
             }
         }
     }
-    assert!(drawn > 200 && near_part > 10 && clipped > 10, "drawn {drawn}, near {near_part}, clipped {clipped}");
+    assert!(
+        drawn > 200 && near_part > 10 && clipped > 10,
+        "drawn {drawn}, near {near_part}, clipped {clipped}"
+    );
     // Entirely behind the near plane: nothing.
-    let behind = [Vec3::new(-1.0, -0.3, -0.4), Vec3::new(1.0, -0.3, -0.4), Vec3::new(0.0, -0.3, 3.0)];
-    assert!(draw(&f, RasterMode::Standard, &[behind]).0.iter().all(|&c| c == 0));
+    let behind = [
+        Vec3::new(-1.0, -0.3, -0.4),
+        Vec3::new(1.0, -0.3, -0.4),
+        Vec3::new(0.0, -0.3, 3.0),
+    ];
+    assert!(draw(&f, RasterMode::Standard, &[behind])
+        .0
+        .iter()
+        .all(|&c| c == 0));
 }
 
 // ---------------------------------------------------------------- conservative rasterization
@@ -309,31 +437,53 @@ fn conservative_coverage_contains_standard_and_every_overlapped_texel() {
     for trial in 0..300 {
         // Large, small (sub-texel) and sliver triangles.
         let size = [40.0, 3.0, 0.4][trial % 3];
-        let c = DVec2::new(uniform(&mut rng, -5.0, n as f64 + 5.0), uniform(&mut rng, -5.0, n as f64 + 5.0));
-        let mut pts: [DVec2; 3] =
-            std::array::from_fn(|_| c + DVec2::new(uniform(&mut rng, -size, size), uniform(&mut rng, -size, size)));
+        let c = DVec2::new(
+            uniform(&mut rng, -5.0, n as f64 + 5.0),
+            uniform(&mut rng, -5.0, n as f64 + 5.0),
+        );
+        let mut pts: [DVec2; 3] = std::array::from_fn(|_| {
+            c + DVec2::new(
+                uniform(&mut rng, -size, size),
+                uniform(&mut rng, -size, size),
+            )
+        });
         if trial % 7 == 0 {
-            pts[2] = pts[0] + (pts[1] - pts[0]) * 0.5 + DVec2::new(1e-3, -2e-3); // sliver
+            pts[2] = pts[0] + (pts[1] - pts[0]) * 0.5 + DVec2::new(1e-3, -2e-3);
+            // sliver
         }
         let tri = pts.map(|p| at(&f, p.x, p.y, uniform(&mut rng, 1.0, 5.0) as f32));
         let exact = tri.map(|v| project64(&f, v).truncate());
         let (std_counts, std_depth) = draw(&f, RasterMode::Standard, &[tri]);
         let (con_counts, con_depth) = draw(&f, RasterMode::Conservative, &[tri]);
-        let (zmin, zmax) = tri.iter().fold((f32::INFINITY, 0.0f32), |(lo, hi), v| (lo.min(-v.z), hi.max(-v.z)));
+        let (zmin, zmax) = tri.iter().fold((f32::INFINITY, 0.0f32), |(lo, hi), v| {
+            (lo.min(-v.z), hi.max(-v.z))
+        });
         for y in 0..n {
             for x in 0..n {
                 let k = y * n + x;
                 assert!(con_counts[k] <= 1, "a triangle draws a texel once");
                 if std_counts[k] == 1 {
-                    assert_eq!(con_counts[k], 1, "trial {trial}: standard texel {x},{y} missing from conservative");
-                    assert!(con_depth[k] <= std_depth[k] * (1.0 + 1e-6), "conservative depth must not exceed the center depth");
+                    assert_eq!(
+                        con_counts[k], 1,
+                        "trial {trial}: standard texel {x},{y} missing from conservative"
+                    );
+                    assert!(
+                        con_depth[k] <= std_depth[k] * (1.0 + 1e-6),
+                        "conservative depth must not exceed the center depth"
+                    );
                 }
                 if overlap_area(exact, x as f64, y as f64) > 1e-9 {
-                    assert_eq!(con_counts[k], 1, "trial {trial}: overlapped texel {x},{y} missing ({exact:?})");
+                    assert_eq!(
+                        con_counts[k], 1,
+                        "trial {trial}: overlapped texel {x},{y} missing ({exact:?})"
+                    );
                 }
                 if con_counts[k] == 1 {
                     let d = con_depth[k];
-                    assert!(d >= zmin * (1.0 - 1e-5) && d <= zmax * (1.0 + 1e-5), "depth {d} outside [{zmin}, {zmax}]");
+                    assert!(
+                        d >= zmin * (1.0 - 1e-5) && d <= zmax * (1.0 + 1e-5),
+                        "depth {d} outside [{zmin}, {zmax}]"
+                    );
                 }
             }
         }
@@ -346,7 +496,11 @@ fn conservative_depth_is_the_minimum_over_the_texel() {
     // its nearest corner, below the center depth.
     let n = 32;
     let f = frustum(n);
-    let tri = [at(&f, -50.0, -50.0, 2.0), at(&f, 100.0, -50.0, 2.0), at(&f, -50.0, 100.0, 8.0)];
+    let tri = [
+        at(&f, -50.0, -50.0, 2.0),
+        at(&f, 100.0, -50.0, 2.0),
+        at(&f, -50.0, 100.0, 8.0),
+    ];
     let [a, b, c] = tri.map(|v| v.as_dvec3());
     let nrm = (b - a).cross(c - a);
     let depth_at = |sx: f64, sy: f64| {
@@ -356,9 +510,15 @@ fn conservative_depth_is_the_minimum_over_the_texel() {
     let (_, con) = draw(&f, RasterMode::Conservative, &[tri]);
     for (x, y) in [(3usize, 4usize), (20, 10), (10, 25)] {
         let corners = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)];
-        let min = corners.iter().map(|(dx, dy)| depth_at(x as f64 + dx, y as f64 + dy)).fold(f64::INFINITY, f64::min);
+        let min = corners
+            .iter()
+            .map(|(dx, dy)| depth_at(x as f64 + dx, y as f64 + dy))
+            .fold(f64::INFINITY, f64::min);
         let got = con[y * n + x] as f64;
-        assert!((got - min).abs() <= 1e-5 * min, "texel {x},{y}: {got} vs {min}");
+        assert!(
+            (got - min).abs() <= 1e-5 * min,
+            "texel {x},{y}: {got} vs {min}"
+        );
         assert!(got < depth_at(x as f64 + 0.5, y as f64 + 0.5));
     }
 }
@@ -366,10 +526,22 @@ fn conservative_depth_is_the_minimum_over_the_texel() {
 // ---------------------------------------------------------------- scenes: alpha test, faces, bands
 
 fn checker_quad(f: &LightFrustum, depth: f32, cells: usize) -> Mesh {
-    let corners = [(-8.0, -8.0), (f.width as f64 + 8.0, -8.0), (f.width as f64 + 8.0, f.height as f64 + 8.0), (-8.0, f.height as f64 + 8.0)];
+    let corners = [
+        (-8.0, -8.0),
+        (f.width as f64 + 8.0, -8.0),
+        (f.width as f64 + 8.0, f.height as f64 + 8.0),
+        (-8.0, f.height as f64 + 8.0),
+    ];
     let pos: Vec<Vec3> = corners.iter().map(|&(x, y)| at(f, x, y, depth)).collect();
-    let uvs = vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)];
-    let alpha: Vec<f32> = (0..cells * cells).map(|i| ((i % cells + i / cells) % 2) as f32).collect();
+    let uvs = vec![
+        Vec2::new(0.0, 0.0),
+        Vec2::new(1.0, 0.0),
+        Vec2::new(1.0, 1.0),
+        Vec2::new(0.0, 1.0),
+    ];
+    let alpha: Vec<f32> = (0..cells * cells)
+        .map(|i| ((i % cells + i / cells) % 2) as f32)
+        .collect();
     let tex = AlphaTexture::new(cells, cells, &alpha).unwrap();
     Mesh::new(pos, vec![[0, 1, 2], [0, 2, 3]], Some(uvs), Some(tex), false).unwrap()
 }
@@ -393,12 +565,24 @@ fn alpha_test_drops_transparent_texels() {
                 continue;
             }
             let opaque = (cu.floor() as usize + cv.floor() as usize) % 2 == 1;
-            assert_eq!(map.depth[y * n + x].is_finite(), opaque, "texel {x},{y} uv {u},{v}");
+            assert_eq!(
+                map.depth[y * n + x].is_finite(),
+                opaque,
+                "texel {x},{y} uv {u},{v}"
+            );
             checked += 1;
         }
     }
     assert!(checked > n * n / 2);
-    let plain = rasterize_depth(&scene, &f, &RasterOptions { alpha_test: false, ..Default::default() }).unwrap();
+    let plain = rasterize_depth(
+        &scene,
+        &f,
+        &RasterOptions {
+            alpha_test: false,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     assert_eq!(plain.drawn_texels(), n * n);
     assert!(map.drawn_texels() > n * n / 3 && map.drawn_texels() < 2 * n * n / 3);
 }
@@ -409,22 +593,58 @@ fn face_filter_and_parallel_bands_match_a_serial_draw() {
     let n = 200;
     let f = frustum(n);
     let quad = |z: f32, flip: bool| {
-        let c = [(-5.0, -5.0), (n as f64 + 5.0, -5.0), (n as f64 + 5.0, n as f64 + 5.0), (-5.0, n as f64 + 5.0)];
+        let c = [
+            (-5.0, -5.0),
+            (n as f64 + 5.0, -5.0),
+            (n as f64 + 5.0, n as f64 + 5.0),
+            (-5.0, n as f64 + 5.0),
+        ];
         let pos: Vec<Vec3> = c.iter().map(|&(x, y)| at(&f, x, y, z)).collect();
-        let faces = if flip { vec![[0, 2, 1], [0, 3, 2]] } else { vec![[0, 1, 2], [0, 2, 3]] };
+        let faces = if flip {
+            vec![[0, 2, 1], [0, 3, 2]]
+        } else {
+            vec![[0, 1, 2], [0, 2, 3]]
+        };
         Mesh::new(pos, faces, None, None, true).unwrap()
     };
     // Screen order (0,0),(w,0),(w,h) is clockwise on screen with y down... decide by the filter.
     let scene = Scene::new(vec![quad(3.0, false), quad(6.0, true)]).unwrap();
     let all = rasterize_depth(&scene, &f, &RasterOptions::default()).unwrap();
-    let front = rasterize_depth(&scene, &f, &RasterOptions { faces: FaceFilter::FrontFacing, ..Default::default() }).unwrap();
-    let back = rasterize_depth(&scene, &f, &RasterOptions { faces: FaceFilter::BackFacing, ..Default::default() }).unwrap();
-    let closed = rasterize_depth(&scene, &f, &RasterOptions { faces: FaceFilter::BackFacingIfClosed, ..Default::default() }).unwrap();
+    let front = rasterize_depth(
+        &scene,
+        &f,
+        &RasterOptions {
+            faces: FaceFilter::FrontFacing,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let back = rasterize_depth(
+        &scene,
+        &f,
+        &RasterOptions {
+            faces: FaceFilter::BackFacing,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let closed = rasterize_depth(
+        &scene,
+        &f,
+        &RasterOptions {
+            faces: FaceFilter::BackFacingIfClosed,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     assert_eq!(back, closed);
     let d = |m: &softshadows_core::raster::depth::DepthMap| m.depth[n * n / 2 + n / 2];
     assert!((d(&all) - 3.0).abs() < 1e-5);
     let (df, db) = (d(&front), d(&back));
-    assert!(((df - 3.0).abs() < 1e-5 && (db - 6.0).abs() < 1e-5) || ((df - 6.0).abs() < 1e-5 && (db - 3.0).abs() < 1e-5));
+    assert!(
+        ((df - 3.0).abs() < 1e-5 && (db - 6.0).abs() < 1e-5)
+            || ((df - 6.0).abs() < 1e-5 && (db - 3.0).abs() < 1e-5)
+    );
     assert_eq!(all.drawn_texels(), n * n);
     assert_eq!(all.fragments, 2 * (n * n) as u64);
 
@@ -432,16 +652,39 @@ fn face_filter_and_parallel_bands_match_a_serial_draw() {
     let mut rng = Rng::new(5);
     let mut pos = Vec::new();
     for _ in 0..600 {
-        let c = Vec3::new(uniform(&mut rng, -3.0, 3.0) as f32, uniform(&mut rng, -3.0, 3.0) as f32, -uniform(&mut rng, 2.0, 9.0) as f32);
+        let c = Vec3::new(
+            uniform(&mut rng, -3.0, 3.0) as f32,
+            uniform(&mut rng, -3.0, 3.0) as f32,
+            -uniform(&mut rng, 2.0, 9.0) as f32,
+        );
         for _ in 0..3 {
-            pos.push(c + Vec3::new(uniform(&mut rng, -1.0, 1.0) as f32, uniform(&mut rng, -1.0, 1.0) as f32, uniform(&mut rng, -1.0, 1.0) as f32));
+            pos.push(
+                c + Vec3::new(
+                    uniform(&mut rng, -1.0, 1.0) as f32,
+                    uniform(&mut rng, -1.0, 1.0) as f32,
+                    uniform(&mut rng, -1.0, 1.0) as f32,
+                ),
+            );
         }
     }
     let tris: Vec<[Vec3; 3]> = pos.chunks(3).map(|c| [c[0], c[1], c[2]]).collect();
-    let faces = (0..tris.len() as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
-    let soup = Scene::new(vec![Mesh::new(pos.clone(), faces, None, None, false).unwrap()]).unwrap();
+    let faces = (0..tris.len() as u32)
+        .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+        .collect();
+    let soup = Scene::new(vec![
+        Mesh::new(pos.clone(), faces, None, None, false).unwrap()
+    ])
+    .unwrap();
     for mode in [RasterMode::Standard, RasterMode::Conservative] {
-        let map = rasterize_depth(&soup, &f, &RasterOptions { mode, ..Default::default() }).unwrap();
+        let map = rasterize_depth(
+            &soup,
+            &f,
+            &RasterOptions {
+                mode,
+                ..Default::default()
+            },
+        )
+        .unwrap();
         let (counts, serial) = draw(&f, mode, &tris);
         assert_eq!(map.depth, serial, "{mode:?}");
         assert_eq!(map.fragments, counts.iter().map(|&c| c as u64).sum::<u64>());
@@ -454,8 +697,15 @@ fn face_filter_and_parallel_bands_match_a_serial_draw() {
 fn min_max_pyramid_matches_brute_force() {
     let (w, h) = (37, 53);
     let mut rng = Rng::new(9);
-    let depth: Vec<f32> =
-        (0..w * h).map(|_| if rng.next_f32() < 0.3 { f32::INFINITY } else { 1.0 + 9.0 * rng.next_f32() }).collect();
+    let depth: Vec<f32> = (0..w * h)
+        .map(|_| {
+            if rng.next_f32() < 0.3 {
+                f32::INFINITY
+            } else {
+                1.0 + 9.0 * rng.next_f32()
+            }
+        })
+        .collect();
     let pyr = MinMaxPyramid::new(w, h, &depth).unwrap();
     assert_eq!(pyr.num_levels(), 7); // 53 -> 27 -> 14 -> 7 -> 4 -> 2 -> 1
     let brute = |x0: usize, y0: usize, x1: usize, y1: usize| {
@@ -467,7 +717,12 @@ fn min_max_pyramid_matches_brute_force() {
                 }
             }
         }
-        (!v.is_empty()).then(|| (v.iter().cloned().fold(f32::INFINITY, f32::min), v.iter().cloned().fold(0.0, f32::max)))
+        (!v.is_empty()).then(|| {
+            (
+                v.iter().cloned().fold(f32::INFINITY, f32::min),
+                v.iter().cloned().fold(0.0, f32::max),
+            )
+        })
     };
     for level in 0..pyr.num_levels() {
         let l = &pyr.levels[level];
@@ -477,7 +732,11 @@ fn min_max_pyramid_matches_brute_force() {
             let x1 = x0 + 1 + rng.below(l.width - x0 + 1);
             let y1 = y0 + 1 + rng.below(l.height - y0 + 1);
             let s = 1usize << level;
-            assert_eq!(pyr.query(level, x0, y0, x1, y1), brute(x0 * s, y0 * s, x1 * s, y1 * s), "level {level}");
+            assert_eq!(
+                pyr.query(level, x0, y0, x1, y1),
+                brute(x0 * s, y0 * s, x1 * s, y1 * s),
+                "level {level}"
+            );
         }
     }
     for _ in 0..500 {
@@ -491,7 +750,12 @@ fn min_max_pyramid_matches_brute_force() {
         }
     }
     let empty = vec![f32::INFINITY; 16];
-    assert_eq!(MinMaxPyramid::new(4, 4, &empty).unwrap().query(0, 0, 0, 4, 4), None);
+    assert_eq!(
+        MinMaxPyramid::new(4, 4, &empty)
+            .unwrap()
+            .query(0, 0, 0, 4, 4),
+        None
+    );
     assert!(MinMaxPyramid::new(4, 4, &[f32::NAN; 16]).is_err());
 }
 
@@ -499,14 +763,31 @@ fn min_max_pyramid_matches_brute_force() {
 fn multi_scale_map_queries_are_exact() {
     let (w, h) = (45, 38);
     let mut rng = Rng::new(4);
-    let depth: Vec<f32> = (0..w * h).map(|_| if rng.next_f32() < 0.2 { f32::INFINITY } else { 1.0 + 9.0 * rng.next_f32() }).collect();
+    let depth: Vec<f32> = (0..w * h)
+        .map(|_| {
+            if rng.next_f32() < 0.2 {
+                f32::INFINITY
+            } else {
+                1.0 + 9.0 * rng.next_f32()
+            }
+        })
+        .collect();
     let mssm = MultiScaleMap::new(w, h, &depth).unwrap();
     assert_eq!(mssm.scales.len(), 7); // squares of 1 to 64 texels
     for _ in 0..2000 {
         let (x0, y0) = (rng.below(w), rng.below(h));
         let (x1, y1) = (x0 + 1 + rng.below(w - x0), y0 + 1 + rng.below(h - y0));
-        let inside: Vec<f32> = (y0..y1).flat_map(|y| (x0..x1).map(move |x| (x, y))).map(|(x, y)| depth[y * w + x]).filter(|d| d.is_finite()).collect();
-        let exact = (!inside.is_empty()).then(|| (inside.iter().cloned().fold(f32::INFINITY, f32::min), inside.iter().cloned().fold(0.0, f32::max)));
+        let inside: Vec<f32> = (y0..y1)
+            .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+            .map(|(x, y)| depth[y * w + x])
+            .filter(|d| d.is_finite())
+            .collect();
+        let exact = (!inside.is_empty()).then(|| {
+            (
+                inside.iter().cloned().fold(f32::INFINITY, f32::min),
+                inside.iter().cloned().fold(0.0, f32::max),
+            )
+        });
         assert_eq!(mssm.query(x0, y0, x1, y1), exact, "{x0},{y0}..{x1},{y1}");
     }
     assert_eq!(mssm.memory_bytes(), 7 * w * h * 8);
@@ -523,10 +804,16 @@ fn summed_area_table_is_exact_for_large_boxes() {
         let (x0, y0) = (rng.below(n - bw + 1), rng.below(n - bh + 1));
         let mut exact = 0.0f64;
         for y in y0..y0 + bh {
-            exact += img[y * n + x0..y * n + x0 + bw].iter().map(|&v| v as f64).sum::<f64>();
+            exact += img[y * n + x0..y * n + x0 + bw]
+                .iter()
+                .map(|&v| v as f64)
+                .sum::<f64>();
         }
         let got = sat.box_sum(0, x0 as f64, y0 as f64, (x0 + bw) as f64, (y0 + bh) as f64);
-        assert!((got - exact).abs() <= 1e-9 * exact, "{bw}x{bh}: {got} vs {exact}");
+        assert!(
+            (got - exact).abs() <= 1e-9 * exact,
+            "{bw}x{bh}: {got} vs {exact}"
+        );
         let mean = sat.box_mean(0, x0 as f64, y0 as f64, (x0 + bw) as f64, (y0 + bh) as f64);
         assert!((mean - exact / (bw * bh) as f64).abs() < 1e-12);
     }
@@ -559,7 +846,10 @@ fn summed_area_table_fractional_boxes_and_channels() {
     for _ in 0..300 {
         let x0 = uniform(&mut rng, -2.0, w as f64);
         let y0 = uniform(&mut rng, -2.0, h as f64);
-        let (x1, y1) = (x0 + uniform(&mut rng, 0.0, 8.0), y0 + uniform(&mut rng, 0.0, 6.0));
+        let (x1, y1) = (
+            x0 + uniform(&mut rng, 0.0, 8.0),
+            y0 + uniform(&mut rng, 0.0, 6.0),
+        );
         sat.box_sum_into(x0, y0, x1, y1, &mut out);
         assert!((out[0] - brute(&a, x0, y0, x1, y1)).abs() < 1e-9);
         assert!((out[1] - brute(&b, x0, y0, x1, y1)).abs() < 1e-9);
@@ -577,13 +867,16 @@ fn mipmap_trilinear_equals_bilinear_at_integer_levels() {
     let img: Vec<f32> = (0..w * h * 2).map(|_| rng.next_f32()).collect();
     let mip = MipMap::new(w, h, 2, &img).unwrap();
     assert_eq!(mip.num_levels(), 8); // 100 -> 50 -> 25 -> 13 -> 7 -> 4 -> 2 -> 1
-    // Level 1 is the 2x2 box mean.
+                                     // Level 1 is the 2x2 box mean.
     let l1 = mip.level(1).unwrap();
     let mean = (img[0] + img[2] + img[2 * w] + img[2 * (w + 1)]) / 4.0;
     assert!((l1.data[0] - mean).abs() < 1e-6);
     let (mut a, mut b) = ([0.0f32; 2], [0.0f32; 2]);
     for _ in 0..200 {
-        let (x, y) = (uniform(&mut rng, -3.0, w as f64 + 3.0), uniform(&mut rng, -3.0, h as f64 + 3.0));
+        let (x, y) = (
+            uniform(&mut rng, -3.0, w as f64 + 3.0),
+            uniform(&mut rng, -3.0, h as f64 + 3.0),
+        );
         for level in 0..mip.num_levels() {
             mip.trilinear_into(x, y, (1u64 << level) as f64, &mut a);
             mip.bilinear_into(level, x, y, &mut b);
@@ -604,7 +897,12 @@ fn mipmap_trilinear_equals_bilinear_at_integer_levels() {
 fn shadow_map_matches_the_analytic_hard_shadow() {
     // Ground |x|, |z| <= 1 at y = 0; a square occluder |x|, |z| <= 0.25 at y = 0.5; a point light.
     let ground = Mesh::new(
-        vec![Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(-1.0, 0.0, 1.0)],
+        vec![
+            Vec3::new(-1.0, 0.0, -1.0),
+            Vec3::new(1.0, 0.0, -1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(-1.0, 0.0, 1.0),
+        ],
         vec![[0, 2, 1], [0, 3, 2]],
         None,
         None,
@@ -613,7 +911,12 @@ fn shadow_map_matches_the_analytic_hard_shadow() {
     .unwrap();
     let s = 0.25;
     let occluder = Mesh::new(
-        vec![Vec3::new(-s, 0.5, -s), Vec3::new(s, 0.5, -s), Vec3::new(s, 0.5, s), Vec3::new(-s, 0.5, s)],
+        vec![
+            Vec3::new(-s, 0.5, -s),
+            Vec3::new(s, 0.5, -s),
+            Vec3::new(s, 0.5, s),
+            Vec3::new(-s, 0.5, s),
+        ],
         vec![[0, 2, 1], [0, 3, 2]],
         None,
         None,
@@ -625,13 +928,36 @@ fn shadow_map_matches_the_analytic_hard_shadow() {
     let light = Light::point(light_pos).unwrap();
     let k = 200;
     let points: Vec<Vec3> = (0..k * k)
-        .map(|i| Vec3::new(-0.995 + 1.99 * (i % k) as f32 / (k - 1) as f32, 0.0, -0.995 + 1.99 * (i / k) as f32 / (k - 1) as f32))
+        .map(|i| {
+            Vec3::new(
+                -0.995 + 1.99 * (i % k) as f32 / (k - 1) as f32,
+                0.0,
+                -0.995 + 1.99 * (i / k) as f32 / (k - 1) as f32,
+            )
+        })
         .collect();
-    let rx = Receivers::new(points.clone(), vec![Vec3::Y; k * k], vec![true; k * k], k, k).unwrap();
+    let rx = Receivers::new(
+        points.clone(),
+        vec![Vec3::Y; k * k],
+        vec![true; k * k],
+        k,
+        k,
+    )
+    .unwrap();
     for (resolution, pcf) in [(256usize, 1usize), (512, 1), (256, 3)] {
-        let opts = ShadowMapOptions { resolution, pcf, ..Default::default() };
+        let opts = ShadowMapOptions {
+            resolution,
+            pcf,
+            ..Default::default()
+        };
         let (vis, stats) = shadow_map(&scene, &light, &rx, &opts).unwrap();
-        let f = LightFrustum::fit(light_pos, Vec3::new(-0.995, 0.0, -0.995), Vec3::new(0.995, 0.0, 0.995), resolution).unwrap();
+        let f = LightFrustum::fit(
+            light_pos,
+            Vec3::new(-0.995, 0.0, -0.995),
+            Vec3::new(0.995, 0.0, 0.995),
+            resolution,
+        )
+        .unwrap();
         // Texel size on the occluder plane (depth of the occluder about 1.5).
         let texel = f.texel_world_size(1.5) as f64;
         let (mut mismatches, mut far_mismatches, mut shadowed) = (0, 0, 0);
@@ -639,7 +965,9 @@ fn shadow_map_matches_the_analytic_hard_shadow() {
             let (p, l) = (p.as_dvec3(), light_pos.as_dvec3());
             let q = p + (l - p) * (0.5 / l.y); // where the ray crosses y = 0.5
             let inside = q.x.abs() < s as f64 && q.z.abs() < s as f64;
-            let edge_dist = (q.x.abs() - s as f64).abs().min((q.z.abs() - s as f64).abs());
+            let edge_dist = (q.x.abs() - s as f64)
+                .abs()
+                .min((q.z.abs() - s as f64).abs());
             let expect = if inside { 0.0 } else { 1.0 };
             shadowed += usize::from(inside);
             if (*v - expect).abs() > 1e-6 {
@@ -649,33 +977,65 @@ fn shadow_map_matches_the_analytic_hard_shadow() {
                 }
             }
         }
-        assert_eq!(far_mismatches, 0, "res {resolution} pcf {pcf}: mismatches away from the shadow edge");
+        assert_eq!(
+            far_mismatches, 0,
+            "res {resolution} pcf {pcf}: mismatches away from the shadow edge"
+        );
         assert!(shadowed > 1000);
         // The shadow outline is about 4 * 0.5 * (4/3) world units long; receivers are 0.01 apart.
-        let band = 4.0 * 0.667 / 0.01 * (2.0 * (2.0 + (pcf / 2) as f64) * texel * 1.33 / 0.01 + 1.0);
+        let band =
+            4.0 * 0.667 / 0.01 * (2.0 * (2.0 + (pcf / 2) as f64) * texel * 1.33 / 0.01 + 1.0);
         eprintln!("shadow_map res {resolution} pcf {pcf}: {mismatches} mismatches of {} receivers, bound {band:.0}", k * k);
-        assert!((mismatches as f64) < band, "res {resolution} pcf {pcf}: {mismatches} mismatches (bound {band})");
+        assert!(
+            (mismatches as f64) < band,
+            "res {resolution} pcf {pcf}: {mismatches} mismatches (bound {band})"
+        );
         assert_eq!(stats.get("resolution"), Some(resolution as f64));
         assert!(stats.get("texels_drawn").unwrap() > 0.0);
         assert!(stats.get("render_seconds").is_some() && stats.get("lookup_seconds").is_some());
     }
     // Receivers facing away get 0; invalid ones get 0.
-    let rx = Receivers::new(vec![Vec3::new(0.9, 0.0, 0.9); 2], vec![-Vec3::Y, Vec3::Y], vec![true, false], 2, 1).unwrap();
+    let rx = Receivers::new(
+        vec![Vec3::new(0.9, 0.0, 0.9); 2],
+        vec![-Vec3::Y, Vec3::Y],
+        vec![true, false],
+        2,
+        1,
+    )
+    .unwrap();
     let (vis, _) = shadow_map(&scene, &light, &rx, &ShadowMapOptions::default()).unwrap();
     assert_eq!(vis, vec![0.0, 0.0]);
     // Bad options are refused.
     for opts in [
-        ShadowMapOptions { pcf: 2, ..Default::default() },
-        ShadowMapOptions { resolution: 0, ..Default::default() },
-        ShadowMapOptions { bias: Some(-1.0), ..Default::default() },
+        ShadowMapOptions {
+            pcf: 2,
+            ..Default::default()
+        },
+        ShadowMapOptions {
+            resolution: 0,
+            ..Default::default()
+        },
+        ShadowMapOptions {
+            bias: Some(-1.0),
+            ..Default::default()
+        },
     ] {
-        assert!(matches!(shadow_map(&scene, &light, &rx, &opts), Err(Error::InvalidInput { .. })));
+        assert!(matches!(
+            shadow_map(&scene, &light, &rx, &opts),
+            Err(Error::InvalidInput { .. })
+        ));
     }
     // A light inside the receivers' bounds needs an explicit frustum.
     let inside = Light::point(Vec3::new(0.0, 0.0, 0.0)).unwrap();
-    let (pts, nrm) = (vec![Vec3::new(-1.0, -1.0, -1.0), Vec3::new(1.0, 1.0, 1.0)], vec![Vec3::Y; 2]);
+    let (pts, nrm) = (
+        vec![Vec3::new(-1.0, -1.0, -1.0), Vec3::new(1.0, 1.0, 1.0)],
+        vec![Vec3::Y; 2],
+    );
     let rx = Receivers::new(pts, nrm, vec![true; 2], 2, 1).unwrap();
-    assert!(matches!(shadow_map(&scene, &inside, &rx, &ShadowMapOptions::default()), Err(Error::InvalidInput { .. })));
+    assert!(matches!(
+        shadow_map(&scene, &inside, &rx, &ShadowMapOptions::default()),
+        Err(Error::InvalidInput { .. })
+    ));
 }
 
 /// A latitude-longitude sphere (closed) with `2 * n * m` triangles.
@@ -685,7 +1045,15 @@ fn sphere(center: Vec3, radius: f32, n: u32, m: u32) -> Mesh {
         let theta = std::f32::consts::PI * i as f32 / m as f32;
         for j in 0..=n {
             let phi = std::f32::consts::TAU * (j % n) as f32 / n as f32;
-            pos.push(center + radius * Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()));
+            pos.push(
+                center
+                    + radius
+                        * Vec3::new(
+                            theta.sin() * phi.cos(),
+                            theta.cos(),
+                            theta.sin() * phi.sin(),
+                        ),
+            );
         }
     }
     let mut faces = Vec::new();
@@ -704,7 +1072,12 @@ fn shadow_map_agrees_with_the_ray_traced_point_light_on_a_gbuffer() {
     // Ground, a sphere (curved self-shadowing receiver) and a perforated checker fence, seen by a
     // camera; a point light. Mismatches are confined to shadow outlines: a small fraction.
     let ground = Mesh::new(
-        vec![Vec3::new(-4.0, 0.0, -4.0), Vec3::new(4.0, 0.0, -4.0), Vec3::new(4.0, 0.0, 4.0), Vec3::new(-4.0, 0.0, 4.0)],
+        vec![
+            Vec3::new(-4.0, 0.0, -4.0),
+            Vec3::new(4.0, 0.0, -4.0),
+            Vec3::new(4.0, 0.0, 4.0),
+            Vec3::new(-4.0, 0.0, 4.0),
+        ],
         vec![[0, 2, 1], [0, 3, 2]],
         None,
         None,
@@ -712,32 +1085,90 @@ fn shadow_map_agrees_with_the_ray_traced_point_light_on_a_gbuffer() {
     )
     .unwrap();
     let cells = 6;
-    let alpha: Vec<f32> = (0..cells * cells).map(|i| ((i % cells + i / cells) % 2) as f32).collect();
+    let alpha: Vec<f32> = (0..cells * cells)
+        .map(|i| ((i % cells + i / cells) % 2) as f32)
+        .collect();
     let fence = Mesh::new(
-        vec![Vec3::new(0.5, 0.3, -1.5), Vec3::new(2.5, 0.3, -1.5), Vec3::new(2.5, 1.6, -1.5), Vec3::new(0.5, 1.6, -1.5)],
+        vec![
+            Vec3::new(0.5, 0.3, -1.5),
+            Vec3::new(2.5, 0.3, -1.5),
+            Vec3::new(2.5, 1.6, -1.5),
+            Vec3::new(0.5, 1.6, -1.5),
+        ],
         vec![[0, 1, 2], [0, 2, 3]],
-        Some(vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)]),
+        Some(vec![
+            Vec2::new(0.0, 0.0),
+            Vec2::new(1.0, 0.0),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(0.0, 1.0),
+        ]),
         Some(AlphaTexture::new(cells, cells, &alpha).unwrap()),
         false,
     )
     .unwrap();
-    let scene = Scene::new(vec![ground, sphere(Vec3::new(-0.8, 1.0, 0.3), 0.9, 96, 48), fence]).unwrap();
+    let scene = Scene::new(vec![
+        ground,
+        sphere(Vec3::new(-0.8, 1.0, 0.3), 0.9, 96, 48),
+        fence,
+    ])
+    .unwrap();
     let light_pos = Vec3::new(2.5, 3.0, 2.0);
     let light = Light::point(light_pos).unwrap();
-    let camera = Camera::look_at(Vec3::new(0.0, 4.0, 7.0), Vec3::new(0.0, 0.5, 0.0), Vec3::Y, 50.0, 160, 120).unwrap();
+    let camera = Camera::look_at(
+        Vec3::new(0.0, 4.0, 7.0),
+        Vec3::new(0.0, 0.5, 0.0),
+        Vec3::Y,
+        50.0,
+        160,
+        120,
+    )
+    .unwrap();
     let bvh = Bvh::build(&scene).unwrap();
-    let rx = gbuffer(&scene, &bvh, &camera, 1).unwrap().receivers().unwrap();
+    let rx = gbuffer(&scene, &bvh, &camera, 1)
+        .unwrap()
+        .receivers()
+        .unwrap();
     let samples = SampleSet::explicit(vec![light_pos], None).unwrap();
-    let (reference, _) = ray_traced(&scene, &bvh, &light, &rx, &samples, &RayTracedOptions::for_scene(&scene)).unwrap();
+    let (reference, _) = ray_traced(
+        &scene,
+        &bvh,
+        &light,
+        &rx,
+        &samples,
+        &RayTracedOptions::for_scene(&scene),
+    )
+    .unwrap();
     let valid = rx.valid.iter().filter(|&&v| v).count();
-    let shadowed = reference.iter().zip(&rx.valid).filter(|(r, &v)| v && **r == 0.0).count();
-    assert!(shadowed > valid / 20, "the scene must cast shadows: {shadowed}");
+    let shadowed = reference
+        .iter()
+        .zip(&rx.valid)
+        .filter(|(r, &v)| v && **r == 0.0)
+        .count();
+    assert!(
+        shadowed > valid / 20,
+        "the scene must cast shadows: {shadowed}"
+    );
     for (resolution, pcf, bound) in [(2048, 1, 0.005), (512, 1, 0.02), (512, 3, 0.05)] {
-        let opts = ShadowMapOptions { resolution, pcf, ..Default::default() };
+        let opts = ShadowMapOptions {
+            resolution,
+            pcf,
+            ..Default::default()
+        };
         let (vis, _) = shadow_map(&scene, &light, &rx, &opts).unwrap();
-        let mismatches = vis.iter().zip(&reference).filter(|(a, b)| (*a - *b).abs() > 1e-6).count();
-        let wrong = vis.iter().zip(&reference).filter(|(a, b)| (*a - *b).abs() > 0.5).count();
+        let mismatches = vis
+            .iter()
+            .zip(&reference)
+            .filter(|(a, b)| (*a - *b).abs() > 1e-6)
+            .count();
+        let wrong = vis
+            .iter()
+            .zip(&reference)
+            .filter(|(a, b)| (*a - *b).abs() > 0.5)
+            .count();
         eprintln!("shadow_map res {resolution} pcf {pcf} vs ray_traced: {mismatches} mismatches ({wrong} by > 0.5) of {valid} receivers ({shadowed} in shadow)");
-        assert!((mismatches as f64) < bound * valid as f64, "res {resolution} pcf {pcf}: {mismatches} of {valid}");
+        assert!(
+            (mismatches as f64) < bound * valid as f64,
+            "res {resolution} pcf {pcf}: {mismatches} of {valid}"
+        );
     }
 }

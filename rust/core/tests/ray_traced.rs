@@ -26,7 +26,12 @@ fn quad(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> Mesh {
 
 /// The square |x|, |z| <= s at height y.
 fn plane(y: f32, s: f32) -> Mesh {
-    quad(Vec3::new(-s, y, -s), Vec3::new(s, y, -s), Vec3::new(s, y, s), Vec3::new(-s, y, s))
+    quad(
+        Vec3::new(-s, y, -s),
+        Vec3::new(s, y, -s),
+        Vec3::new(s, y, s),
+        Vec3::new(-s, y, s),
+    )
 }
 
 /// A latitude-longitude sphere with `2 * n * m` triangles (closed; poles repeated per column).
@@ -36,7 +41,15 @@ fn sphere(center: Vec3, radius: f32, n: u32, m: u32) -> Mesh {
         let theta = PI * i as f32 / m as f32;
         for j in 0..=n {
             let phi = 2.0 * PI * (j % n) as f32 / n as f32;
-            pos.push(center + radius * Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()));
+            pos.push(
+                center
+                    + radius
+                        * Vec3::new(
+                            theta.sin() * phi.cos(),
+                            theta.cos(),
+                            theta.sin() * phi.sin(),
+                        ),
+            );
         }
     }
     let mut faces = Vec::new();
@@ -71,7 +84,10 @@ fn ceiling_light(h: f32, s: f32) -> Light {
 }
 
 fn ground_receivers(xs: &[f32]) -> Receivers {
-    receivers(xs.iter().map(|&x| Vec3::new(x, 0.0, 0.3 * x)).collect(), vec![Vec3::Y; xs.len()])
+    receivers(
+        xs.iter().map(|&x| Vec3::new(x, 0.0, 0.3 * x)).collect(),
+        vec![Vec3::Y; xs.len()],
+    )
 }
 
 // ---------------------------------------------------------------- analytic cases
@@ -81,7 +97,12 @@ fn unoccluded_receivers_see_everything() {
     let scene = Scene::new(vec![plane(0.0, 10.0)]).unwrap();
     let light = ceiling_light(5.0, 1.0);
     let samples = SampleSet::generate(&light, 64, Pattern::Stratified, 1, 1, false, 0).unwrap();
-    let vis = run(&scene, &light, &ground_receivers(&[-3.0, 0.0, 0.5, 4.0]), &samples);
+    let vis = run(
+        &scene,
+        &light,
+        &ground_receivers(&[-3.0, 0.0, 0.5, 4.0]),
+        &samples,
+    );
     assert_eq!(vis, vec![1.0; 4]);
 }
 
@@ -90,7 +111,12 @@ fn receivers_under_a_large_plane_see_nothing() {
     let scene = Scene::new(vec![plane(0.0, 10.0), plane(2.0, 10.0)]).unwrap();
     let light = ceiling_light(5.0, 1.0);
     let samples = SampleSet::generate(&light, 64, Pattern::Stratified, 1, 1, false, 0).unwrap();
-    let vis = run(&scene, &light, &ground_receivers(&[-3.0, 0.0, 0.5, 4.0]), &samples);
+    let vis = run(
+        &scene,
+        &light,
+        &ground_receivers(&[-3.0, 0.0, 0.5, 4.0]),
+        &samples,
+    );
     assert_eq!(vis, vec![0.0; 4]);
 }
 
@@ -100,8 +126,14 @@ fn samples_behind_the_tangent_plane_and_invalid_receivers_count_zero() {
     let light = ceiling_light(5.0, 1.0);
     let samples = SampleSet::generate(&light, 16, Pattern::Stratified, 1, 1, false, 0).unwrap();
     // Facing away from the light; facing it; invalid.
-    let rx =
-        Receivers::new(vec![Vec3::ZERO; 3], vec![-Vec3::Y, Vec3::Y, Vec3::Y], vec![true, true, false], 3, 1).unwrap();
+    let rx = Receivers::new(
+        vec![Vec3::ZERO; 3],
+        vec![-Vec3::Y, Vec3::Y, Vec3::Y],
+        vec![true, true, false],
+        3,
+        1,
+    )
+    .unwrap();
     assert_eq!(run(&scene, &light, &rx, &samples), vec![0.0, 1.0, 0.0]);
 }
 
@@ -143,13 +175,20 @@ fn disk_light_over_coaxial_disk_matches_the_analytic_penumbra() {
     let light = Light::disk(Vec3::new(0.0, big_h, 0.0), -Vec3::Y, big_r).unwrap();
     let samples = SampleSet::generate(&light, 4096, Pattern::Sobol, 9, 1, false, 0).unwrap();
     let xs = [0.0f32, 0.25, 0.5, 0.9, 1.2, 1.55, 2.5];
-    let rx = receivers(xs.iter().map(|&x| Vec3::new(x, 0.0, 0.0)).collect(), vec![Vec3::Y; xs.len()]);
+    let rx = receivers(
+        xs.iter().map(|&x| Vec3::new(x, 0.0, 0.0)).collect(),
+        vec![Vec3::Y; xs.len()],
+    );
     let vis = run(&scene, &light, &rx, &samples);
     let rho = (r * big_h / h) as f64;
     for (&x, &v) in xs.iter().zip(&vis) {
         let d = (x * (big_h - h) / h) as f64;
-        let expect = 1.0 - lens_area(big_r as f64, rho, d) / (std::f64::consts::PI * (big_r as f64).powi(2));
-        assert!((v as f64 - expect).abs() < 0.01, "x = {x}: {v} vs analytic {expect}");
+        let expect =
+            1.0 - lens_area(big_r as f64, rho, d) / (std::f64::consts::PI * (big_r as f64).powi(2));
+        assert!(
+            (v as f64 - expect).abs() < 0.01,
+            "x = {x}: {v} vs analytic {expect}"
+        );
     }
     assert!((vis[0] - 0.64).abs() < 0.01 && vis[6] == 1.0);
 }
@@ -161,12 +200,33 @@ fn tiny_rect_light_equals_the_point_light_exactly() {
     let c = Vec3::new(0.3, 4.0, 0.2);
     let rect = Light::rect(c, Vec3::X * 1e-9, Vec3::Z * 1e-9).unwrap();
     let point = Light::point(c).unwrap();
-    let scene = Scene::new(vec![plane(0.0, 4.0), sphere(Vec3::new(0.0, 1.5, 0.0), 0.7, 24, 12)]).unwrap();
-    let pts: Vec<Vec3> =
-        (0..400).map(|k| Vec3::new((k % 20) as f32 * 0.2 - 2.0, 0.0, (k / 20) as f32 * 0.2 - 2.0)).collect();
+    let scene = Scene::new(vec![
+        plane(0.0, 4.0),
+        sphere(Vec3::new(0.0, 1.5, 0.0), 0.7, 24, 12),
+    ])
+    .unwrap();
+    let pts: Vec<Vec3> = (0..400)
+        .map(|k| {
+            Vec3::new(
+                (k % 20) as f32 * 0.2 - 2.0,
+                0.0,
+                (k / 20) as f32 * 0.2 - 2.0,
+            )
+        })
+        .collect();
     let rx = receivers(pts.clone(), vec![Vec3::Y; pts.len()]);
-    let a = run(&scene, &rect, &rx, &SampleSet::generate(&rect, 16, Pattern::Stratified, 3, 1, false, 0).unwrap());
-    let b = run(&scene, &point, &rx, &SampleSet::generate(&point, 16, Pattern::Stratified, 3, 1, false, 0).unwrap());
+    let a = run(
+        &scene,
+        &rect,
+        &rx,
+        &SampleSet::generate(&rect, 16, Pattern::Stratified, 3, 1, false, 0).unwrap(),
+    );
+    let b = run(
+        &scene,
+        &point,
+        &rx,
+        &SampleSet::generate(&point, 16, Pattern::Stratified, 3, 1, false, 0).unwrap(),
+    );
     assert_eq!(a, b);
     assert!(a.contains(&0.0) && a.contains(&1.0));
 }
@@ -176,9 +236,15 @@ fn tiny_rect_light_equals_the_point_light_exactly() {
 /// The unit square at height 1 with uv = (x, z) and an 8 x 8 checkerboard: texel (i, j) (row i
 /// covers v = z in [i/8, (i+1)/8)) is opaque when i + j is even.
 fn checker_scene() -> Scene {
-    let alpha: Vec<f32> = (0..64).map(|k| ((k / 8 + k % 8) % 2 == 0) as u8 as f32).collect();
-    let pos =
-        vec![Vec3::new(0.0, 1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(1.0, 1.0, 1.0), Vec3::new(0.0, 1.0, 1.0)];
+    let alpha: Vec<f32> = (0..64)
+        .map(|k| ((k / 8 + k % 8) % 2 == 0) as u8 as f32)
+        .collect();
+    let pos = vec![
+        Vec3::new(0.0, 1.0, 0.0),
+        Vec3::new(1.0, 1.0, 0.0),
+        Vec3::new(1.0, 1.0, 1.0),
+        Vec3::new(0.0, 1.0, 1.0),
+    ];
     let uvs = pos.iter().map(|p| Vec2::new(p.x, p.z)).collect();
     let tex = AlphaTexture::new(8, 8, &alpha).unwrap();
     let m = Mesh::new(pos, vec![[0, 1, 2], [0, 2, 3]], Some(uvs), Some(tex), false).unwrap();
@@ -199,7 +265,11 @@ fn perforated_quad_blocks_exactly_the_rays_through_opaque_texels() {
         let o = Vec3::new(x, 0.0, z);
         // Slightly slanted rays: they cross the quad 0.1 * 1/16 off the vertical.
         let dir = Vec3::new(0.005, 2.0, -0.005);
-        assert_eq!(bvh.occluded(&scene, o, dir, 1.0), opaque, "texel ({i}, {j}) at ({x}, {z})");
+        assert_eq!(
+            bvh.occluded(&scene, o, dir, 1.0),
+            opaque,
+            "texel ({i}, {j}) at ({x}, {z})"
+        );
         let hit = bvh.intersect(&scene, o, dir, f32::INFINITY);
         assert_eq!(hit.is_some(), opaque);
         if let Some(h) = hit {
@@ -213,11 +283,25 @@ fn perforated_quad_blocks_exactly_the_rays_through_opaque_texels() {
     }
     // Through ray_traced: receivers under texel centers and a far point light above.
     let light = Light::point(Vec3::new(0.5, 1000.0, 0.5)).unwrap();
-    let pts: Vec<Vec3> =
-        (0..64).map(|k| Vec3::new(((k % 8) as f32 + 0.5) / 8.0, 0.0, ((k / 8) as f32 + 0.5) / 8.0)).collect();
+    let pts: Vec<Vec3> = (0..64)
+        .map(|k| {
+            Vec3::new(
+                ((k % 8) as f32 + 0.5) / 8.0,
+                0.0,
+                ((k / 8) as f32 + 0.5) / 8.0,
+            )
+        })
+        .collect();
     let rx = receivers(pts, vec![Vec3::Y; 64]);
-    let vis = run(&scene, &light, &rx, &SampleSet::generate(&light, 4, Pattern::Uniform, 1, 1, false, 0).unwrap());
-    let expect: Vec<f32> = (0..64).map(|k| if (k / 8 + k % 8) % 2 == 0 { 0.0 } else { 1.0 }).collect();
+    let vis = run(
+        &scene,
+        &light,
+        &rx,
+        &SampleSet::generate(&light, 4, Pattern::Uniform, 1, 1, false, 0).unwrap(),
+    );
+    let expect: Vec<f32> = (0..64)
+        .map(|k| if (k / 8 + k % 8) % 2 == 0 { 0.0 } else { 1.0 })
+        .collect();
     assert_eq!(vis, expect);
 }
 
@@ -232,7 +316,10 @@ fn grid_cube(n: u32) -> Mesh {
             let base = pos.len() as u32;
             for i in 0..=n {
                 for j in 0..=n {
-                    let (a, b) = (-1.0 + 2.0 * i as f32 / n as f32, -1.0 + 2.0 * j as f32 / n as f32);
+                    let (a, b) = (
+                        -1.0 + 2.0 * i as f32 / n as f32,
+                        -1.0 + 2.0 * j as f32 / n as f32,
+                    );
                     let mut p = [0.0; 3];
                     p[axis] = side;
                     p[(axis + 1) % 3] = a;
@@ -281,17 +368,27 @@ fn rays_through_shared_edges_and_vertices_never_leak() {
         for &p in &targets {
             // From outside through p towards the interior: the segment must cross the surface.
             let out = p + (p - center) * 2.0;
-            assert!(bvh.occluded(&scene, out, center - out, 1.0), "leak towards the center through {p}");
+            assert!(
+                bvh.occluded(&scene, out, center - out, 1.0),
+                "leak towards the center through {p}"
+            );
             assert!(bvh.intersect(&scene, out, center - out, 1.0).is_some());
             // Random directions through p that enter the solid (away from the outward normal).
             for _ in 0..4 {
-                let d = Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5);
+                let d = Vec3::new(
+                    rng.next_f32() - 0.5,
+                    rng.next_f32() - 0.5,
+                    rng.next_f32() - 0.5,
+                );
                 let inward = (center - p).normalize();
                 let dir = (d * 0.8 + inward).normalize();
                 let o = p - dir * 3.0;
                 // The ray passes (to rounding) through p into the interior and leaves it again.
                 if (o - center).length() > 1.8 {
-                    assert!(bvh.occluded(&scene, o, dir, 6.0), "leak through {p} along {dir}");
+                    assert!(
+                        bvh.occluded(&scene, o, dir, 6.0),
+                        "leak through {p} along {dir}"
+                    );
                     tested += 1;
                 }
             }
@@ -304,9 +401,11 @@ fn rays_through_shared_edges_and_vertices_never_leak() {
     for i in 0..=16 {
         for j in 0..=16 {
             let (a, b) = (-1.0 + i as f32 / 8.0, -1.0 + j as f32 / 8.0);
-            for (o, d) in
-                [(Vec3::new(a, b, 5.0), -Vec3::Z), (Vec3::new(-5.0, a, b), Vec3::X), (Vec3::new(b, 5.0, a), -Vec3::Y)]
-            {
+            for (o, d) in [
+                (Vec3::new(a, b, 5.0), -Vec3::Z),
+                (Vec3::new(-5.0, a, b), Vec3::X),
+                (Vec3::new(b, 5.0, a), -Vec3::Y),
+            ] {
                 let h = bvh.intersect(&scene, o, d, f32::INFINITY);
                 assert_eq!(h.map(|h| h.t), Some(4.0), "ray from {o} along {d}");
             }
@@ -325,13 +424,29 @@ fn soup(n: usize, seed: u64) -> Scene {
         let c = r3(4.0);
         pos.extend([c + r3(0.6) - 0.3, c + r3(0.6) - 0.3, c + r3(0.6) - 0.3]);
     }
-    let faces: Vec<[u32; 3]> = (0..n as u32).map(|k| [3 * k, 3 * k + 1, 3 * k + 2]).collect();
+    let faces: Vec<[u32; 3]> = (0..n as u32)
+        .map(|k| [3 * k, 3 * k + 1, 3 * k + 2])
+        .collect();
     let opaque = mesh(pos.clone(), faces.clone());
-    let uvs: Vec<Vec2> = pos.iter().map(|p| Vec2::new(p.x * 3.1, p.z * 2.7 + p.y)).collect();
-    let alpha: Vec<f32> = (0..16 * 16).map(|k| ((k * 7919 + 13) % 5 < 2) as u8 as f32).collect();
-    let shifted: Vec<Vec3> = pos.iter().map(|p| *p + Vec3::new(0.17, -0.11, 0.23)).collect();
-    let perforated =
-        Mesh::new(shifted, faces, Some(uvs), Some(AlphaTexture::new(16, 16, &alpha).unwrap()), false).unwrap();
+    let uvs: Vec<Vec2> = pos
+        .iter()
+        .map(|p| Vec2::new(p.x * 3.1, p.z * 2.7 + p.y))
+        .collect();
+    let alpha: Vec<f32> = (0..16 * 16)
+        .map(|k| ((k * 7919 + 13) % 5 < 2) as u8 as f32)
+        .collect();
+    let shifted: Vec<Vec3> = pos
+        .iter()
+        .map(|p| *p + Vec3::new(0.17, -0.11, 0.23))
+        .collect();
+    let perforated = Mesh::new(
+        shifted,
+        faces,
+        Some(uvs),
+        Some(AlphaTexture::new(16, 16, &alpha).unwrap()),
+        false,
+    )
+    .unwrap();
     Scene::new(vec![opaque, perforated]).unwrap()
 }
 
@@ -358,7 +473,11 @@ fn closest_and_any_hit_equal_brute_force_on_a_random_soup() {
     for _ in 0..3000 {
         let o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 6.0 - 1.0;
         let d = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - 1.0;
-        let t_max = if rng.next_f32() < 0.5 { f32::INFINITY } else { rng.next_f32() * 4.0 };
+        let t_max = if rng.next_f32() < 0.5 {
+            f32::INFINITY
+        } else {
+            rng.next_f32() * 4.0
+        };
         let brute = brute_closest(&scene, o, d, t_max);
         let got = bvh.intersect(&scene, o, d, t_max);
         assert_eq!(got.map(|h| h.t), brute.map(|b| b.0), "ray {o} {d}");
@@ -389,11 +508,16 @@ fn shadow_ray_bundles_equal_single_rays() {
         let c = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 6.0 - 1.0;
         let spread = [0.01f32, 0.3, 2.0, 8.0][case % 4];
         let n = [3, 4, 16, 64][case / 4 % 4];
-        let targets: Vec<Vec3> =
-            (0..n).map(|_| c + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * spread).collect();
+        let targets: Vec<Vec3> = (0..n)
+            .map(|_| c + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * spread)
+            .collect();
         bvh.occluded_many(&scene, o, &targets, &mut out);
         for (y, &b) in targets.iter().zip(&out) {
-            assert_eq!(b, bvh.occluded(&scene, o, *y - o, 1.0), "case {case}: {o} -> {y}");
+            assert_eq!(
+                b,
+                bvh.occluded(&scene, o, *y - o, 1.0),
+                "case {case}: {o} -> {y}"
+            );
             if b {
                 blocked += 1
             } else {
@@ -406,7 +530,11 @@ fn shadow_ray_bundles_equal_single_rays() {
     let pts = vertices_and_midpoints(&m);
     let scene = Scene::new(vec![m]).unwrap();
     let bvh = Bvh::build(&scene).unwrap();
-    for o in [Vec3::new(0.3, 0.2, 6.0), Vec3::new(-5.0, 4.0, 3.0), Vec3::new(0.0, 0.0, 1.5)] {
+    for o in [
+        Vec3::new(0.3, 0.2, 6.0),
+        Vec3::new(-5.0, 4.0, 3.0),
+        Vec3::new(0.0, 0.0, 1.5),
+    ] {
         // Segments ending just past each vertex / edge midpoint, and exactly at them.
         for chunk in pts.chunks(64) {
             for scale in [1.0f32, 1.01] {
@@ -442,7 +570,9 @@ fn tiny_scenes_with_a_leaf_root_work() {
 // ---------------------------------------------------------------- determinism
 
 fn shadow_scene() -> Scene {
-    let alpha: Vec<f32> = (0..32 * 32).map(|k| ((k / 32 / 4 + k % 32 / 4) % 2) as f32).collect();
+    let alpha: Vec<f32> = (0..32 * 32)
+        .map(|k| ((k / 32 / 4 + k % 32 / 4) % 2) as f32)
+        .collect();
     let pos = vec![
         Vec3::new(-1.0, 2.5, -1.0),
         Vec3::new(1.0, 2.5, -1.0),
@@ -450,10 +580,20 @@ fn shadow_scene() -> Scene {
         Vec3::new(-1.0, 2.5, 1.0),
     ];
     let uvs = pos.iter().map(|p| Vec2::new(p.x, p.z)).collect();
-    let fence =
-        Mesh::new(pos, vec![[0, 1, 2], [0, 2, 3]], Some(uvs), Some(AlphaTexture::new(32, 32, &alpha).unwrap()), false)
-            .unwrap();
-    Scene::new(vec![plane(0.0, 4.0), sphere(Vec3::new(0.7, 1.0, 0.3), 0.6, 96, 64), fence]).unwrap()
+    let fence = Mesh::new(
+        pos,
+        vec![[0, 1, 2], [0, 2, 3]],
+        Some(uvs),
+        Some(AlphaTexture::new(32, 32, &alpha).unwrap()),
+        false,
+    )
+    .unwrap();
+    Scene::new(vec![
+        plane(0.0, 4.0),
+        sphere(Vec3::new(0.7, 1.0, 0.3), 0.6, 96, 64),
+        fence,
+    ])
+    .unwrap()
 }
 
 #[test]
@@ -464,21 +604,37 @@ fn results_do_not_depend_on_the_thread_count() {
     let cam = Camera::look_at(Vec3::new(0.0, 6.0, 6.0), Vec3::ZERO, Vec3::Y, 50.0, 48, 40).unwrap();
     let samples = SampleSet::generate(&light, 32, Pattern::Poisson, 7, 2, true, 0).unwrap();
     let go = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         pool.install(|| {
             let bvh = Bvh::build(&scene).unwrap();
             let gb = gbuffer(&scene, &bvh, &cam, 4).unwrap();
             let rx = gb.receivers().unwrap();
-            let (vis, _) =
-                ray_traced(&scene, &bvh, &light, &rx, &samples, &RayTracedOptions::for_scene(&scene)).unwrap();
+            let (vis, _) = ray_traced(
+                &scene,
+                &bvh,
+                &light,
+                &rx,
+                &samples,
+                &RayTracedOptions::for_scene(&scene),
+            )
+            .unwrap();
             (bvh, gb, vis)
         })
     };
     let (b1, g1, v1) = go(1);
     let (b2, g2, v2) = go(2);
     assert!(b1 == b2 && g1 == g2, "BVH or G-buffer differ");
-    assert_eq!(v1.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), v2.iter().map(|v| v.to_bits()).collect::<Vec<_>>());
-    assert!(v1.iter().any(|&v| v > 0.0 && v < 1.0), "expected a penumbra");
+    assert_eq!(
+        v1.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+        v2.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+    );
+    assert!(
+        v1.iter().any(|&v| v > 0.0 && v < 1.0),
+        "expected a penumbra"
+    );
 }
 
 // ---------------------------------------------------------------- G-buffer and options
@@ -497,7 +653,11 @@ fn gbuffer_of_a_plane() {
             let inside = (2..6).contains(&x) && (2..6).contains(&y);
             assert_eq!(gb.mask[i], inside, "pixel ({x}, {y})");
             if inside {
-                assert!(gb.positions[i].y.abs() < 1e-6 && gb.normals[i] == Vec3::Y && gb.face_ids[i] >= 0);
+                assert!(
+                    gb.positions[i].y.abs() < 1e-6
+                        && gb.normals[i] == Vec3::Y
+                        && gb.face_ids[i] >= 0
+                );
                 for s in 0..4 {
                     let d = gb.sample_depths[i * 4 + s];
                     assert!((2.0..2.0 * 3f32.sqrt()).contains(&d), "{d}");
@@ -508,12 +668,18 @@ fn gbuffer_of_a_plane() {
         }
     }
     // Seen from below, the normal flips to face the camera.
-    let below = Camera::look_at(Vec3::new(0.0, -2.0, 0.0), Vec3::ZERO, Vec3::Z, 90.0, 8, 8).unwrap();
+    let below =
+        Camera::look_at(Vec3::new(0.0, -2.0, 0.0), Vec3::ZERO, Vec3::Z, 90.0, 8, 8).unwrap();
     let gb = gbuffer(&scene, &bvh, &below, 1).unwrap();
     assert!(gb.sample_depths.is_empty() && gb.normals[3 * 8 + 3] == -Vec3::Y);
     let rx = gb.receivers().unwrap();
-    assert_eq!((rx.len(), rx.valid.iter().filter(|&&v| v).count()), (64, 16));
-    assert!(matches!(gbuffer(&scene, &bvh, &below, 3), Err(Error::InvalidInput { ref arg, .. }) if arg == "msaa"));
+    assert_eq!(
+        (rx.len(), rx.valid.iter().filter(|&&v| v).count()),
+        (64, 16)
+    );
+    assert!(
+        matches!(gbuffer(&scene, &bvh, &below, 3), Err(Error::InvalidInput { ref arg, .. }) if arg == "msaa")
+    );
 }
 
 #[test]
@@ -541,7 +707,10 @@ fn textured_light_weights_samples() {
     // Left half of the light emits 3, right half 1; an occluder hides exactly the left half
     // from the receiver at the origin: V = 1 / (3 + 1).
     let tex = EmissionTexture::new(2, 1, vec![3.0, 1.0]).unwrap();
-    let light = Light::rect(Vec3::new(0.0, 4.0, 0.0), Vec3::X, Vec3::Z).unwrap().with_emission(tex).unwrap();
+    let light = Light::rect(Vec3::new(0.0, 4.0, 0.0), Vec3::X, Vec3::Z)
+        .unwrap()
+        .with_emission(tex)
+        .unwrap();
     let blocker = quad(
         Vec3::new(-3.0, 2.0, -3.0),
         Vec3::new(0.0, 2.0, -3.0),
@@ -550,6 +719,11 @@ fn textured_light_weights_samples() {
     );
     let scene = Scene::new(vec![blocker]).unwrap();
     let samples = SampleSet::generate(&light, 64, Pattern::Stratified, 2, 1, false, 0).unwrap();
-    let vis = run(&scene, &light, &receivers(vec![Vec3::ZERO], vec![Vec3::Y]), &samples);
+    let vis = run(
+        &scene,
+        &light,
+        &receivers(vec![Vec3::ZERO], vec![Vec3::Y]),
+        &samples,
+    );
     assert!((vis[0] - 0.25).abs() < 1e-6, "{}", vis[0]);
 }

@@ -8,14 +8,20 @@ use softshadows_core::geometry::receivers::Receivers;
 use softshadows_core::light::lights::Light;
 use softshadows_core::light::sampling::{light_samples, Pattern, Rng, SampleSet};
 use softshadows_core::methods::vwss::{
-    generate_points, source_view, vwss, warp_fragments, warp_points, Mode, Parallel, Points, VwssOptions,
+    generate_points, source_view, vwss, warp_fragments, warp_points, Mode, Parallel, Points,
+    VwssOptions,
 };
 use softshadows_core::raster::multiview::ViewSet;
 
 /// A ground quad and a cloud of random triangles above it, lit from a rect light at y = 4.
 fn scene() -> Scene {
     let ground = Mesh::new(
-        vec![Vec3::new(-3.0, 0.0, -3.0), Vec3::new(3.0, 0.0, -3.0), Vec3::new(3.0, 0.0, 3.0), Vec3::new(-3.0, 0.0, 3.0)],
+        vec![
+            Vec3::new(-3.0, 0.0, -3.0),
+            Vec3::new(3.0, 0.0, -3.0),
+            Vec3::new(3.0, 0.0, 3.0),
+            Vec3::new(-3.0, 0.0, 3.0),
+        ],
         vec![[0, 2, 1], [0, 3, 2]],
         None,
         None,
@@ -26,22 +32,47 @@ fn scene() -> Scene {
     let mut pos = Vec::new();
     let mut faces = Vec::new();
     for t in 0..300u32 {
-        let c = Vec3::new(4.0 * rng.next_f32() - 2.0, 0.5 + 1.5 * rng.next_f32(), 4.0 * rng.next_f32() - 2.0);
+        let c = Vec3::new(
+            4.0 * rng.next_f32() - 2.0,
+            0.5 + 1.5 * rng.next_f32(),
+            4.0 * rng.next_f32() - 2.0,
+        );
         for _ in 0..3 {
-            pos.push(c + Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5) * 0.6);
+            pos.push(
+                c + Vec3::new(
+                    rng.next_f32() - 0.5,
+                    rng.next_f32() - 0.5,
+                    rng.next_f32() - 0.5,
+                ) * 0.6,
+            );
         }
         faces.push([3 * t, 3 * t + 1, 3 * t + 2]);
     }
-    Scene::new(vec![ground, Mesh::new(pos, faces, None, None, false).unwrap()]).unwrap()
+    Scene::new(vec![
+        ground,
+        Mesh::new(pos, faces, None, None, false).unwrap(),
+    ])
+    .unwrap()
 }
 
 fn light() -> Light {
-    Light::rect(Vec3::new(0.2, 4.0, 0.1), Vec3::new(0.5, 0.0, 0.0), Vec3::new(0.0, 0.0, -0.5)).unwrap()
+    Light::rect(
+        Vec3::new(0.2, 4.0, 0.1),
+        Vec3::new(0.5, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, -0.5),
+    )
+    .unwrap()
 }
 
 fn receivers(n: usize) -> Receivers {
     let points: Vec<Vec3> = (0..n * n)
-        .map(|i| Vec3::new(-2.5 + 5.0 * (i % n) as f32 / n as f32, 0.0, -2.5 + 5.0 * (i / n) as f32 / n as f32))
+        .map(|i| {
+            Vec3::new(
+                -2.5 + 5.0 * (i % n) as f32 / n as f32,
+                0.0,
+                -2.5 + 5.0 * (i / n) as f32 / n as f32,
+            )
+        })
         .collect();
     Receivers::new(points, vec![Vec3::Y; n * n], vec![true; n * n], n, n).unwrap()
 }
@@ -59,7 +90,9 @@ fn every_warped_texel_is_the_minimum_of_the_points_that_land_in_it() {
     let views = views(96);
     let source = source_view(&scene, &light(), &views, &opts).unwrap();
     let points = generate_points(&scene, &source, &opts).unwrap();
-    let Points::Float32(world) = &points else { panic!("float32 points expected") };
+    let Points::Float32(world) = &points else {
+        panic!("float32 points expected")
+    };
     assert!(world.len() > 10_000, "{} points", world.len());
     let maps = warp_points(&points, &views.views).unwrap();
     let mut landed = 0usize;
@@ -83,9 +116,16 @@ fn unbuffered_warping_writes_the_same_maps_as_the_buffer() {
     let opts = VwssOptions::default();
     let views = views(64);
     let source = source_view(&scene, &light(), &views, &opts).unwrap();
-    let buffered = warp_points(&generate_points(&scene, &source, &opts).unwrap(), &views.views).unwrap();
+    let buffered = warp_points(
+        &generate_points(&scene, &source, &opts).unwrap(),
+        &views.views,
+    )
+    .unwrap();
     let (streamed, fragments) = warp_fragments(&scene, &source, &opts, &views.views).unwrap();
-    assert_eq!(fragments, generate_points(&scene, &source, &opts).unwrap().len());
+    assert_eq!(
+        fragments,
+        generate_points(&scene, &source, &opts).unwrap().len()
+    );
     assert_eq!(buffered, streamed);
 }
 
@@ -96,9 +136,17 @@ fn the_source_view_contains_every_sample_view() {
     let source = source_view(&scene, &light(), &views, &VwssOptions::default()).unwrap();
     for v in &views.views {
         let o = source.to_view(v.eye);
-        assert!(o.x.abs() <= source.tan_half_x * o.z * 1.0001 && o.y.abs() <= source.tan_half_y * o.z * 1.0001, "{o}");
+        assert!(
+            o.x.abs() <= source.tan_half_x * o.z * 1.0001
+                && o.y.abs() <= source.tan_half_y * o.z * 1.0001,
+            "{o}"
+        );
     }
-    assert!(source.width > 64, "eq. 3 scales the source resolution up, got {}", source.width);
+    assert!(
+        source.width > 64,
+        "eq. 3 scales the source resolution up, got {}",
+        source.width
+    );
 }
 
 #[test]
@@ -107,7 +155,12 @@ fn every_schedule_gives_the_same_visibility() {
     let rx = receivers(24);
     let samples = SampleSet::generate(&light(), 10, Pattern::Poisson, 5, 1, false, 0).unwrap();
     let run = |mode, parallel, views_per_pass| {
-        let mut opts = VwssOptions { mode, parallel, views_per_pass, ..VwssOptions::default() };
+        let mut opts = VwssOptions {
+            mode,
+            parallel,
+            views_per_pass,
+            ..VwssOptions::default()
+        };
         opts.multiview.resolution = 128;
         vwss(&scene, &light(), &rx, &samples, &opts).unwrap()
     };
@@ -134,6 +187,13 @@ fn every_schedule_gives_the_same_visibility() {
 #[test]
 fn rotated_samples_are_refused() {
     let samples = SampleSet::generate(&light(), 4, Pattern::Poisson, 5, 1, true, 0).unwrap();
-    let err = vwss(&scene(), &light(), &receivers(4), &samples, &VwssOptions::default()).unwrap_err();
+    let err = vwss(
+        &scene(),
+        &light(),
+        &receivers(4),
+        &samples,
+        &VwssOptions::default(),
+    )
+    .unwrap_err();
     assert!(err.to_string().contains("views"), "{err}");
 }

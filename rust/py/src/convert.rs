@@ -8,7 +8,9 @@ use pyo3::PyResult;
 
 fn check_cols(name: &str, shape: &[usize], cols: usize) -> PyResult<()> {
     if shape.len() != 2 || shape[1] != cols {
-        return Err(PyValueError::new_err(format!("{name}: expected shape (N, {cols}), got {shape:?}")));
+        return Err(PyValueError::new_err(format!(
+            "{name}: expected shape (N, {cols}), got {shape:?}"
+        )));
     }
     Ok(())
 }
@@ -16,7 +18,11 @@ fn check_cols(name: &str, shape: &[usize], cols: usize) -> PyResult<()> {
 fn rows<const C: usize>(name: &str, a: &PyReadonlyArray2<'_, f32>) -> PyResult<Vec<[f32; C]>> {
     check_cols(name, a.shape(), C)?;
     let view = a.as_array();
-    Ok(view.rows().into_iter().map(|r| std::array::from_fn(|k| r[k])).collect())
+    Ok(view
+        .rows()
+        .into_iter()
+        .map(|r| std::array::from_fn(|k| r[k]))
+        .collect())
 }
 
 /// An (N, 3) float32 array as points.
@@ -32,15 +38,24 @@ pub fn vec2s(name: &str, a: &PyReadonlyArray2<'_, f32>) -> PyResult<Vec<Vec2>> {
 /// An (M, 3) uint32 array as faces.
 pub fn faces(a: &PyReadonlyArray2<'_, u32>) -> PyResult<Vec<[u32; 3]>> {
     check_cols("faces", a.shape(), 3)?;
-    Ok(a.as_array().rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect())
+    Ok(a.as_array()
+        .rows()
+        .into_iter()
+        .map(|r| [r[0], r[1], r[2]])
+        .collect())
 }
 
 /// A (3,) float32 array as a vector.
 pub fn vec3(name: &str, a: &PyReadonlyArray1<'_, f32>) -> PyResult<Vec3> {
-    let s = a.as_slice().map_err(|_| PyValueError::new_err(format!("{name}: expected a contiguous array")))?;
+    let s = a
+        .as_slice()
+        .map_err(|_| PyValueError::new_err(format!("{name}: expected a contiguous array")))?;
     match s {
         [x, y, z] => Ok(Vec3::new(*x, *y, *z)),
-        _ => Err(PyValueError::new_err(format!("{name}: expected shape (3,), got ({},)", s.len()))),
+        _ => Err(PyValueError::new_err(format!(
+            "{name}: expected shape (3,), got ({},)",
+            s.len()
+        ))),
     }
 }
 

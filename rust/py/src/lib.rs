@@ -13,13 +13,13 @@ use error::OrRaise;
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use softshadows_core::geometry::bvh::Bvh;
-use std::sync::OnceLock;
 use softshadows_core::geometry::camera::Camera;
 use softshadows_core::geometry::gbuffer::gbuffer;
 use softshadows_core::geometry::mesh::{AlphaTexture, Mesh, Scene};
 use softshadows_core::geometry::receivers::Receivers;
 use softshadows_core::light::lights::{EmissionTexture, Light};
 use softshadows_core::light::sampling::{light_samples, Interleave, Pattern, SampleSet};
+use std::sync::OnceLock;
 
 /// A scene and its BVH, built once.
 #[pyclass(frozen, module = "softshadows._core")]
@@ -58,7 +58,14 @@ fn mesh(args: MeshArgs<'_>) -> PyResult<Mesh> {
         })
         .transpose()
         .or_raise()?;
-    Mesh::new(vec3s("vertices", &vertices)?, faces(&f)?, uvs, alpha, closed).or_raise()
+    Mesh::new(
+        vec3s("vertices", &vertices)?,
+        faces(&f)?,
+        uvs,
+        alpha,
+        closed,
+    )
+    .or_raise()
 }
 
 #[pymethods]
@@ -68,7 +75,10 @@ impl NativeScene {
     fn new(meshes: Vec<MeshArgs<'_>>) -> PyResult<Self> {
         let meshes = meshes.into_iter().map(mesh).collect::<PyResult<Vec<_>>>()?;
         let scene = Scene::new(meshes).or_raise()?;
-        Ok(Self { scene, bvh: OnceLock::new() })
+        Ok(Self {
+            scene,
+            bvh: OnceLock::new(),
+        })
     }
 
     #[getter]
@@ -129,23 +139,32 @@ impl NativeLight {
         let center = vec3("center", &center)?;
         let arg = |name: &str, v: &Option<PyReadonlyArray1<'_, f32>>| match v {
             Some(v) => vec3(name, v),
-            None => Err(pyo3::exceptions::PyValueError::new_err(format!("{name}: missing"))),
+            None => Err(pyo3::exceptions::PyValueError::new_err(format!(
+                "{name}: missing"
+            ))),
         };
         let light = match kind {
             "point" => Light::point(center),
             "rect" => Light::rect(center, arg("u", &a)?, arg("v", &b)?),
             "disk" => Light::disk(center, arg("normal", &a)?, radius),
             "sphere" => Light::sphere(center, radius),
-            "ellipsoid" => Light::ellipsoid(center, [arg("axes", &a)?, arg("axes", &b)?, arg("axes", &c)?]),
+            "ellipsoid" => Light::ellipsoid(
+                center,
+                [arg("axes", &a)?, arg("axes", &b)?, arg("axes", &c)?],
+            ),
             other => {
-                return Err(pyo3::exceptions::PyValueError::new_err(format!("light: unknown kind {other:?}")))
+                return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                    "light: unknown kind {other:?}"
+                )))
             }
         }
         .or_raise()?;
         let light = match emission {
             Some(e) => {
                 let (w, h, values) = image(&e);
-                light.with_emission(EmissionTexture::new(w, h, values).or_raise()?).or_raise()?
+                light
+                    .with_emission(EmissionTexture::new(w, h, values).or_raise()?)
+                    .or_raise()?
             }
             None => light,
         };
@@ -158,17 +177,38 @@ impl NativeLight {
     }
 
     /// `n` world-space samples of `pattern`, shape (n, 3).
-    fn samples<'py>(&self, py: Python<'py>, n: usize, pattern: &str, seed: u64, frame: u64) -> PyResult<Bound<'py, PyArray2<f32>>> {
+    fn samples<'py>(
+        &self,
+        py: Python<'py>,
+        n: usize,
+        pattern: &str,
+        seed: u64,
+        frame: u64,
+    ) -> PyResult<Bound<'py, PyArray2<f32>>> {
         let pattern = Pattern::parse(pattern).or_raise()?;
-        softshadows_core::limits::check_memory("light samples", softshadows_core::limits::bytes(&[n as u64, 12])).or_raise()?;
-        let pts = threads::detached(py, || Ok(light_samples(&self.light, n, pattern, seed, frame)))?;
+        softshadows_core::limits::check_memory(
+            "light samples",
+            softshadows_core::limits::bytes(&[n as u64, 12]),
+        )
+        .or_raise()?;
+        let pts = threads::detached(py, || {
+            Ok(light_samples(&self.light, n, pattern, seed, frame))
+        })?;
         convert::flat3(&pts).into_pyarray(py).reshape([n, 3])
     }
 
     /// Emission weights of world-space light points, shape (S,).
-    fn weights<'py>(&self, py: Python<'py>, points: PyReadonlyArray2<'_, f32>) -> PyResult<Bound<'py, PyArray1<f32>>> {
+    fn weights<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'_, f32>,
+    ) -> PyResult<Bound<'py, PyArray1<f32>>> {
         let pts = vec3s("samples", &points)?;
-        Ok(pts.iter().map(|&y| self.light.weight(y)).collect::<Vec<_>>().into_pyarray(py))
+        Ok(pts
+            .iter()
+            .map(|&y| self.light.weight(y))
+            .collect::<Vec<_>>()
+            .into_pyarray(py))
     }
 }
 
@@ -189,8 +229,15 @@ impl NativeCamera {
         width: usize,
         height: usize,
     ) -> PyResult<Self> {
-        let camera = Camera::look_at(vec3("eye", &eye)?, vec3("target", &target)?, vec3("up", &up)?, fov_y, width, height)
-            .or_raise()?;
+        let camera = Camera::look_at(
+            vec3("eye", &eye)?,
+            vec3("target", &target)?,
+            vec3("up", &up)?,
+            fov_y,
+            width,
+            height,
+        )
+        .or_raise()?;
         Ok(Self { camera })
     }
 }
@@ -212,8 +259,14 @@ impl NativeReceivers {
         height: usize,
     ) -> PyResult<Self> {
         let valid = mask.as_array().to_vec();
-        let receivers =
-            Receivers::new(vec3s("points", &points)?, vec3s("normals", &normals)?, valid, width, height).or_raise()?;
+        let receivers = Receivers::new(
+            vec3s("points", &points)?,
+            vec3s("normals", &normals)?,
+            valid,
+            width,
+            height,
+        )
+        .or_raise()?;
         Ok(Self { receivers })
     }
 }
@@ -252,7 +305,9 @@ impl NativeSamples {
         }
         let total = SampleSet::estimated_bytes(&light.light, n, pattern, tile);
         softshadows_core::limits::check_memory("light sample patterns", total).or_raise()?;
-        let samples = threads::detached(py, || SampleSet::generate_for(&light.light, n, pattern, seed, tile, rotate, frame))?;
+        let samples = threads::detached(py, || {
+            SampleSet::generate_for(&light.light, n, pattern, seed, tile, rotate, frame)
+        })?;
         Ok(Self { samples })
     }
 
@@ -260,7 +315,9 @@ impl NativeSamples {
     #[staticmethod]
     #[pyo3(signature = (samples, rotate_seed=None))]
     fn explicit(samples: PyReadonlyArray2<'_, f32>, rotate_seed: Option<u64>) -> PyResult<Self> {
-        Ok(Self { samples: SampleSet::explicit(vec3s("samples", &samples)?, rotate_seed).or_raise()? })
+        Ok(Self {
+            samples: SampleSet::explicit(vec3s("samples", &samples)?, rotate_seed).or_raise()?,
+        })
     }
 
     #[getter]

@@ -6,27 +6,33 @@ use crate::{NativeLight, NativeReceivers, NativeSamples, NativeScene};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use softshadows_core::methods::alias_free::{alias_free as alias_free_core, AliasFreeOptions, Casters};
+use softshadows_core::geometry::bvh::Bvh;
+use softshadows_core::geometry::mesh::Scene;
+use softshadows_core::geometry::receivers::Receivers;
+use softshadows_core::gpu::Backend;
+use softshadows_core::light::lights::Light;
+use softshadows_core::light::sampling::SampleSet;
+use softshadows_core::methods::alias_free::{
+    alias_free as alias_free_core, AliasFreeOptions, Casters,
+};
 use softshadows_core::methods::backprojection::{
     backprojection_levels, Acceleration, Accumulation, BackprojectionOptions, Budget, Occluder,
 };
 use softshadows_core::methods::cssm::{cssm as cssm_core, CssmOptions, Prefilter};
 use softshadows_core::methods::dcs::dcs as dcs_core;
-use softshadows_core::methods::envmap::{fit_area_lights as fit_core, texel_solid_angle, FitOptions};
+use softshadows_core::methods::envmap::{
+    fit_area_lights as fit_core, texel_solid_angle, FitOptions,
+};
 use softshadows_core::methods::mvr::{mvr as mvr_core, MultiViewOptions};
 use softshadows_core::methods::pcss::{pcss as pcss_core, PcssOptions};
 use softshadows_core::methods::penumbra_wedge::penumbra_wedge as penumbra_wedge_core;
 use softshadows_core::methods::ray_traced::{ray_traced as ray_traced_core, RayTracedOptions};
 use softshadows_core::methods::shadow_map::{shadow_map as shadow_map_core, ShadowMapOptions};
-use softshadows_core::methods::stsv::{stsv as stsv_core, stsv_volumes as stsv_volumes_core, Opaque, StsvOptions};
-use softshadows_core::raster::influence::ObjectOptions;
+use softshadows_core::methods::stsv::{
+    stsv as stsv_core, stsv_volumes as stsv_volumes_core, Opaque, StsvOptions,
+};
 use softshadows_core::methods::vwss::{vwss as vwss_core, Mode, Parallel, Precision, VwssOptions};
-use softshadows_core::geometry::bvh::Bvh;
-use softshadows_core::gpu::Backend;
-use softshadows_core::geometry::mesh::Scene;
-use softshadows_core::geometry::receivers::Receivers;
-use softshadows_core::light::lights::Light;
-use softshadows_core::light::sampling::SampleSet;
+use softshadows_core::raster::influence::ObjectOptions;
 use softshadows_core::Error;
 use softshadows_core::Result as CoreResult;
 use softshadows_core::Stats;
@@ -43,7 +49,11 @@ fn output<'py>(py: Python<'py>, (vis, stats): (Vec<f32>, Stats)) -> PyResult<Out
 
 /// `"cpu"` or `"gpu"` (Python resolves `"auto"`).
 fn parse_backend(backend: &str) -> CoreResult<Backend> {
-    choice("backend", backend, &[("cpu", Backend::Cpu), ("gpu", Backend::Gpu)])
+    choice(
+        "backend",
+        backend,
+        &[("cpu", Backend::Cpu), ("gpu", Backend::Gpu)],
+    )
 }
 
 /// Exact sampled visibility by BVH shadow rays (the oracle).
@@ -58,7 +68,16 @@ fn ray_traced<'py>(
 ) -> PyResult<Output<'py>> {
     let opts = RayTracedOptions { epsilon };
     let bvh = scene.bvh(py)?;
-    let out = crate::threads::detached(py, || ray_traced_core(&scene.scene, bvh, &light.light, &receivers.receivers, &samples.samples, &opts))?;
+    let out = crate::threads::detached(py, || {
+        ray_traced_core(
+            &scene.scene,
+            bvh,
+            &light.light,
+            &receivers.receivers,
+            &samples.samples,
+            &opts,
+        )
+    })?;
     output(py, out)
 }
 
@@ -75,8 +94,16 @@ fn shadow_map<'py>(
     pcf: usize,
     backend: &str,
 ) -> PyResult<Output<'py>> {
-    let opts = ShadowMapOptions { resolution, bias, pcf, frustum: None, backend: parse_backend(backend).or_raise()? };
-    let out = crate::threads::detached(py, || shadow_map_core(&scene.scene, &light.light, &receivers.receivers, &opts))?;
+    let opts = ShadowMapOptions {
+        resolution,
+        bias,
+        pcf,
+        frustum: None,
+        backend: parse_backend(backend).or_raise()?,
+    };
+    let out = crate::threads::detached(py, || {
+        shadow_map_core(&scene.scene, &light.light, &receivers.receivers, &opts)
+    })?;
     output(py, out)
 }
 
@@ -94,16 +121,36 @@ fn mvr<'py>(
     bias: Option<f32>,
     backend: &str,
 ) -> PyResult<Output<'py>> {
-    let opts = MultiViewOptions { resolution, pcf, bias, backend: parse_backend(backend).or_raise()? };
-    let out = crate::threads::detached(py, || mvr_core(&scene.scene, &light.light, &receivers.receivers, &samples.samples, &opts))?;
+    let opts = MultiViewOptions {
+        resolution,
+        pcf,
+        bias,
+        backend: parse_backend(backend).or_raise()?,
+    };
+    let out = crate::threads::detached(py, || {
+        mvr_core(
+            &scene.scene,
+            &light.light,
+            &receivers.receivers,
+            &samples.samples,
+            &opts,
+        )
+    })?;
     output(py, out)
 }
 
 fn choice<T: Copy>(arg: &str, value: &str, options: &[(&str, T)]) -> Result<T, Error> {
-    options.iter().find(|(name, _)| *name == value).map(|(_, v)| *v).ok_or_else(|| {
-        let names: Vec<String> = options.iter().map(|(n, _)| format!("{n:?}")).collect();
-        Error::invalid(arg, format!("expected one of {}, got {value:?}", names.join(", ")))
-    })
+    options
+        .iter()
+        .find(|(name, _)| *name == value)
+        .map(|(_, v)| *v)
+        .ok_or_else(|| {
+            let names: Vec<String> = options.iter().map(|(n, _)| format!("{n:?}")).collect();
+            Error::invalid(
+                arg,
+                format!("expected one of {}, got {value:?}", names.join(", ")),
+            )
+        })
 }
 
 /// View-warped soft shadows: one source rasterization warped into every light sample's map.
@@ -129,23 +176,55 @@ fn vwss<'py>(
     backend: &str,
 ) -> PyResult<Output<'py>> {
     let opts = VwssOptions {
-        multiview: MultiViewOptions { resolution, pcf, bias, backend: parse_backend(backend).or_raise()? },
-        mode: choice("mode", mode, &[("buffered", Mode::Buffered), ("unbuffered", Mode::Unbuffered)]).or_raise()?,
+        multiview: MultiViewOptions {
+            resolution,
+            pcf,
+            bias,
+            backend: parse_backend(backend).or_raise()?,
+        },
+        mode: choice(
+            "mode",
+            mode,
+            &[
+                ("buffered", Mode::Buffered),
+                ("unbuffered", Mode::Unbuffered),
+            ],
+        )
+        .or_raise()?,
         parallel: choice(
             "parallel",
             parallel,
-            &[("serial", Parallel::Serial), ("partial", Parallel::Partial), ("full", Parallel::Full)],
+            &[
+                ("serial", Parallel::Serial),
+                ("partial", Parallel::Partial),
+                ("full", Parallel::Full),
+            ],
         )
         .or_raise()?,
         views_per_pass,
         cull_backfaces,
         layered,
-        precision: choice("precision", precision, &[("float32", Precision::Float32), ("float16", Precision::Float16)])
-            .or_raise()?,
+        precision: choice(
+            "precision",
+            precision,
+            &[
+                ("float32", Precision::Float32),
+                ("float16", Precision::Float16),
+            ],
+        )
+        .or_raise()?,
         point_density,
         source_resolution,
     };
-    let out = crate::threads::detached(py, || vwss_core(&scene.scene, &light.light, &receivers.receivers, &samples.samples, &opts))?;
+    let out = crate::threads::detached(py, || {
+        vwss_core(
+            &scene.scene,
+            &light.light,
+            &receivers.receivers,
+            &samples.samples,
+            &opts,
+        )
+    })?;
     output(py, out)
 }
 
@@ -165,8 +244,18 @@ fn pcss<'py>(
     seed: u64,
     backend: &str,
 ) -> PyResult<Output<'py>> {
-    let opts = PcssOptions { resolution, blocker_samples, filter_samples, bias, near, seed, backend: parse_backend(backend).or_raise()? };
-    let out = crate::threads::detached(py, || pcss_core(&scene.scene, &light.light, &receivers.receivers, &opts))?;
+    let opts = PcssOptions {
+        resolution,
+        blocker_samples,
+        filter_samples,
+        bias,
+        near,
+        seed,
+        backend: parse_backend(backend).or_raise()?,
+    };
+    let out = crate::threads::detached(py, || {
+        pcss_core(&scene.scene, &light.light, &receivers.receivers, &opts)
+    })?;
     output(py, out)
 }
 
@@ -188,10 +277,27 @@ fn cssm<'py>(
     sharpen_b: f32,
     backend: &str,
 ) -> PyResult<Output<'py>> {
-    let prefilter = choice("prefilter", prefilter, &[("sat", Prefilter::Sat), ("mipmap", Prefilter::Mipmap)]).or_raise()?;
+    let prefilter = choice(
+        "prefilter",
+        prefilter,
+        &[("sat", Prefilter::Sat), ("mipmap", Prefilter::Mipmap)],
+    )
+    .or_raise()?;
     let backend = parse_backend(backend).or_raise()?;
-    let opts = CssmOptions { resolution, order, prefilter, near, offset, scale, sharpen_a, sharpen_b, backend };
-    let out = crate::threads::detached(py, || cssm_core(&scene.scene, &light.light, &receivers.receivers, &opts))?;
+    let opts = CssmOptions {
+        resolution,
+        order,
+        prefilter,
+        near,
+        offset,
+        scale,
+        sharpen_a,
+        sharpen_b,
+        backend,
+    };
+    let out = crate::threads::detached(py, || {
+        cssm_core(&scene.scene, &light.light, &receivers.receivers, &opts)
+    })?;
     output(py, out)
 }
 
@@ -208,16 +314,36 @@ fn fit_area_lights(
     max_lights: Option<usize>,
     square: bool,
 ) -> PyResult<Vec<FittedTuple>> {
-    let values = cube.as_slice().map_err(|_| pyo3::exceptions::PyValueError::new_err("env: expected a contiguous array"))?;
-    let opts = FitOptions { threshold, max_lights, square };
+    let values = cube
+        .as_slice()
+        .map_err(|_| pyo3::exceptions::PyValueError::new_err("env: expected a contiguous array"))?;
+    let opts = FitOptions {
+        threshold,
+        max_lights,
+        square,
+    };
     let lights = crate::threads::detached(py, || fit_core(values, n, &opts))?;
-    Ok(lights.into_iter().map(|l| (l.face, l.i0, l.i1, l.j0, l.j1, (l.energy[0], l.energy[1], l.energy[2]))).collect())
+    Ok(lights
+        .into_iter()
+        .map(|l| {
+            (
+                l.face,
+                l.i0,
+                l.i1,
+                l.j0,
+                l.j1,
+                (l.energy[0], l.energy[1], l.energy[2]),
+            )
+        })
+        .collect())
 }
 
 /// Solid angles (n, n) of the texels of an n x n cube face, steradians.
 #[pyfunction]
 fn cube_solid_angles(py: Python<'_>, n: usize) -> PyResult<Bound<'_, PyArray2<f64>>> {
-    let values: Vec<f64> = (0..n * n).map(|k| texel_solid_angle(n, k / n.max(1), k % n.max(1))).collect();
+    let values: Vec<f64> = (0..n * n)
+        .map(|k| texel_solid_angle(n, k / n.max(1), k % n.max(1)))
+        .collect();
     values.into_pyarray(py).reshape([n, n])
 }
 
@@ -238,14 +364,42 @@ fn alias_free<'py>(
     restrict_to_penumbra: bool,
     backend: &str,
 ) -> PyResult<Output<'py>> {
-    let casters = choice("casters", casters, &[("backfacing", Casters::Backfacing), ("all", Casters::All)]).or_raise()?;
-    let opts = AliasFreeOptions { resolution, casters, bias, lut, hull_degree, restrict_to_penumbra, backend: parse_backend(backend).or_raise()? };
-    let out = crate::threads::detached(py, || alias_free_core(&scene.scene, &light.light, &receivers.receivers, &samples.samples, &opts))?;
+    let casters = choice(
+        "casters",
+        casters,
+        &[("backfacing", Casters::Backfacing), ("all", Casters::All)],
+    )
+    .or_raise()?;
+    let opts = AliasFreeOptions {
+        resolution,
+        casters,
+        bias,
+        lut,
+        hull_degree,
+        restrict_to_penumbra,
+        backend: parse_backend(backend).or_raise()?,
+    };
+    let out = crate::threads::detached(py, || {
+        alias_free_core(
+            &scene.scene,
+            &light.light,
+            &receivers.receivers,
+            &samples.samples,
+            &opts,
+        )
+    })?;
     output(py, out)
 }
 
 /// The signature of the object-based methods of the core.
-type ObjectMethod = fn(&Scene, &Bvh, &Light, &Receivers, &SampleSet, &ObjectOptions) -> CoreResult<(Vec<f32>, Stats)>;
+type ObjectMethod = fn(
+    &Scene,
+    &Bvh,
+    &Light,
+    &Receivers,
+    &SampleSet,
+    &ObjectOptions,
+) -> CoreResult<(Vec<f32>, Stats)>;
 
 /// Runs an object-based method with the GIL released.
 #[allow(clippy::too_many_arguments)]
@@ -258,9 +412,22 @@ fn object_method<'py>(
     samples: &NativeSamples,
     (epsilon, resolution, hull_degree): (f32, usize, usize),
 ) -> PyResult<Output<'py>> {
-    let opts = ObjectOptions { epsilon, resolution, hull_degree };
+    let opts = ObjectOptions {
+        epsilon,
+        resolution,
+        hull_degree,
+    };
     let bvh = scene.bvh(py)?;
-    let out = crate::threads::detached(py, || method(&scene.scene, bvh, &light.light, &receivers.receivers, &samples.samples, &opts))?;
+    let out = crate::threads::detached(py, || {
+        method(
+            &scene.scene,
+            bvh,
+            &light.light,
+            &receivers.receivers,
+            &samples.samples,
+            &opts,
+        )
+    })?;
     output(py, out)
 }
 
@@ -277,7 +444,15 @@ fn dcs<'py>(
     resolution: usize,
     hull_degree: usize,
 ) -> PyResult<Output<'py>> {
-    object_method(py, dcs_core, scene, light, receivers, samples, (epsilon, resolution, hull_degree))
+    object_method(
+        py,
+        dcs_core,
+        scene,
+        light,
+        receivers,
+        samples,
+        (epsilon, resolution, hull_degree),
+    )
 }
 
 /// Soft shadow volumes with penumbra wedges on the opaque meshes (approximate).
@@ -293,7 +468,15 @@ fn penumbra_wedge<'py>(
     resolution: usize,
     hull_degree: usize,
 ) -> PyResult<Output<'py>> {
-    object_method(py, penumbra_wedge_core, scene, light, receivers, samples, (epsilon, resolution, hull_degree))
+    object_method(
+        py,
+        penumbra_wedge_core,
+        scene,
+        light,
+        receivers,
+        samples,
+        (epsilon, resolution, hull_degree),
+    )
 }
 
 /// Soft textured shadow volumes for the perforated meshes, with `opaque` for the others.
@@ -311,10 +494,36 @@ fn stsv<'py>(
     opaque: &str,
     two_sided: bool,
 ) -> PyResult<Output<'py>> {
-    let opaque = choice("opaque", opaque, &[("bitmask", Opaque::Bitmask), ("dcs", Opaque::Dcs), ("penumbra_wedge", Opaque::PenumbraWedge)]).or_raise()?;
-    let opts = StsvOptions { object: ObjectOptions { epsilon, resolution, hull_degree }, opaque, two_sided };
+    let opaque = choice(
+        "opaque",
+        opaque,
+        &[
+            ("bitmask", Opaque::Bitmask),
+            ("dcs", Opaque::Dcs),
+            ("penumbra_wedge", Opaque::PenumbraWedge),
+        ],
+    )
+    .or_raise()?;
+    let opts = StsvOptions {
+        object: ObjectOptions {
+            epsilon,
+            resolution,
+            hull_degree,
+        },
+        opaque,
+        two_sided,
+    };
     let bvh = scene.bvh(py)?;
-    let out = crate::threads::detached(py, || stsv_core(&scene.scene, bvh, &light.light, &receivers.receivers, &samples.samples, &opts))?;
+    let out = crate::threads::detached(py, || {
+        stsv_core(
+            &scene.scene,
+            bvh,
+            &light.light,
+            &receivers.receivers,
+            &samples.samples,
+            &opts,
+        )
+    })?;
     output(py, out)
 }
 
@@ -332,15 +541,34 @@ fn stsv_volumes<'py>(
     two_sided: bool,
 ) -> PyResult<Volumes<'py>> {
     let rx = &receivers.receivers;
-    let points: Vec<_> = rx.points.iter().zip(&rx.valid).filter(|(_, &v)| v).map(|(p, _)| *p).collect();
-    let volumes = crate::threads::detached(py, || stsv_volumes_core(&scene.scene, &light.light, hull_degree, two_sided, &points))?;
+    let points: Vec<_> = rx
+        .points
+        .iter()
+        .zip(&rx.valid)
+        .filter(|(_, &v)| v)
+        .map(|(p, _)| *p)
+        .collect();
+    let volumes = crate::threads::detached(py, || {
+        stsv_volumes_core(&scene.scene, &light.light, hull_degree, two_sided, &points)
+    })?;
     let ids: Vec<u32> = volumes.iter().map(|(id, _)| *id).collect();
-    let corners: Vec<f32> = volumes.iter().flat_map(|(_, c)| c.iter().flat_map(|p| p.to_array())).collect();
-    Ok((ids.into_pyarray(py), corners.into_pyarray(py).reshape([volumes.len() * 6, 3])?))
+    let corners: Vec<f32> = volumes
+        .iter()
+        .flat_map(|(_, c)| c.iter().flat_map(|p| p.to_array()))
+        .collect();
+    Ok((
+        ids.into_pyarray(py),
+        corners.into_pyarray(py).reshape([volumes.len() * 6, 3])?,
+    ))
 }
 
 /// Visibility (N,), LOQ levels (N,), micro-occluders processed (N,) and stats.
-type LevelsOutput<'py> = (Bound<'py, PyArray1<f32>>, Bound<'py, PyArray1<f32>>, Bound<'py, PyArray1<u32>>, Bound<'py, PyDict>);
+type LevelsOutput<'py> = (
+    Bound<'py, PyArray1<f32>>,
+    Bound<'py, PyArray1<f32>>,
+    Bound<'py, PyArray1<u32>>,
+    Bound<'py, PyDict>,
+);
 
 /// Backprojection soft shadow mapping with micro-occluders, budgets and LOQ blending.
 #[pyfunction]
@@ -363,18 +591,66 @@ fn backprojection<'py>(
     smoothing: usize,
     bias: Option<f32>,
 ) -> PyResult<LevelsOutput<'py>> {
-    let occluder = choice("occluder", occluder, &[("micropatch", Occluder::Micropatch { extend }), ("microquad", Occluder::Microquad), ("microrect", Occluder::Microrect)]).or_raise()?;
-    let accumulation = choice("accumulation", accumulation, &[("area", Accumulation::Area), ("bitmask", Accumulation::Bitmask { side: bitmask_side })]).or_raise()?;
-    let acceleration = choice("accel", accel, &[("hsm", Acceleration::Hsm), ("mssm", Acceleration::Mssm), ("ysm", Acceleration::Ysm { resolution: ysm_resolution })]).or_raise()?;
+    let occluder = choice(
+        "occluder",
+        occluder,
+        &[
+            ("micropatch", Occluder::Micropatch { extend }),
+            ("microquad", Occluder::Microquad),
+            ("microrect", Occluder::Microrect),
+        ],
+    )
+    .or_raise()?;
+    let accumulation = choice(
+        "accumulation",
+        accumulation,
+        &[
+            ("area", Accumulation::Area),
+            ("bitmask", Accumulation::Bitmask { side: bitmask_side }),
+        ],
+    )
+    .or_raise()?;
+    let acceleration = choice(
+        "accel",
+        accel,
+        &[
+            ("hsm", Acceleration::Hsm),
+            ("mssm", Acceleration::Mssm),
+            (
+                "ysm",
+                Acceleration::Ysm {
+                    resolution: ysm_resolution,
+                },
+            ),
+        ],
+    )
+    .or_raise()?;
     let budget = match budget {
         None => Budget::Infinite,
         Some(b) if b.len() == 1 => Budget::Uniform(b[0]),
         Some(b) => Budget::Map(b),
     };
-    let opts = BackprojectionOptions { resolution, occluder, accumulation, acceleration, budget, level, blend, smoothing, bias };
-    let out = crate::threads::detached(py, || backprojection_levels(&scene.scene, &light.light, &receivers.receivers, &opts))?;
+    let opts = BackprojectionOptions {
+        resolution,
+        occluder,
+        accumulation,
+        acceleration,
+        budget,
+        level,
+        blend,
+        smoothing,
+        bias,
+    };
+    let out = crate::threads::detached(py, || {
+        backprojection_levels(&scene.scene, &light.light, &receivers.receivers, &opts)
+    })?;
     let (vis, stats) = output(py, (out.visibility, out.stats))?;
-    Ok((vis, out.levels.into_pyarray(py), out.processed.into_pyarray(py), stats))
+    Ok((
+        vis,
+        out.levels.into_pyarray(py),
+        out.processed.into_pyarray(py),
+        stats,
+    ))
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

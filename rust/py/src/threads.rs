@@ -32,11 +32,16 @@ struct State {
     threads: usize,
 }
 
-static STATE: Mutex<State> = Mutex::new(State { pool: None, threads: 0 });
+static STATE: Mutex<State> = Mutex::new(State {
+    pool: None,
+    threads: 0,
+});
 
 /// The pool, built on first use.
 fn pool() -> PyResult<Arc<rayon::ThreadPool>> {
-    let mut state = STATE.lock().map_err(|_| pyo3::exceptions::PyRuntimeError::new_err("softshadows: the thread-pool lock is poisoned"))?;
+    let mut state = STATE.lock().map_err(|_| {
+        pyo3::exceptions::PyRuntimeError::new_err("softshadows: the thread-pool lock is poisoned")
+    })?;
     if let Some(pool) = &state.pool {
         return Ok(pool.clone());
     }
@@ -44,7 +49,11 @@ fn pool() -> PyResult<Arc<rayon::ThreadPool>> {
         .num_threads(state.threads)
         .thread_name(|i| format!("softshadows-{i}"))
         .build()
-        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(format!("softshadows: cannot start the thread pool: {e}")))?;
+        .map_err(|e| {
+            pyo3::exceptions::PyRuntimeError::new_err(format!(
+                "softshadows: cannot start the thread pool: {e}"
+            ))
+        })?;
     let pool = Arc::new(pool);
     state.pool = Some(pool.clone());
     Ok(pool)
@@ -53,7 +62,10 @@ fn pool() -> PyResult<Arc<rayon::ThreadPool>> {
 /// Runs `f` with the GIL released on the configured pool (on the calling thread if the pool
 /// cannot start: the results are the same, only the thread count differs), stopping it when a
 /// signal handler raises while it runs (see the module doc); core errors become Python's.
-pub fn detached<T: Send>(py: Python<'_>, f: impl FnOnce() -> softshadows_core::Result<T> + Send) -> PyResult<T> {
+pub fn detached<T: Send>(
+    py: Python<'_>,
+    f: impl FnOnce() -> softshadows_core::Result<T> + Send,
+) -> PyResult<T> {
     let cancel = Cancel::new();
     let Ok(pool) = pool() else {
         return py.detach(|| cancel.run(f)).map_err(to_py);
@@ -71,7 +83,11 @@ pub fn detached<T: Send>(py: Python<'_>, f: impl FnOnce() -> softshadows_core::R
 
 /// Waits for the call's result, polling for signals; on a raised handler, stops the call and
 /// returns the handler's exception.
-fn wait_for<T: Send>(py: Python<'_>, mut results: Receiver<softshadows_core::Result<T>>, cancel: &Cancel) -> PyResult<T> {
+fn wait_for<T: Send>(
+    py: Python<'_>,
+    mut results: Receiver<softshadows_core::Result<T>>,
+    cancel: &Cancel,
+) -> PyResult<T> {
     loop {
         // The receiver travels into the GIL-free wait and back (it may not be shared).
         let (back, received) = py.detach(move || {
@@ -90,7 +106,9 @@ fn wait_for<T: Send>(py: Python<'_>, mut results: Receiver<softshadows_core::Res
                 }
             }
             Err(RecvTimeoutError::Disconnected) => {
-                return Err(pyo3::exceptions::PyRuntimeError::new_err("softshadows: a worker stopped without a result"))
+                return Err(pyo3::exceptions::PyRuntimeError::new_err(
+                    "softshadows: a worker stopped without a result",
+                ))
             }
         }
     }
@@ -100,7 +118,9 @@ fn wait_for<T: Send>(py: Python<'_>, mut results: Receiver<softshadows_core::Res
 /// depend on it.
 #[pyfunction]
 pub fn set_num_threads(threads: usize) -> PyResult<()> {
-    let mut state = STATE.lock().map_err(|_| pyo3::exceptions::PyRuntimeError::new_err("softshadows: the thread-pool lock is poisoned"))?;
+    let mut state = STATE.lock().map_err(|_| {
+        pyo3::exceptions::PyRuntimeError::new_err("softshadows: the thread-pool lock is poisoned")
+    })?;
     state.threads = threads;
     state.pool = None;
     Ok(())

@@ -34,8 +34,8 @@ mod triangle;
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use frustum::{Frustum, MAX_CANDIDATES};
-use packet::Isa;
 use glam::{Vec3, Vec4};
+use packet::Isa;
 use std::cell::RefCell;
 pub use triangle::intersect_triangle;
 use triangle::{hit4, Lanes, RayData};
@@ -114,7 +114,10 @@ pub struct ShadowCache {
 
 impl Default for ShadowCache {
     fn default() -> Self {
-        Self { block: EMPTY, subtree: EMPTY }
+        Self {
+            block: EMPTY,
+            subtree: EMPTY,
+        }
     }
 }
 
@@ -134,10 +137,17 @@ impl Node4 {
     /// Child `c`, a leaf, with its box.
     fn leaf_ref(&self, c: usize) -> LeafRef {
         let [lo, hi] = &self.bounds;
-        LeafRef { block: self.child[c] & !LEAF, lo: [lo[0][c], lo[1][c], lo[2][c]], hi: [hi[0][c], hi[1][c], hi[2][c]] }
+        LeafRef {
+            block: self.child[c] & !LEAF,
+            lo: [lo[0][c], lo[1][c], lo[2][c]],
+            hi: [hi[0][c], hi[1][c], hi[2][c]],
+        }
     }
 
-    const EMPTY_NODE: Node4 = Node4 { bounds: [[Vec4::INFINITY; 3], [Vec4::NEG_INFINITY; 3]], child: [EMPTY; 4] };
+    const EMPTY_NODE: Node4 = Node4 {
+        bounds: [[Vec4::INFINITY; 3], [Vec4::NEG_INFINITY; 3]],
+        child: [EMPTY; 4],
+    };
 
     /// Slab test of the four child boxes: the bitmask of those overlapping (0, `t_max`) and
     /// their entry distances.
@@ -171,7 +181,11 @@ impl Tri4 {
     /// One triangle in all four lanes.
     fn splat(tri: [Vec3; 3], id: u32, perforated: bool) -> Tri4 {
         let v = tri.map(|p| [Vec4::splat(p.x), Vec4::splat(p.y), Vec4::splat(p.z)]);
-        Tri4 { v, ids: [id; 4], alpha: if perforated { 0xF } else { 0 } }
+        Tri4 {
+            v,
+            ids: [id; 4],
+            alpha: if perforated { 0xF } else { 0 },
+        }
     }
 
     /// The block of global faces `faces` (1 to 4 of them).
@@ -188,7 +202,11 @@ impl Tri4 {
                 }
             }
         }
-        Tri4 { v: v.map(|vert| vert.map(Vec4::from_array)), ids, alpha }
+        Tri4 {
+            v: v.map(|vert| vert.map(Vec4::from_array)),
+            ids,
+            alpha,
+        }
     }
 }
 
@@ -225,7 +243,11 @@ impl Bvh {
         if scene.num_faces() != self.num_faces {
             return Err(Error::invalid(
                 "bvh",
-                format!("built for {} faces, the scene has {}", self.num_faces, scene.num_faces()),
+                format!(
+                    "built for {} faces, the scene has {}",
+                    self.num_faces,
+                    scene.num_faces()
+                ),
             ));
         }
         Ok(())
@@ -253,7 +275,8 @@ impl Bvh {
 
     /// Bytes held by the nodes and blocks.
     pub fn memory_bytes(&self) -> usize {
-        self.nodes.len() * std::mem::size_of::<Node4>() + self.blocks.len() * std::mem::size_of::<Tri4>()
+        self.nodes.len() * std::mem::size_of::<Node4>()
+            + self.blocks.len() * std::mem::size_of::<Tri4>()
     }
 
     /// Whether any opaque surface hits the open segment t in (0, `t_max`) of `origin + t dir`.
@@ -266,11 +289,20 @@ impl Bvh {
     /// [`Bvh::occluded`] that first tests the leaf remembered in `cache` and remembers the
     /// blocking leaf. Use one cache per receiver for its shadow rays.
     #[inline]
-    pub fn occluded_cached(&self, scene: &Scene, origin: Vec3, dir: Vec3, t_max: f32, cache: &mut ShadowCache) -> bool {
+    pub fn occluded_cached(
+        &self,
+        scene: &Scene,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        cache: &mut ShadowCache,
+    ) -> bool {
         if t_max.is_nan() || t_max <= 0.0 {
             return false;
         }
-        let Some(r) = RayData::new(origin, dir) else { return false };
+        let Some(r) = RayData::new(origin, dir) else {
+            return false;
+        };
         if let Some(b) = self.blocks.get(cache.block as usize) {
             if Self::block_occludes(scene, b, &r, t_max) {
                 return true;
@@ -305,19 +337,35 @@ impl Bvh {
     /// all the segments first collects the few leaves they may hit (none for a fully lit
     /// receiver), and the rays are tested against those alone; with many candidate leaves the
     /// rays traverse one by one, sharing a [`ShadowCache`] (see `bvh/frustum.rs`).
-    pub fn occluded_many(&self, scene: &Scene, origin: Vec3, targets: &[Vec3], out: &mut Vec<bool>) {
+    pub fn occluded_many(
+        &self,
+        scene: &Scene,
+        origin: Vec3,
+        targets: &[Vec3],
+        out: &mut Vec<bool>,
+    ) {
         if self.occluded_by_frustum(scene, origin, targets, out) {
             return;
         }
         let mut cache = ShadowCache::default();
-        out.extend(targets.iter().map(|&y| self.occluded_cached(scene, origin, y - origin, 1.0, &mut cache)));
+        out.extend(
+            targets
+                .iter()
+                .map(|&y| self.occluded_cached(scene, origin, y - origin, 1.0, &mut cache)),
+        );
     }
 
     /// The frustum pass of [`Bvh::occluded_many`] alone: when the frustum of the segments
     /// `origin -> targets` meets at most [`FrustumCandidates::MAX`] leaves, fills `out` with
     /// the answers and returns true; otherwise leaves `out` cleared and returns false (the
     /// caller traces the rays another way, e.g. [`Bvh::occluded_converging`] across receivers).
-    pub fn occluded_by_frustum(&self, scene: &Scene, origin: Vec3, targets: &[Vec3], out: &mut Vec<bool>) -> bool {
+    pub fn occluded_by_frustum(
+        &self,
+        scene: &Scene,
+        origin: Vec3,
+        targets: &[Vec3],
+        out: &mut Vec<bool>,
+    ) -> bool {
         match frustum::bounds(targets) {
             Some(bounds) => self.occluded_by_frustum_within(scene, origin, targets, bounds, out),
             None => {
@@ -357,7 +405,11 @@ impl Bvh {
             return Root::Node(self.root);
         }
         let (lo, hi) = self.bounds;
-        Root::Leaf(LeafRef { block: self.root & !LEAF, lo: lo.to_array(), hi: hi.to_array() })
+        Root::Leaf(LeafRef {
+            block: self.root & !LEAF,
+            lo: lo.to_array(),
+            hi: hi.to_array(),
+        })
     }
 
     /// Every leaf with the box its parent stores for it.
@@ -368,7 +420,11 @@ impl Bvh {
             Root::Node(_) => self
                 .nodes
                 .iter()
-                .flat_map(|node| (0..4).filter(|&c| node.child[c] != EMPTY && node.child[c] & LEAF != 0).map(|c| node.leaf_ref(c)))
+                .flat_map(|node| {
+                    (0..4)
+                        .filter(|&c| node.child[c] != EMPTY && node.child[c] & LEAF != 0)
+                        .map(|c| node.leaf_ref(c))
+                })
                 .collect(),
         }
     }
@@ -393,7 +449,9 @@ impl Bvh {
             return false;
         }
         let behind = (1.25 * ra / (rb - ra)).max(1e-3) * len;
-        let Some(f) = Frustum::around_boxes(ca + axis * (behind / len), &[a, b]) else { return false };
+        let Some(f) = Frustum::around_boxes(ca + axis * (behind / len), &[a, b]) else {
+            return false;
+        };
         ANY_STACK.with(|s| match s.try_borrow_mut() {
             Ok(mut stack) => f.collect(&self.nodes, self.root_ref(), &mut stack, &mut []),
             Err(_) => f.collect(&self.nodes, self.root_ref(), &mut [0; STACK], &mut []),
@@ -409,7 +467,10 @@ impl Bvh {
     /// candidate means that every such segment is unblocked.
     pub fn frustum_candidates(&self, origin: Vec3, bounds: [Vec3; 2]) -> Option<FrustumCandidates> {
         let f = Frustum::around(origin, bounds)?;
-        let mut cand = FrustumCandidates { leaves: [LeafRef::default(); MAX_CANDIDATES], len: 0 };
+        let mut cand = FrustumCandidates {
+            leaves: [LeafRef::default(); MAX_CANDIDATES],
+            len: 0,
+        };
         let root = self.root_ref();
         cand.len = ANY_STACK.with(|s| match s.try_borrow_mut() {
             Ok(mut stack) => f.collect(&self.nodes, root, &mut stack, &mut cand.leaves),
@@ -433,18 +494,33 @@ impl Bvh {
         if cand.is_empty() {
             out.resize(targets.len(), false);
         } else {
-            self.occluded_by_blocks(Isa::detect(), scene, origin, targets, &cand.leaves[..cand.len], out);
+            self.occluded_by_blocks(
+                Isa::detect(),
+                scene,
+                origin,
+                targets,
+                &cand.leaves[..cand.len],
+                out,
+            );
         }
     }
 
     /// How many faces the open segment t in (0, `t_max`) of `origin + t dir` meets, among those
     /// for which `counts(face id)` holds (its depth complexity; no alpha test). A zero `dir` or
     /// `t_max <= 0` meets none.
-    pub fn count_hits(&self, origin: Vec3, dir: Vec3, t_max: f32, counts: impl Fn(u32) -> bool) -> u32 {
+    pub fn count_hits(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        counts: impl Fn(u32) -> bool,
+    ) -> u32 {
         if t_max.is_nan() || t_max <= 0.0 {
             return 0;
         }
-        let Some(r) = RayData::new(origin, dir) else { return 0 };
+        let Some(r) = RayData::new(origin, dir) else {
+            return 0;
+        };
         let mut stack = [0u32; STACK];
         let (mut sp, mut cur, mut total) = (0usize, self.root, 0u32);
         loop {
@@ -462,7 +538,11 @@ impl Bvh {
                 let hits = hit4(b, &r, t_max).mask;
                 // Short leaves repeat their last face: count each face once.
                 total += (0..4)
-                    .filter(|&i| hits >> i & 1 != 0 && (i == 0 || b.ids[i] != b.ids[i - 1]) && counts(b.ids[i]))
+                    .filter(|&i| {
+                        hits >> i & 1 != 0
+                            && (i == 0 || b.ids[i] != b.ids[i - 1])
+                            && counts(b.ids[i])
+                    })
                     .count() as u32;
             }
             if sp == 0 {
@@ -496,7 +576,14 @@ impl Bvh {
 
     /// Any-hit traversal of the subtree `start` (a child reference); returns the block that
     /// holds an opaque hit.
-    fn any_hit(&self, scene: &Scene, r: &RayData, t_max: f32, start: u32, stack: &mut [u32; STACK]) -> Option<u32> {
+    fn any_hit(
+        &self,
+        scene: &Scene,
+        r: &RayData,
+        t_max: f32,
+        start: u32,
+        stack: &mut [u32; STACK],
+    ) -> Option<u32> {
         let mut sp = 0usize;
         let mut cur = start;
         loop {
@@ -529,7 +616,13 @@ impl Bvh {
     }
 
     /// Closest-hit traversal, nearest child first, skipping subtrees beyond the best hit.
-    fn closest_hit(&self, scene: &Scene, r: &RayData, t_max: f32, stack: &mut [(u32, f32); STACK]) -> Option<Hit> {
+    fn closest_hit(
+        &self,
+        scene: &Scene,
+        r: &RayData,
+        t_max: f32,
+        stack: &mut [(u32, f32); STACK],
+    ) -> Option<Hit> {
         let mut sp = 0usize;
         let mut cur = self.root;
         let (mut t_max, mut best) = (t_max, None);
@@ -541,7 +634,9 @@ impl Bvh {
                     cur = push_far_children(node, mask, tnear, stack, &mut sp);
                     continue;
                 }
-            } else if let Some(h) = block_closest(scene, &self.blocks[(cur & !LEAF) as usize], r, t_max) {
+            } else if let Some(h) =
+                block_closest(scene, &self.blocks[(cur & !LEAF) as usize], r, t_max)
+            {
                 t_max = h.t;
                 best = Some(h);
             }
@@ -575,7 +670,9 @@ impl Bvh {
 #[cold]
 #[inline(never)]
 fn alpha_occludes(scene: &Scene, b: &Tri4, lanes: &Lanes) -> bool {
-    (0..4).filter(|&i| lanes.mask >> i & 1 != 0).any(|i| lane_opaque(scene, b, lanes, i))
+    (0..4)
+        .filter(|&i| lanes.mask >> i & 1 != 0)
+        .any(|i| lane_opaque(scene, b, lanes, i))
 }
 
 /// Whether lane `i` (hit) is opaque at its hit point.
@@ -598,12 +695,21 @@ fn block_closest(scene: &Scene, b: &Tri4, r: &RayData, t_max: f32) -> Option<Hit
     }
     let t = lanes.distances().to_array();
     while mask != 0 {
-        let lane = (0..4)
-            .filter(|&i| mask >> i & 1 != 0)
-            .fold(4, |best, i| if best == 4 || t[i] < t[best] { i } else { best });
+        let lane = (0..4).filter(|&i| mask >> i & 1 != 0).fold(4, |best, i| {
+            if best == 4 || t[i] < t[best] {
+                i
+            } else {
+                best
+            }
+        });
         if lane_opaque(scene, b, &lanes, lane) {
             let (t, b1, b2) = lanes.get(lane);
-            return Some(Hit { t, face: b.ids[lane], b1, b2 });
+            return Some(Hit {
+                t,
+                face: b.ids[lane],
+                b1,
+                b2,
+            });
         }
         mask &= !(1 << lane);
     }
@@ -613,7 +719,13 @@ fn block_closest(scene: &Scene, b: &Tri4, r: &RayData, t_max: f32) -> Option<Hit
 /// Pushes the hit children of `node` farthest first with their entry distances and returns the
 /// nearest, to be visited next.
 #[inline(always)]
-fn push_far_children(node: &Node4, mask: u32, tnear: Vec4, stack: &mut [(u32, f32); STACK], sp: &mut usize) -> u32 {
+fn push_far_children(
+    node: &Node4,
+    mask: u32,
+    tnear: Vec4,
+    stack: &mut [(u32, f32); STACK],
+    sp: &mut usize,
+) -> u32 {
     if mask & (mask - 1) == 0 {
         return node.child[mask.trailing_zeros() as usize];
     }
@@ -650,18 +762,32 @@ mod tests {
     #[test]
     fn empty_shafts_hold_no_blocked_segment() {
         let mut rng = Rng::new(17);
-        let mut point = |lo: Vec3, size: Vec3| lo + size * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+        let mut point = |lo: Vec3, size: Vec3| {
+            lo + size * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32())
+        };
         // Small random triangles over [0, 4]^3 and a ground quad at y = -0.5.
         let (mut positions, mut faces) = (Vec::new(), Vec::new());
         for t in 0..120u32 {
             let a = point(Vec3::ZERO, Vec3::splat(4.0));
-            positions.extend([a, a + point(Vec3::splat(-0.3), Vec3::splat(0.6)), a + point(Vec3::splat(-0.3), Vec3::splat(0.6))]);
+            positions.extend([
+                a,
+                a + point(Vec3::splat(-0.3), Vec3::splat(0.6)),
+                a + point(Vec3::splat(-0.3), Vec3::splat(0.6)),
+            ]);
             faces.push([3 * t, 3 * t + 1, 3 * t + 2]);
         }
-        let ground = [(-1.0, -1.0), (5.0, -1.0), (5.0, 5.0), (-1.0, 5.0)].map(|(x, z)| Vec3::new(x, -0.5, z));
+        let ground = [(-1.0, -1.0), (5.0, -1.0), (5.0, 5.0), (-1.0, 5.0)]
+            .map(|(x, z)| Vec3::new(x, -0.5, z));
         let meshes = vec![
             Mesh::new(positions, faces, None, None, false).unwrap(),
-            Mesh::new(ground.to_vec(), vec![[0, 1, 2], [0, 2, 3]], None, None, false).unwrap(),
+            Mesh::new(
+                ground.to_vec(),
+                vec![[0, 1, 2], [0, 2, 3]],
+                None,
+                None,
+                false,
+            )
+            .unwrap(),
         ];
         let scene = Scene::new(meshes).unwrap();
         let bvh = Bvh::build(&scene).unwrap();
@@ -673,10 +799,16 @@ mod tests {
             let b0 = point(Vec3::new(-1.0, 6.0, -1.0), Vec3::new(6.0, 1.0, 6.0));
             let b = [b0, b0 + Vec3::new(0.8, 0.05, 0.8)];
             let is_empty = bvh.shaft_is_empty(a, b);
-            let corner = |[lo, hi]: [Vec3; 2], c: usize| Vec3::select(glam::BVec3::new(c & 1 != 0, c & 2 != 0, c & 4 != 0), hi, lo);
+            let corner = |[lo, hi]: [Vec3; 2], c: usize| {
+                Vec3::select(glam::BVec3::new(c & 1 != 0, c & 2 != 0, c & 4 != 0), hi, lo)
+            };
             let mut blocked = 0;
             for s in 0..64 {
-                let (p, q) = if s < 8 { (corner(a, s), corner(b, 7 - s)) } else { (point(a[0], a[1] - a[0]), point(b[0], b[1] - b[0])) };
+                let (p, q) = if s < 8 {
+                    (corner(a, s), corner(b, 7 - s))
+                } else {
+                    (point(a[0], a[1] - a[0]), point(b[0], b[1] - b[0]))
+                };
                 blocked += usize::from(bvh.occluded(&scene, p, q - p, 1.0));
             }
             if is_empty {
@@ -686,11 +818,17 @@ mod tests {
                 blocked_in_full += blocked;
             }
         }
-        assert!(empty > 300 && blocked_in_full > 10000, "empty {empty}, blocked {blocked_in_full}");
+        assert!(
+            empty > 300 && blocked_in_full > 10000,
+            "empty {empty}, blocked {blocked_in_full}"
+        );
         // Boxes the test does not apply to: the same box, and a larger box of origins.
         let box_a = [Vec3::new(1.0, 0.0, 1.0), Vec3::new(1.2, 0.1, 1.2)];
         assert!(!bvh.shaft_is_empty(box_a, box_a));
-        assert!(!bvh.shaft_is_empty([Vec3::new(-1.0, -0.4, -1.0), Vec3::new(5.0, -0.3, 5.0)], [Vec3::splat(9.0), Vec3::splat(9.1)]));
+        assert!(!bvh.shaft_is_empty(
+            [Vec3::new(-1.0, -0.4, -1.0), Vec3::new(5.0, -0.3, 5.0)],
+            [Vec3::splat(9.0), Vec3::splat(9.1)]
+        ));
     }
 
     /// Fuzzing regression: a NaN or infinite origin or direction (a receiver or sample near
@@ -703,10 +841,15 @@ mod tests {
         let mut faces = Vec::new();
         for i in 0..12u32 {
             let x = i as f32 * 2.0;
-            positions.extend([Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1.0, 0.0, 0.0), Vec3::new(x, 1.0, 0.0)]);
+            positions.extend([
+                Vec3::new(x, 0.0, 0.0),
+                Vec3::new(x + 1.0, 0.0, 0.0),
+                Vec3::new(x, 1.0, 0.0),
+            ]);
             faces.push([3 * i, 3 * i + 1, 3 * i + 2]);
         }
-        let scene = Scene::new(vec![Mesh::new(positions, faces, None, None, false).unwrap()]).unwrap();
+        let scene =
+            Scene::new(vec![Mesh::new(positions, faces, None, None, false).unwrap()]).unwrap();
         let bvh = Bvh::build(&scene).unwrap();
         let big = Vec3::new(f32::MAX, 0.5, 1.0);
         let inside = Vec3::new(0.2, 0.2, 1.0);
@@ -726,11 +869,21 @@ mod tests {
         }
         // Fuzzing regression: a zero direction component at an origin coordinate of ±f32::MAX
         // nudged the slab origin to ±inf, and `-inf - -inf` (NaN) let empty slots pass.
-        for o in [Vec3::new(-10.0, f32::MIN, f32::MIN), Vec3::new(-10.0, f32::MAX, f32::MAX)] {
-            assert_eq!(bvh.intersect(&scene, o, Vec3::X, f32::INFINITY), None, "{o}");
+        for o in [
+            Vec3::new(-10.0, f32::MIN, f32::MIN),
+            Vec3::new(-10.0, f32::MAX, f32::MAX),
+        ] {
+            assert_eq!(
+                bvh.intersect(&scene, o, Vec3::X, f32::INFINITY),
+                None,
+                "{o}"
+            );
             assert!(!bvh.occluded(&scene, o, Vec3::X, f32::INFINITY), "{o}");
         }
         // A finite ray through the first triangle still hits it.
-        assert_eq!(bvh.intersect(&scene, inside, -Vec3::Z, 2.0).map(|h| h.face), Some(0));
+        assert_eq!(
+            bvh.intersect(&scene, inside, -Vec3::Z, 2.0).map(|h| h.face),
+            Some(0)
+        );
     }
 }

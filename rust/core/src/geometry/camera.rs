@@ -49,11 +49,17 @@ impl Camera {
         finite("target", target)?;
         finite("up", up)?;
         if !(fov_y_degrees > 0.0 && fov_y_degrees < 180.0) {
-            return Err(Error::invalid("fov_y", format!("must be in (0, 180) degrees, got {fov_y_degrees}")));
+            return Err(Error::invalid(
+                "fov_y",
+                format!("must be in (0, 180) degrees, got {fov_y_degrees}"),
+            ));
         }
         let view = target - eye;
         if view == Vec3::ZERO {
-            return Err(Error::invalid("target", format!("must differ from eye, both are {eye}")));
+            return Err(Error::invalid(
+                "target",
+                format!("must differ from eye, both are {eye}"),
+            ));
         }
         // A view 1e20 long overflows its squared length: normalize it scaled down instead.
         let forward = match view.normalize_or_zero() {
@@ -61,16 +67,30 @@ impl Camera {
             forward => forward,
         };
         if forward == Vec3::ZERO {
-            return Err(Error::invalid("eye", format!("eye {eye} and target {target} are too far apart for float32 arithmetic")));
+            return Err(Error::invalid(
+                "eye",
+                format!("eye {eye} and target {target} are too far apart for float32 arithmetic"),
+            ));
         }
         let right = forward.cross(up.normalize_or_zero());
         // Below ~1e-6 (sin of the angle) the frame would be dominated by rounding.
         if right.length() <= 1e-6 {
-            return Err(Error::invalid("up", format!("up = {up} is zero or parallel to the view direction {forward}")));
+            return Err(Error::invalid(
+                "up",
+                format!("up = {up} is zero or parallel to the view direction {forward}"),
+            ));
         }
         let right = right.normalize();
         let up = right.cross(forward);
-        Ok(Camera { eye, forward, right, up, fov_y_degrees, width, height })
+        Ok(Camera {
+            eye,
+            forward,
+            right,
+            up,
+            fov_y_degrees,
+            width,
+            height,
+        })
     }
 
     /// The *normalized* direction of the primary ray through continuous pixel coordinates
@@ -111,7 +131,8 @@ mod tests {
 
     #[test]
     fn frame_and_rays() {
-        let cam = Camera::look_at(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 90.0, 4, 2).unwrap();
+        let cam =
+            Camera::look_at(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 90.0, 4, 2).unwrap();
         assert!((cam.forward - Vec3::NEG_Z).length() < 1e-6);
         assert!((cam.right - Vec3::X).length() < 1e-6);
         assert!((cam.up - Vec3::Y).length() < 1e-6);

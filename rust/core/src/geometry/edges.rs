@@ -37,7 +37,11 @@ impl Edge {
 /// The memory of [`edges`] and of the silhouettes picked from them, with the influence-region
 /// bins of each (at most three edges per face, each sorted key and its edge, twice over).
 pub fn edges_peak(scene: &Scene) -> Peak {
-    Peak::default().buffer(&[scene.num_faces() as u64, 3, 2 * (std::mem::size_of::<Edge>() as u64 + 16)])
+    Peak::default().buffer(&[
+        scene.num_faces() as u64,
+        3,
+        2 * (std::mem::size_of::<Edge>() as u64 + 16),
+    ])
 }
 
 /// Every edge of `scene`, mesh by mesh, in order of their sorted vertex indices.
@@ -52,7 +56,11 @@ pub fn edges(scene: &Scene) -> Vec<Edge> {
             .flat_map(|(f, v)| {
                 (0..3).map(move |k| {
                     let (a, b) = (v[k].min(v[(k + 1) % 3]), v[k].max(v[(k + 1) % 3]));
-                    ((u64::from(a) << 32) | u64::from(b), f as u32, v[(k + 2) % 3])
+                    (
+                        (u64::from(a) << 32) | u64::from(b),
+                        f as u32,
+                        v[(k + 2) % 3],
+                    )
                 })
             })
             .collect();
@@ -83,7 +91,12 @@ pub fn edges(scene: &Scene) -> Vec<Edge> {
 /// The edges of the opaque meshes of `scene` that are silhouettes from some point of the ball
 /// `(center, radius)`.
 pub fn opaque_silhouettes(scene: &Scene, center: DVec3, radius: f64) -> Vec<Edge> {
-    edges(scene).into_par_iter().filter(|e| !scene.is_perforated_face(e.faces[0]) && e.is_potential_silhouette(center, radius)).collect()
+    edges(scene)
+        .into_par_iter()
+        .filter(|e| {
+            !scene.is_perforated_face(e.faces[0]) && e.is_potential_silhouette(center, radius)
+        })
+        .collect()
 }
 
 impl Edge {
@@ -152,8 +165,25 @@ impl Edge {
         if side == 0.0 {
             return None;
         }
-        let delta = self.opposites().iter().map(|c| if orient(a, b, p, c.as_dvec3()) * side < 0.0 { 1 } else { -1 }).sum();
-        (delta != 0).then_some(Sweep { a, b, p, y0, side, delta })
+        let delta = self
+            .opposites()
+            .iter()
+            .map(|c| {
+                if orient(a, b, p, c.as_dvec3()) * side < 0.0 {
+                    1
+                } else {
+                    -1
+                }
+            })
+            .sum();
+        (delta != 0).then_some(Sweep {
+            a,
+            b,
+            p,
+            y0,
+            side,
+            delta,
+        })
     }
 
     /// The sweep of a penumbra wedge (Assarsson and Akenine-Möller 2003): as [`Edge::sweep`], but
@@ -171,7 +201,14 @@ impl Edge {
             return None;
         }
         let delta = if faces * side < 0.0 { 1 } else { -1 };
-        Some(Sweep { a, b, p, y0, side, delta })
+        Some(Sweep {
+            a,
+            b,
+            p,
+            y0,
+            side,
+            delta,
+        })
     }
 }
 
@@ -198,7 +235,12 @@ mod tests {
     fn scene() -> Scene {
         let tet = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
         let faces = vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
-        let quad = vec![Vec3::new(-2.0, -1.0, -2.0), Vec3::new(2.0, -1.0, -2.0), Vec3::new(2.0, -1.0, 2.0), Vec3::new(-2.0, -1.0, 2.0)];
+        let quad = vec![
+            Vec3::new(-2.0, -1.0, -2.0),
+            Vec3::new(2.0, -1.0, -2.0),
+            Vec3::new(2.0, -1.0, 2.0),
+            Vec3::new(-2.0, -1.0, 2.0),
+        ];
         Scene::new(vec![
             Mesh::new(tet, faces, None, None, true).unwrap(),
             Mesh::new(quad, vec![[0, 1, 2], [0, 2, 3]], None, None, false).unwrap(),
@@ -210,7 +252,9 @@ mod tests {
     fn every_edge_once_with_its_faces() {
         let e = edges(&scene());
         assert_eq!(e.len(), 6 + 5);
-        assert!(e[..6].iter().all(|e| e.two_faced && e.faces[0] != e.faces[1] && e.faces.iter().all(|&f| f < 4)));
+        assert!(e[..6]
+            .iter()
+            .all(|e| e.two_faced && e.faces[0] != e.faces[1] && e.faces.iter().all(|&f| f < 4)));
         assert_eq!(e[6..].iter().filter(|e| !e.two_faced).count(), 4);
         let diagonal = e[6..].iter().find(|e| e.two_faced).unwrap();
         assert_eq!(diagonal.faces, [4, 5]);
@@ -219,12 +263,30 @@ mod tests {
     #[test]
     fn non_manifold_edges_split_into_one_sided_edges() {
         // Three triangles around the x axis: a fin.
-        let pos = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z, Vec3::new(0.0, -1.0, -1.0)];
-        let mesh = Mesh::new(pos, vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]], None, None, false).unwrap();
+        let pos = vec![
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::Y,
+            Vec3::Z,
+            Vec3::new(0.0, -1.0, -1.0),
+        ];
+        let mesh = Mesh::new(
+            pos,
+            vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]],
+            None,
+            None,
+            false,
+        )
+        .unwrap();
         let e = edges(&Scene::new(vec![mesh]).unwrap());
-        let axis: Vec<&Edge> = e.iter().filter(|e| e.ends == [Vec3::ZERO, Vec3::X]).collect();
+        let axis: Vec<&Edge> = e
+            .iter()
+            .filter(|e| e.ends == [Vec3::ZERO, Vec3::X])
+            .collect();
         assert_eq!(axis.len(), 3);
-        assert!(axis.iter().all(|e| !e.two_faced && e.opposites().len() == 1));
+        assert!(axis
+            .iter()
+            .all(|e| !e.two_faced && e.opposites().len() == 1));
         assert_eq!(e.len(), 3 + 6);
     }
 
@@ -237,10 +299,16 @@ mod tests {
         let facing = |f: u32| {
             let t = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]][f as usize];
             let v = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z];
-            (v[t[1]] - v[t[0]]).cross(v[t[2]] - v[t[0]]).dot(y - v[t[0]]) > 0.0
+            (v[t[1]] - v[t[0]])
+                .cross(v[t[2]] - v[t[0]])
+                .dot(y - v[t[0]])
+                > 0.0
         };
         for edge in &e[..6] {
-            assert_eq!(edge.is_potential_silhouette(y, 0.0), facing(edge.faces[0]) != facing(edge.faces[1]));
+            assert_eq!(
+                edge.is_potential_silhouette(y, 0.0),
+                facing(edge.faces[0]) != facing(edge.faces[1])
+            );
         }
         // The quad's diagonal is flat: never a silhouette from above or below, always one when
         // the ball reaches its plane; its boundary edges always are.
@@ -248,7 +316,10 @@ mod tests {
         assert!(!diagonal.is_potential_silhouette(DVec3::new(0.0, 3.0, 0.0), 1.0));
         assert!(!diagonal.is_potential_silhouette(DVec3::new(0.0, -3.0, 0.0), 1.0));
         assert!(diagonal.is_potential_silhouette(DVec3::new(0.0, -1.5, 0.0), 1.0));
-        assert!(e[6..].iter().filter(|e| !e.two_faced).all(|e| e.is_potential_silhouette(DVec3::new(0.0, 3.0, 0.0), 0.5)));
+        assert!(e[6..]
+            .iter()
+            .filter(|e| !e.two_faced)
+            .all(|e| e.is_potential_silhouette(DVec3::new(0.0, 3.0, 0.0), 0.5)));
     }
 
     #[test]
@@ -258,14 +329,21 @@ mod tests {
         // the edges crossed on the way.
         let scene = scene();
         let e = edges(&scene);
-        let faces: Vec<[DVec3; 3]> = scene.triangles().map(|(_, t)| t.map(|v| v.as_dvec3())).collect();
+        let faces: Vec<[DVec3; 3]> = scene
+            .triangles()
+            .map(|(_, t)| t.map(|v| v.as_dvec3()))
+            .collect();
         let meets = |p: DVec3, y: DVec3| {
             faces[..4]
                 .iter()
                 .filter(|t| {
                     let d = |x| orient(t[0], t[1], t[2], x);
                     d(p) * d(y) < 0.0 && {
-                        let s = [orient(p, y, t[0], t[1]), orient(p, y, t[1], t[2]), orient(p, y, t[2], t[0])];
+                        let s = [
+                            orient(p, y, t[0], t[1]),
+                            orient(p, y, t[1], t[2]),
+                            orient(p, y, t[2], t[0]),
+                        ];
                         s.iter().all(|&v| v > 0.0) || s.iter().all(|&v| v < 0.0)
                     }
                 })
@@ -275,11 +353,24 @@ mod tests {
         let y0 = DVec3::new(-3.0, 4.0, 0.2);
         let mut changed = 0;
         for k in 0..=200 {
-            let y = DVec3::new(-3.0 + 6.0 * k as f64 / 200.0, 4.0, 0.2 + 0.1 * (k as f64 * 0.37).sin());
-            let counted = meets(p, y0) + e[..6].iter().filter_map(|edge| edge.sweep(p, y0)).filter(|s| s.crosses(y)).map(|s| s.delta).sum::<i32>();
+            let y = DVec3::new(
+                -3.0 + 6.0 * k as f64 / 200.0,
+                4.0,
+                0.2 + 0.1 * (k as f64 * 0.37).sin(),
+            );
+            let counted = meets(p, y0)
+                + e[..6]
+                    .iter()
+                    .filter_map(|edge| edge.sweep(p, y0))
+                    .filter(|s| s.crosses(y))
+                    .map(|s| s.delta)
+                    .sum::<i32>();
             assert_eq!(counted, meets(p, y), "light point {y}");
             changed += i32::from(meets(p, y) != meets(p, y0));
         }
-        assert!(changed > 20 && meets(p, y0) == 0, "the line of light points must pass behind the tetrahedron");
+        assert!(
+            changed > 20 && meets(p, y0) == 0,
+            "the line of light points must pass behind the tetrahedron"
+        );
     }
 }

@@ -35,7 +35,16 @@ pub struct GBuffer {
 /// The standard D3D11 sample positions in 1/16 pixel, relative to the pixel center (y down).
 const D3D_2: [(i8, i8); 2] = [(4, 4), (-4, -4)];
 const D3D_4: [(i8, i8); 4] = [(-2, -6), (6, -2), (-6, 2), (2, 6)];
-const D3D_8: [(i8, i8); 8] = [(1, -3), (-1, 3), (5, 1), (-3, -5), (-5, 5), (-7, -1), (3, 7), (7, -7)];
+const D3D_8: [(i8, i8); 8] = [
+    (1, -3),
+    (-1, 3),
+    (5, 1),
+    (-3, -5),
+    (-5, 5),
+    (-7, -1),
+    (3, 7),
+    (7, -7),
+];
 #[rustfmt::skip]
 const D3D_16: [(i8, i8); 16] = [
     (1, 1), (-1, -3), (-3, 2), (4, -1), (-5, -2), (2, 5), (5, 3), (3, -5),
@@ -50,9 +59,17 @@ pub fn msaa_offsets(msaa: usize) -> Result<Vec<Vec2>> {
         4 => &D3D_4,
         8 => &D3D_8,
         16 => &D3D_16,
-        _ => return Err(Error::invalid("msaa", format!("expected 1, 2, 4, 8 or 16, got {msaa}"))),
+        _ => {
+            return Err(Error::invalid(
+                "msaa",
+                format!("expected 1, 2, 4, 8 or 16, got {msaa}"),
+            ))
+        }
     };
-    Ok(table.iter().map(|&(x, y)| Vec2::new(x as f32, y as f32) / 16.0).collect())
+    Ok(table
+        .iter()
+        .map(|&(x, y)| Vec2::new(x as f32, y as f32) / 16.0)
+        .collect())
 }
 
 /// The vertices of global face `id`.
@@ -70,18 +87,28 @@ struct Texel {
     face: i64,
 }
 
-const MISS: Texel = Texel { position: Vec3::ZERO, normal: Vec3::ZERO, face: -1 };
+const MISS: Texel = Texel {
+    position: Vec3::ZERO,
+    normal: Vec3::ZERO,
+    face: -1,
+};
 
 /// Casts the primary ray of continuous pixel `(px, py)`.
 fn cast(scene: &Scene, bvh: &Bvh, camera: &Camera, px: f32, py: f32) -> Texel {
     let dir = camera.ray(px, py);
-    let Some(hit) = bvh.intersect(scene, camera.eye, dir, f32::INFINITY) else { return MISS };
+    let Some(hit) = bvh.intersect(scene, camera.eye, dir, f32::INFINITY) else {
+        return MISS;
+    };
     let [a, b, c] = face_vertices(scene, hit.face);
     let position = a * (1.0 - hit.b1 - hit.b2) + b * hit.b1 + c * hit.b2;
     let n = (b - a).cross(c - a).normalize_or_zero();
     let n = if n == Vec3::ZERO { -dir } else { n };
     let normal = if n.dot(dir) > 0.0 { -n } else { n };
-    Texel { position, normal, face: i64::from(hit.face) }
+    Texel {
+        position,
+        normal,
+        face: i64::from(hit.face),
+    }
 }
 
 /// Ray-casts the G-buffer of `camera` (see the module doc); `msaa` in {1, 2, 4, 8, 16}.
@@ -89,15 +116,30 @@ pub fn gbuffer(scene: &Scene, bvh: &Bvh, camera: &Camera, msaa: usize) -> Result
     let offsets = msaa_offsets(msaa)?;
     bvh.check_scene(scene)?;
     let (w, h) = (camera.width, camera.height);
-    let n = w.checked_mul(h).ok_or_else(|| Error::invalid("width", format!("{w} x {h} pixels overflow")))?;
+    let n = w
+        .checked_mul(h)
+        .ok_or_else(|| Error::invalid("width", format!("{w} x {h} pixels overflow")))?;
     // The output arrays (33 bytes) and the per-pixel hits collected first (32 bytes).
     let per_pixel = 33 + 32 + if msaa > 1 { 4 * msaa as u64 } else { 0 };
     limits::check_memory("G-buffer", limits::bytes(&[n as u64, per_pixel]))?;
     let rays_per_pixel = 1 + if msaa > 1 { msaa as u64 } else { 0 };
-    Work::default().loop_of(&[n as u64, rays_per_pixel, Work::RAY]).check("gbuffer", &mut Stats::default())?;
-    let texels: Vec<Texel> =
-        interrupt::par_map(n, Work::RAY, |i| cast(scene, bvh, camera, (i % w) as f32 + 0.5, (i / w) as f32 + 0.5))?;
-    let sample_depths = if msaa > 1 { depths(scene, bvh, camera, &offsets)? } else { Vec::new() };
+    Work::default()
+        .loop_of(&[n as u64, rays_per_pixel, Work::RAY])
+        .check("gbuffer", &mut Stats::default())?;
+    let texels: Vec<Texel> = interrupt::par_map(n, Work::RAY, |i| {
+        cast(
+            scene,
+            bvh,
+            camera,
+            (i % w) as f32 + 0.5,
+            (i / w) as f32 + 0.5,
+        )
+    })?;
+    let sample_depths = if msaa > 1 {
+        depths(scene, bvh, camera, &offsets)?
+    } else {
+        Vec::new()
+    };
     Ok(GBuffer {
         width: w,
         height: h,
@@ -114,23 +156,35 @@ pub fn gbuffer(scene: &Scene, bvh: &Bvh, camera: &Camera, msaa: usize) -> Result
 fn depths(scene: &Scene, bvh: &Bvh, camera: &Camera, offsets: &[Vec2]) -> Result<Vec<f32>> {
     let (w, m) = (camera.width, offsets.len());
     let mut out = vec![f32::INFINITY; camera.width * camera.height * m];
-    interrupt::rounds(&mut out, interrupt::round_len(m, Work::RAY), |offset, part| {
-        part.par_chunks_mut(m).enumerate().for_each(|(k, px)| {
-            let i = offset / m + k;
-            let center = Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
-            for (d, o) in px.iter_mut().zip(offsets) {
-                let p = center + *o;
-                let dir = camera.ray(p.x, p.y);
-                *d = bvh.intersect(scene, camera.eye, dir, f32::INFINITY).map_or(f32::INFINITY, |h| h.t);
-            }
-        })
-    })?;
+    interrupt::rounds(
+        &mut out,
+        interrupt::round_len(m, Work::RAY),
+        |offset, part| {
+            part.par_chunks_mut(m).enumerate().for_each(|(k, px)| {
+                let i = offset / m + k;
+                let center = Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
+                for (d, o) in px.iter_mut().zip(offsets) {
+                    let p = center + *o;
+                    let dir = camera.ray(p.x, p.y);
+                    *d = bvh
+                        .intersect(scene, camera.eye, dir, f32::INFINITY)
+                        .map_or(f32::INFINITY, |h| h.t);
+                }
+            })
+        },
+    )?;
     Ok(out)
 }
 
 impl GBuffer {
     /// The hit pixels as receivers (no-hit pixels are invalid and get visibility 0).
     pub fn receivers(&self) -> Result<Receivers> {
-        Receivers::new(self.positions.clone(), self.normals.clone(), self.mask.clone(), self.width, self.height)
+        Receivers::new(
+            self.positions.clone(),
+            self.normals.clone(),
+            self.mask.clone(),
+            self.width,
+            self.height,
+        )
     }
 }

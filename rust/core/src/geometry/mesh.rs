@@ -27,7 +27,11 @@ impl AlphaTexture {
         if alpha.iter().any(|a| !a.is_finite()) {
             return Err(Error::invalid("alpha", "contains NaN or Inf"));
         }
-        Ok(Self { width, height, opaque: alpha.iter().map(|&a| a >= 0.5).collect() })
+        Ok(Self {
+            width,
+            height,
+            opaque: alpha.iter().map(|&a| a >= 0.5).collect(),
+        })
     }
 
     /// Whether each texel is opaque, row-major.
@@ -75,7 +79,11 @@ impl Mesh {
             return Err(Error::invalid("vertices", "contains NaN or Inf"));
         }
         let n = positions.len() as u64;
-        if let Some((i, f)) = faces.iter().enumerate().find(|(_, f)| f.iter().any(|&k| k as u64 >= n)) {
+        if let Some((i, f)) = faces
+            .iter()
+            .enumerate()
+            .find(|(_, f)| f.iter().any(|&k| k as u64 >= n))
+        {
             return Err(Error::invalid(
                 "faces",
                 format!("face {i} = {f:?} indexes past the {n} vertices"),
@@ -85,16 +93,31 @@ impl Mesh {
             (Some(uv), _) if uv.len() != positions.len() => {
                 return Err(Error::invalid(
                     "uvs",
-                    format!("expected one uv per vertex ({}), got {}", positions.len(), uv.len()),
+                    format!(
+                        "expected one uv per vertex ({}), got {}",
+                        positions.len(),
+                        uv.len()
+                    ),
                 ))
             }
             (Some(uv), _) if uv.iter().any(|t| !t.is_finite()) => {
                 return Err(Error::invalid("uvs", "contains NaN or Inf"))
             }
-            (None, Some(_)) => return Err(Error::invalid("uvs", "an alpha texture needs per-vertex uvs")),
+            (None, Some(_)) => {
+                return Err(Error::invalid(
+                    "uvs",
+                    "an alpha texture needs per-vertex uvs",
+                ))
+            }
             _ => {}
         }
-        Ok(Self { positions, faces, uvs, alpha, closed })
+        Ok(Self {
+            positions,
+            faces,
+            uvs,
+            alpha,
+            closed,
+        })
     }
 
     /// Whether the mesh has an alpha texture.
@@ -131,10 +154,16 @@ impl Scene {
             return Err(Error::invalid("meshes", "the scene has no triangles"));
         }
         if total >= u32::MAX as u64 {
-            return Err(Error::invalid("meshes", format!("{total} triangles exceed the 2^32-1 face ids")));
+            return Err(Error::invalid(
+                "meshes",
+                format!("{total} triangles exceed the 2^32-1 face ids"),
+            ));
         }
         face_offsets.push(total as u32);
-        Ok(Self { meshes, face_offsets })
+        Ok(Self {
+            meshes,
+            face_offsets,
+        })
     }
 
     /// Total number of triangles.
@@ -145,16 +174,29 @@ impl Scene {
     /// The mesh and local face of global face `id` (< `num_faces()`).
     pub fn face_ref(&self, id: u32) -> FaceRef {
         let mesh = self.face_offsets.partition_point(|&o| o <= id) - 1;
-        FaceRef { mesh: mesh as u32, face: id - self.face_offsets[mesh] }
+        FaceRef {
+            mesh: mesh as u32,
+            face: id - self.face_offsets[mesh],
+        }
     }
 
     /// All triangles as `(global id, vertices)`, in global id order.
     pub fn triangles(&self) -> impl Iterator<Item = (u32, [Vec3; 3])> + '_ {
-        self.meshes.iter().zip(&self.face_offsets).flat_map(|(m, &off)| {
-            m.faces.iter().enumerate().map(move |(i, f)| {
-                (off + i as u32, [m.positions[f[0] as usize], m.positions[f[1] as usize], m.positions[f[2] as usize]])
+        self.meshes
+            .iter()
+            .zip(&self.face_offsets)
+            .flat_map(|(m, &off)| {
+                m.faces.iter().enumerate().map(move |(i, f)| {
+                    (
+                        off + i as u32,
+                        [
+                            m.positions[f[0] as usize],
+                            m.positions[f[1] as usize],
+                            m.positions[f[2] as usize],
+                        ],
+                    )
+                })
             })
-        })
     }
 
     /// Whether global face `id` is opaque at barycentrics `(b1, b2)` (weights of vertices 1 and 2):
@@ -166,7 +208,9 @@ impl Scene {
         match (&m.alpha, &m.uvs) {
             (Some(tex), Some(uvs)) => {
                 let f = m.faces[r.face as usize];
-                let uv = uvs[f[0] as usize] * (1.0 - b1 - b2) + uvs[f[1] as usize] * b1 + uvs[f[2] as usize] * b2;
+                let uv = uvs[f[0] as usize] * (1.0 - b1 - b2)
+                    + uvs[f[1] as usize] * b1
+                    + uvs[f[2] as usize] * b2;
                 tex.is_opaque(uv)
             }
             _ => true,
@@ -185,8 +229,14 @@ impl Scene {
 
     /// Axis-aligned bounds `(min, max)` over all vertices referenced by faces.
     pub fn bounds(&self) -> (Vec3, Vec3) {
-        self.triangles().fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), (_, t)| {
-            (lo.min(t[0]).min(t[1]).min(t[2]), hi.max(t[0]).max(t[1]).max(t[2]))
-        })
+        self.triangles().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), (_, t)| {
+                (
+                    lo.min(t[0]).min(t[1]).min(t[2]),
+                    hi.max(t[0]).max(t[1]).max(t[2]),
+                )
+            },
+        )
     }
 }

@@ -17,12 +17,23 @@ pub struct Receivers {
 
 impl Receivers {
     /// Validates lengths and values; normals are normalized here.
-    pub fn new(points: Vec<Vec3>, normals: Vec<Vec3>, valid: Vec<bool>, width: usize, height: usize) -> Result<Self> {
+    pub fn new(
+        points: Vec<Vec3>,
+        normals: Vec<Vec3>,
+        valid: Vec<bool>,
+        width: usize,
+        height: usize,
+    ) -> Result<Self> {
         let n = width * height;
         if points.len() != n || normals.len() != n || valid.len() != n {
             return Err(Error::invalid(
                 "receivers",
-                format!("expected {n} points, normals and flags, got {}, {}, {}", points.len(), normals.len(), valid.len()),
+                format!(
+                    "expected {n} points, normals and flags, got {}, {}, {}",
+                    points.len(),
+                    normals.len(),
+                    valid.len()
+                ),
             ));
         }
         let mut normals = normals;
@@ -31,15 +42,27 @@ impl Receivers {
                 continue;
             }
             if !p.is_finite() {
-                return Err(Error::invalid("points", format!("receiver {i} is not finite: {p}")));
+                return Err(Error::invalid(
+                    "points",
+                    format!("receiver {i} is not finite: {p}"),
+                ));
             }
             let len = nrm.length();
             if !len.is_finite() || len == 0.0 {
-                return Err(Error::invalid("normals", format!("receiver {i} has a zero or non-finite normal {nrm}")));
+                return Err(Error::invalid(
+                    "normals",
+                    format!("receiver {i} has a zero or non-finite normal {nrm}"),
+                ));
             }
             *nrm /= len;
         }
-        Ok(Self { points, normals, valid, width, height })
+        Ok(Self {
+            points,
+            normals,
+            valid,
+            width,
+            height,
+        })
     }
 
     /// Number of receivers.
@@ -60,9 +83,13 @@ impl Receivers {
 
     /// Bounds of the valid receivers, `None` when there are none.
     pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
-        self.points.iter().zip(&self.valid).filter(|(_, &v)| v).fold(None, |acc, (p, _)| match acc {
-            None => Some((*p, *p)),
-            Some((lo, hi)) => Some((lo.min(*p), hi.max(*p))),
-        })
+        self.points
+            .iter()
+            .zip(&self.valid)
+            .filter(|(_, &v)| v)
+            .fold(None, |acc, (p, _)| match acc {
+                None => Some((*p, *p)),
+                Some((lo, hi)) => Some((lo.min(*p), hi.max(*p))),
+            })
     }
 }

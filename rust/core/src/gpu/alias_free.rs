@@ -17,7 +17,9 @@ use super::multiview::{view_record, FRUSTUM, VECTOR64};
 use crate::error::{Error, Result};
 use crate::methods::alias_free::Setup;
 use crate::raster::depth::band_rows;
-use crate::raster::influence::{band_frustum, bin_regions, influence_hull, record_list_stats, ReceiverLists};
+use crate::raster::influence::{
+    band_frustum, bin_regions, influence_hull, record_list_stats, ReceiverLists,
+};
 use crate::raster::region::conservative_row_range;
 use crate::stats::Stats;
 use glam::DVec2;
@@ -54,7 +56,13 @@ pub(crate) fn masks(setup: &Setup<'_>, stats: &mut Stats) -> Result<Vec<u64>> {
     }
     let binding = gpu.limits().binding_bytes;
     let light = fits(light_values(setup), binding, "the light samples")?;
-    let lut = fits(setup.lut.map_or(vec![0u32], |t| bytemuck::cast_slice(&t.masks).to_vec()), binding, "the lookup table (use fewer lut bins or lut=None)")?;
+    let lut = fits(
+        setup
+            .lut
+            .map_or(vec![0u32], |t| bytemuck::cast_slice(&t.masks).to_vec()),
+        binding,
+        "the lookup table (use fewer lut bins or lut=None)",
+    )?;
     let batches = stats.time_add("rasterization", || caster_batches(setup, binding))?;
     let (w, h) = (setup.frustum.width, setup.frustum.height);
     let per_chunk = (binding / (VIEW_STRIDE as u64 * 8)).max(1) as usize;
@@ -64,14 +72,38 @@ pub(crate) fn masks(setup: &Setup<'_>, stats: &mut Stats) -> Result<Vec<u64>> {
     let mut out = Vec::with_capacity(setup.view.len() * setup.full.len());
     let mut lengths = vec![0usize; w * h];
     gpu.scoped(|| {
-        let light = gpu.buffer_init("alias_free light", bytemuck::cast_slice(&light), wgpu::BufferUsages::STORAGE);
-        let lut = gpu.buffer_init("alias_free table", bytemuck::cast_slice(&lut), wgpu::BufferUsages::STORAGE);
-        let batches: Vec<Uploaded> = batches.iter().map(|(casters, b)| b.upload(gpu, *casters)).collect();
+        let light = gpu.buffer_init(
+            "alias_free light",
+            bytemuck::cast_slice(&light),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let lut = gpu.buffer_init(
+            "alias_free table",
+            bytemuck::cast_slice(&lut),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let batches: Vec<Uploaded> = batches
+            .iter()
+            .map(|(casters, b)| b.upload(gpu, *casters))
+            .collect();
         for first in (0..setup.view.len()).step_by(per_chunk) {
             let chunk = first..(first + per_chunk).min(setup.view.len());
-            let run = Run { gpu, setup, light: &light, lut: &lut, words, views: chunk.len(), rows, per_slot };
+            let run = Run {
+                gpu,
+                setup,
+                light: &light,
+                lut: &lut,
+                words,
+                views: chunk.len(),
+                rows,
+                per_slot,
+            };
             let masks = run.chunk(&chunk, &batches, &mut lengths, stats)?;
-            out.extend(masks.chunks(2).map(|pair| u64::from(pair[0]) | u64::from(pair[1]) << 32));
+            out.extend(
+                masks
+                    .chunks(2)
+                    .map(|pair| u64::from(pair[0]) | u64::from(pair[1]) << 32),
+            );
         }
         Ok(())
     })?;
@@ -94,8 +126,16 @@ const COVER_LOOPS: usize = 1_000;
 /// alpha test's sample loop; the mask's word loops).
 fn entries_per_slot(setup: &Setup<'_>, words: usize) -> u32 {
     let table_only = setup.lut.is_some() && setup.view.iter().all(|v| !v.exact_planes);
-    let per_plane = if table_only { 2 * 8 + 2 * words } else { 32 * words + 2 * words };
-    let alpha = if setup.casters.prepared.iter().any(|t| t.alpha) { 32 * words } else { 0 };
+    let per_plane = if table_only {
+        2 * 8 + 2 * words
+    } else {
+        32 * words + 2 * words
+    };
+    let alpha = if setup.casters.prepared.iter().any(|t| t.alpha) {
+        32 * words
+    } else {
+        0
+    };
     let per_entry = 4 * per_plane + alpha + 4 * words + 16;
     ((LOOP_BUDGET - COVER_LOOPS) / (TEXELS_PER_THREAD * per_entry)).max(1) as u32
 }
@@ -160,7 +200,14 @@ impl Layout {
             levels.push((at, len.div_ceil(64)));
             at += len.div_ceil(64);
         }
-        Layout { texels, fill, flags, levels, entries: at, len: at + views }
+        Layout {
+            texels,
+            fill,
+            flags,
+            levels,
+            entries: at,
+            len: at + views,
+        }
     }
 }
 
@@ -186,8 +233,16 @@ struct Uploaded {
 impl Batch {
     fn upload(&self, gpu: &Gpu, casters: usize) -> Uploaded {
         Uploaded {
-            casters: gpu.buffer_init("alias_free casters", bytemuck::cast_slice(&self.casters), wgpu::BufferUsages::STORAGE),
-            info: gpu.buffer_init("alias_free caster info", bytemuck::cast_slice(&self.info), wgpu::BufferUsages::STORAGE),
+            casters: gpu.buffer_init(
+                "alias_free casters",
+                bytemuck::cast_slice(&self.casters),
+                wgpu::BufferUsages::STORAGE,
+            ),
+            info: gpu.buffer_init(
+                "alias_free caster info",
+                bytemuck::cast_slice(&self.info),
+                wgpu::BufferUsages::STORAGE,
+            ),
             regions: self.regions,
             regions_at: casters * INFO_STRIDE,
             items: self.items,
@@ -242,15 +297,27 @@ fn regions(setup: &Setup<'_>) -> Vec<Region> {
             casters.iter().filter_map(move |&c| {
                 let c = c as usize;
                 let hull = match (&setup.casters.hulls[c], &band_frustum) {
-                    (Some(_), Some(bf)) => influence_hull(bf, setup.bounds, &setup.casters.raw[c].1, setup.hull_degree),
+                    (Some(_), Some(bf)) => {
+                        influence_hull(bf, setup.bounds, &setup.casters.raw[c].1, setup.hull_degree)
+                    }
                     _ => None,
                 };
                 let reach = match &hull {
                     None => rows.clone(),
-                    Some(h) => conservative_row_range(h, f.height).map_or(0..0, |(y0, y1)| y0.max(rows.start)..(y1 + 1).min(rows.end)),
+                    Some(h) => conservative_row_range(h, f.height)
+                        .map_or(0..0, |(y0, y1)| y0.max(rows.start)..(y1 + 1).min(rows.end)),
                 };
-                let columns = hull.as_deref().map_or(0..f.width, |h| column_range(h, f.width));
-                (band_frustum.is_some() && !reach.is_empty() && !columns.is_empty()).then_some(Region { caster: c, hull, rows: reach, columns })
+                let columns = hull
+                    .as_deref()
+                    .map_or(0..f.width, |h| column_range(h, f.width));
+                (band_frustum.is_some() && !reach.is_empty() && !columns.is_empty()).then_some(
+                    Region {
+                        caster: c,
+                        hull,
+                        rows: reach,
+                        columns,
+                    },
+                )
             })
         })
         .collect();
@@ -261,7 +328,11 @@ fn regions(setup: &Setup<'_>) -> Vec<Region> {
 /// The columns of a `width`-column map that the polygon `hull` may touch, widened by a texel on
 /// each side (so that they hold every span `conservative_span` finds, whatever its rounding).
 fn column_range(hull: &[DVec2], width: usize) -> std::ops::Range<usize> {
-    let (lo, hi) = hull.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p.x), hi.max(p.x)));
+    let (lo, hi) = hull
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p.x), hi.max(p.x))
+        });
     let first = (lo.floor() - 1.0).clamp(0.0, width as f64);
     let end = (hi.floor() + 2.0).clamp(0.0, width as f64);
     first as usize..(end as usize).max(first as usize)
@@ -271,28 +342,51 @@ fn column_range(hull: &[DVec2], width: usize) -> std::ops::Range<usize> {
 fn caster_batches(setup: &Setup<'_>, binding: u64) -> Result<Vec<(usize, Batch)>> {
     let regions = regions(setup);
     let textures = Textures::new(setup);
-    let region_bytes = |r: &Region| (8 * 2 * r.hull.as_ref().map_or(0, Vec::len) as u64, 4 * REGION_STRIDE as u64);
+    let region_bytes = |r: &Region| {
+        (
+            8 * 2 * r.hull.as_ref().map_or(0, Vec::len) as u64,
+            4 * REGION_STRIDE as u64,
+        )
+    };
     let (caster64, caster32) = (8 * CASTER_STRIDE as u64, 4 * INFO_STRIDE as u64);
     let mut batches = Vec::new();
     let mut start = 0;
     while start < regions.len() {
         // Whole casters: all regions of the batch's casters.
-        let (mut end, mut bytes64, mut bytes32, mut items, mut casters) = (start, 0u64, 4 * textures.bits.len() as u64, 0u64, 0usize);
+        let (mut end, mut bytes64, mut bytes32, mut items, mut casters) =
+            (start, 0u64, 4 * textures.bits.len() as u64, 0u64, 0usize);
         while end < regions.len() {
-            let caster_end = end + regions[end..].iter().take_while(|r| r.caster == regions[end].caster).count();
+            let caster_end = end
+                + regions[end..]
+                    .iter()
+                    .take_while(|r| r.caster == regions[end].caster)
+                    .count();
             let group = &regions[end..caster_end];
-            let (g64, g32) = group.iter().map(region_bytes).fold((caster64, caster32), |(a, b), (c, d)| (a + c, b + d));
+            let (g64, g32) = group
+                .iter()
+                .map(region_bytes)
+                .fold((caster64, caster32), |(a, b), (c, d)| (a + c, b + d));
             let g_items: u64 = group.iter().map(Region::items).sum();
-            let over = bytes64 + g64 > binding || bytes32 + g32 > binding || items + g_items > MAX_ITEMS;
+            let over =
+                bytes64 + g64 > binding || bytes32 + g32 > binding || items + g_items > MAX_ITEMS;
             if over && end > start {
                 break;
             }
             if over {
                 return Err(Error::Unavailable(format!("backend=\"gpu\" alias_free: one caster's records exceed the adapter's storage binding of {binding} bytes")));
             }
-            (bytes64, bytes32, items, casters, end) = (bytes64 + g64, bytes32 + g32, items + g_items, casters + 1, caster_end);
+            (bytes64, bytes32, items, casters, end) = (
+                bytes64 + g64,
+                bytes32 + g32,
+                items + g_items,
+                casters + 1,
+                caster_end,
+            );
         }
-        batches.push((casters, batch(setup, &regions[start..end], casters, &textures)));
+        batches.push((
+            casters,
+            batch(setup, &regions[start..end], casters, &textures),
+        ));
         start = end;
     }
     Ok(batches)
@@ -312,7 +406,11 @@ impl Textures {
             at.entry(mesh).or_insert_with(|| {
                 let offset = bits.len();
                 if let Some(tex) = &setup.scene.meshes[mesh].alpha {
-                    bits.extend(tex.texels().chunks(32).map(|b| b.iter().enumerate().fold(0u32, |a, (k, &o)| a | u32::from(o) << k)));
+                    bits.extend(tex.texels().chunks(32).map(|b| {
+                        b.iter()
+                            .enumerate()
+                            .fold(0u32, |a, (k, &o)| a | u32::from(o) << k)
+                    }));
                 }
                 offset
             });
@@ -331,9 +429,25 @@ fn batch(setup: &Setup<'_>, regions: &[Region], casters: usize, textures: &Textu
             let t = &setup.casters.prepared[r.caster];
             f64s.extend(t.v.iter().chain([&t.normal]).flat_map(|v| v.to_array()));
             f64s.push(t.near_depth);
-            let flags = (u32::from(t.alpha) * FLAG_ALPHA) | (u32::from(t.moved) * FLAG_MOVED) | (u32::from(t.front_only) * FLAG_FRONT_ONLY) | (u32::from(t.culled) * FLAG_CULLED);
-            let tex = t.alpha.then(|| texture(setup, t.id)).flatten().unwrap_or(Texture { mesh: 0, width: 1, height: 1, uvs: [0.0; 6] });
-            let at = t.alpha.then(|| textures.at.get(&tex.mesh).copied()).flatten().unwrap_or(0);
+            let flags = (u32::from(t.alpha) * FLAG_ALPHA)
+                | (u32::from(t.moved) * FLAG_MOVED)
+                | (u32::from(t.front_only) * FLAG_FRONT_ONLY)
+                | (u32::from(t.culled) * FLAG_CULLED);
+            let tex = t
+                .alpha
+                .then(|| texture(setup, t.id))
+                .flatten()
+                .unwrap_or(Texture {
+                    mesh: 0,
+                    width: 1,
+                    height: 1,
+                    uvs: [0.0; 6],
+                });
+            let at = t
+                .alpha
+                .then(|| textures.at.get(&tex.mesh).copied())
+                .flatten()
+                .unwrap_or(0);
             info.extend([flags, (textures_at + at) as u32, tex.width, tex.height]);
             info.extend(tex.uvs.map(f32::to_bits));
         }
@@ -343,12 +457,26 @@ fn batch(setup: &Setup<'_>, regions: &[Region], casters: usize, textures: &Textu
         local += usize::from(k > 0 && regions[k - 1].caster != r.caster);
         let hull = r.hull.as_deref().unwrap_or(&[]);
         let blocks = r.columns.len().div_ceil(TEXELS_PER_THREAD);
-        info.extend([items as u32, local as u32, r.rows.start as u32, r.rows.len() as u32, f64s.len() as u32, hull.len() as u32, r.columns.start as u32, blocks as u32]);
+        info.extend([
+            items as u32,
+            local as u32,
+            r.rows.start as u32,
+            r.rows.len() as u32,
+            f64s.len() as u32,
+            hull.len() as u32,
+            r.columns.start as u32,
+            blocks as u32,
+        ]);
         f64s.extend(hull.iter().flat_map(|p| [p.x, p.y]));
         items += r.items();
     }
     info.extend(&textures.bits);
-    Batch { casters: f64s, info, regions: regions.len(), items }
+    Batch {
+        casters: f64s,
+        info,
+        regions: regions.len(),
+        items,
+    }
 }
 
 /// The texture of perforated face `id`.
@@ -359,7 +487,12 @@ fn texture(setup: &Setup<'_>, id: u32) -> Option<Texture> {
     let f = mesh.faces[r.face as usize];
     let uv = f.map(|k| uvs[k as usize]);
     let (height, width) = tex.shape();
-    Some(Texture { mesh: r.mesh as usize, width: width as u32, height: height as u32, uvs: [uv[0].x, uv[0].y, uv[1].x, uv[1].y, uv[2].x, uv[2].y] })
+    Some(Texture {
+        mesh: r.mesh as usize,
+        width: width as u32,
+        height: height as u32,
+        uvs: [uv[0].x, uv[0].y, uv[1].x, uv[1].y, uv[2].x, uv[2].y],
+    })
 }
 
 /// One chunk of view samples on the GPU: its shared buffers and sizes.
@@ -396,10 +529,25 @@ fn pipelines(gpu: &Gpu) -> &'static Pipelines {
     static PIPELINES: PerContext<Pipelines> = PerContext::new();
     PIPELINES.get_or_init(gpu, || {
         use Binding::{Read, ReadWrite, Uniform};
-        let layout = |lists: (u32, Binding)| gpu.layout("alias_free", &[(0, Uniform), (1, Read), (2, Read), (3, Read), lists, (5, Read), (6, Read), (7, ReadWrite)]);
+        let layout = |lists: (u32, Binding)| {
+            gpu.layout(
+                "alias_free",
+                &[
+                    (0, Uniform),
+                    (1, Read),
+                    (2, Read),
+                    (3, Read),
+                    lists,
+                    (5, Read),
+                    (6, Read),
+                    (7, ReadWrite),
+                ],
+            )
+        };
         let (lists_layout, tests_layout) = (layout((4, ReadWrite)), layout((8, Read)));
         let source = format!("{FRUSTUM}\n{VECTOR64}\n{SHADER}");
-        let make = |name: &str, layout| gpu.pipeline_with_layout("alias_free", &source, name, layout);
+        let make =
+            |name: &str, layout| gpu.pipeline_with_layout("alias_free", &source, name, layout);
         Pipelines {
             count: make("count_texels", &lists_layout),
             reduce: make("scan_reduce", &lists_layout),
@@ -440,35 +588,92 @@ struct Bound<'b> {
 impl Run<'_> {
     /// The masks (u32 words) of the chunk `chunk`; adds its lists' lengths to `lengths` (one per
     /// texel of the map) and records the stages' seconds.
-    fn chunk(&self, chunk: &std::ops::Range<usize>, batches: &[Uploaded], lengths: &mut [usize], stats: &mut Stats) -> Result<Vec<u32>> {
+    fn chunk(
+        &self,
+        chunk: &std::ops::Range<usize>,
+        batches: &[Uploaded],
+        lengths: &mut [usize],
+        stats: &mut Stats,
+    ) -> Result<Vec<u32>> {
         let (gpu, setup) = (self.gpu, self.setup);
         let p = pipelines(gpu);
         let (w, h) = (setup.frustum.width, setup.frustum.height);
-        let views = gpu.buffer_init("alias_free views", bytemuck::cast_slice(&self.view_values(chunk)), wgpu::BufferUsages::STORAGE);
+        let views = gpu.buffer_init(
+            "alias_free views",
+            bytemuck::cast_slice(&self.view_values(chunk)),
+            wgpu::BufferUsages::STORAGE,
+        );
         let mask_bytes = (self.views * self.words * 4) as u64;
         let masks = gpu.storage("alias_free masks", mask_bytes.max(4));
         let dummy = gpu.storage("alias_free (unused)", 8);
-        let ranges: Vec<(usize, usize)> = (0..h).step_by(self.rows).map(|r0| (r0, (r0 + self.rows).min(h))).collect();
-        let layouts: Vec<Layout> = ranges.iter().map(|&(r0, r1)| Layout::new((r1 - r0) * w, self.views)).collect();
-        let lists: Vec<wgpu::Buffer> = ranges.iter().zip(&layouts).map(|(&range, layout)| self.lists_buffer(range, layout)).collect();
+        let ranges: Vec<(usize, usize)> = (0..h)
+            .step_by(self.rows)
+            .map(|r0| (r0, (r0 + self.rows).min(h)))
+            .collect();
+        let layouts: Vec<Layout> = ranges
+            .iter()
+            .map(|&(r0, r1)| Layout::new((r1 - r0) * w, self.views))
+            .collect();
+        let lists: Vec<wgpu::Buffer> = ranges
+            .iter()
+            .zip(&layouts)
+            .map(|(&range, layout)| self.lists_buffer(range, layout))
+            .collect();
         // The list passes write the lists at binding 4, the test passes read them at binding 8.
         let bind = |b: &Bound<'_>, params: Params| {
             let uniform = gpu.uniform(&self.params(params));
-            let (layout, lists) = if b.tests { (&p.tests_layout, 8) } else { (&p.lists_layout, 4) };
-            let buffers = [(0, &uniform), (1, self.light), (2, self.lut), (3, &views), (lists, b.lists), (5, b.casters), (6, b.info), (7, &masks)];
+            let (layout, lists) = if b.tests {
+                (&p.tests_layout, 8)
+            } else {
+                (&p.lists_layout, 4)
+            };
+            let buffers = [
+                (0, &uniform),
+                (1, self.light),
+                (2, self.lut),
+                (3, &views),
+                (lists, b.lists),
+                (5, b.casters),
+                (6, b.info),
+                (7, &masks),
+            ];
             gpu.bind_numbered(layout, &buffers)
         };
-        let no_batch = |tests, lists| Bound { tests, lists, casters: &dummy, info: &dummy };
-        let items = |first: u64, count: u64, base: Params| Params { first: first as u32, count: count as u32, ..base };
+        let no_batch = |tests, lists| Bound {
+            tests,
+            lists,
+            casters: &dummy,
+            info: &dummy,
+        };
+        let items = |first: u64, count: u64, base: Params| Params {
+            first: first as u32,
+            count: count as u32,
+            ..base
+        };
         let mut seconds = [0.0; 2];
         let starts = gpu.timed(&mut seconds[0], || {
-            let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("alias_free lists") });
+            let mut encoder = gpu
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("alias_free lists"),
+                });
             for ((&(r0, r1), layout), lists) in ranges.iter().zip(&layouts).zip(&lists) {
                 let b = no_batch(false, lists);
-                let range = Params { row0: r0 as u32, row1: r1 as u32, ..Default::default() };
-                gpu.dispatch(&mut encoder, &p.count, self.views as u64, |first, count| bind(&b, items(first, count, range)));
+                let range = Params {
+                    row0: r0 as u32,
+                    row1: r1 as u32,
+                    ..Default::default()
+                };
+                gpu.dispatch(&mut encoder, &p.count, self.views as u64, |first, count| {
+                    bind(&b, items(first, count, range))
+                });
                 self.scan(&mut encoder, p, &|params| bind(&b, params), layout);
-                gpu.dispatch(&mut encoder, &p.scatter, self.views as u64, |first, count| bind(&b, items(first, count, range)));
+                gpu.dispatch(
+                    &mut encoder,
+                    &p.scatter,
+                    self.views as u64,
+                    |first, count| bind(&b, items(first, count, range)),
+                );
             }
             // Every range's starts, read back at once (the lists' lengths size the slots).
             let bytes: Vec<u64> = layouts.iter().map(|l| 4 * (l.texels as u64 + 1)).collect();
@@ -493,14 +698,40 @@ impl Run<'_> {
         }
         let slots = longest.div_ceil(self.per_slot as usize) as u32;
         let words = gpu.timed(&mut seconds[1], || {
-            let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("alias_free tests") });
+            let mut encoder = gpu
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("alias_free tests"),
+                });
             let b = no_batch(true, &lists[0]);
-            gpu.dispatch(&mut encoder, &p.initial, self.views as u64, |first, count| bind(&b, items(first, count, Params::default())));
+            gpu.dispatch(
+                &mut encoder,
+                &p.initial,
+                self.views as u64,
+                |first, count| bind(&b, items(first, count, Params::default())),
+            );
             for (&(r0, r1), lists) in ranges.iter().zip(&lists) {
-                for (batch, slot) in batches.iter().flat_map(|b| (0..slots).map(move |slot| (b, slot))) {
-                    let b = Bound { tests: true, lists, casters: &batch.casters, info: &batch.info };
-                    let range = Params { row0: r0 as u32, row1: r1 as u32, regions: batch.regions as u32, regions_at: batch.regions_at as u32, slot, ..Default::default() };
-                    gpu.dispatch(&mut encoder, &p.cover, batch.items, |first, count| bind(&b, items(first, count, range)));
+                for (batch, slot) in batches
+                    .iter()
+                    .flat_map(|b| (0..slots).map(move |slot| (b, slot)))
+                {
+                    let b = Bound {
+                        tests: true,
+                        lists,
+                        casters: &batch.casters,
+                        info: &batch.info,
+                    };
+                    let range = Params {
+                        row0: r0 as u32,
+                        row1: r1 as u32,
+                        regions: batch.regions as u32,
+                        regions_at: batch.regions_at as u32,
+                        slot,
+                        ..Default::default()
+                    };
+                    gpu.dispatch(&mut encoder, &p.cover, batch.items, |first, count| {
+                        bind(&b, items(first, count, range))
+                    });
                 }
             }
             gpu.finish_and_read(encoder, &masks)
@@ -511,17 +742,45 @@ impl Run<'_> {
     }
 
     /// The exclusive scan of a range's counts (level 0 of `layout`), level by level.
-    fn scan(&self, encoder: &mut wgpu::CommandEncoder, p: &Pipelines, bind: &dyn Fn(Params) -> wgpu::BindGroup, layout: &Layout) {
+    fn scan(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        p: &Pipelines,
+        bind: &dyn Fn(Params) -> wgpu::BindGroup,
+        layout: &Layout,
+    ) {
         let gpu = self.gpu;
-        let level = |l: usize| Params { level_in: layout.levels[l].0 as u32, level_out: layout.levels.get(l + 1).map_or(0, |n| n.0) as u32, level_len: layout.levels[l].1 as u32, ..Default::default() };
+        let level = |l: usize| Params {
+            level_in: layout.levels[l].0 as u32,
+            level_out: layout.levels.get(l + 1).map_or(0, |n| n.0) as u32,
+            level_len: layout.levels[l].1 as u32,
+            ..Default::default()
+        };
         let items = |l: usize| layout.levels.get(l + 1).map_or(1, |n| n.1) as u64;
         let top = layout.levels.len() - 1;
         for l in 0..top {
-            gpu.dispatch(encoder, &p.reduce, items(l), |first, count| bind(Params { first: first as u32, count: count as u32, ..level(l) }));
+            gpu.dispatch(encoder, &p.reduce, items(l), |first, count| {
+                bind(Params {
+                    first: first as u32,
+                    count: count as u32,
+                    ..level(l)
+                })
+            });
         }
-        gpu.dispatch(encoder, &p.top, 1, |_, _| bind(Params { count: 1, ..level(top) }));
+        gpu.dispatch(encoder, &p.top, 1, |_, _| {
+            bind(Params {
+                count: 1,
+                ..level(top)
+            })
+        });
         for l in (0..top).rev() {
-            gpu.dispatch(encoder, &p.down, items(l), |first, count| bind(Params { first: first as u32, count: count as u32, ..level(l) }));
+            gpu.dispatch(encoder, &p.down, items(l), |first, count| {
+                bind(Params {
+                    first: first as u32,
+                    count: count as u32,
+                    ..level(l)
+                })
+            });
         }
     }
 
@@ -595,7 +854,11 @@ impl Run<'_> {
                 values[layout.flags + k] = u32::from(f);
             }
         }
-        self.gpu.buffer_init("alias_free lists", bytemuck::cast_slice(&values), wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC)
+        self.gpu.buffer_init(
+            "alias_free lists",
+            bytemuck::cast_slice(&values),
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        )
     }
 }
 
@@ -624,60 +887,147 @@ mod tests {
 
     /// A ground quad (open), a closed sphere, a cloud of open triangles and a perforated checker.
     fn scene() -> Scene {
-        let ground = [(-3.0, -3.0), (3.0, -3.0), (3.0, 3.0), (-3.0, 3.0)].map(|(x, z)| Vec3::new(x, 0.0, z));
-        let ground = Mesh::new(ground.to_vec(), vec![[0, 2, 1], [0, 3, 2]], None, None, false).unwrap();
+        let ground =
+            [(-3.0, -3.0), (3.0, -3.0), (3.0, 3.0), (-3.0, 3.0)].map(|(x, z)| Vec3::new(x, 0.0, z));
+        let ground = Mesh::new(
+            ground.to_vec(),
+            vec![[0, 2, 1], [0, 3, 2]],
+            None,
+            None,
+            false,
+        )
+        .unwrap();
         let (n, m) = (16u32, 8u32);
         let mut pos = Vec::new();
         for i in 0..=m {
             let theta = std::f32::consts::PI * i as f32 / m as f32;
             for j in 0..=n {
                 let phi = 2.0 * std::f32::consts::PI * (j % n) as f32 / n as f32;
-                pos.push(Vec3::new(-1.0, 1.2, 0.3) + 0.5 * Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()));
+                pos.push(
+                    Vec3::new(-1.0, 1.2, 0.3)
+                        + 0.5
+                            * Vec3::new(
+                                theta.sin() * phi.cos(),
+                                theta.cos(),
+                                theta.sin() * phi.sin(),
+                            ),
+                );
             }
         }
-        let faces = (0..m).flat_map(|i| (0..n).map(move |j| i * (n + 1) + j)).flat_map(|a| [[a, a + n + 1, a + 1], [a + 1, a + n + 1, a + n + 2]]).collect();
+        let faces = (0..m)
+            .flat_map(|i| (0..n).map(move |j| i * (n + 1) + j))
+            .flat_map(|a| [[a, a + n + 1, a + 1], [a + 1, a + n + 1, a + n + 2]])
+            .collect();
         let sphere = Mesh::new(pos, faces, None, None, true).unwrap();
         let mut rng = Rng::new(5);
         let mut cloud = Vec::new();
         for _ in 0..60 {
-            let c = Vec3::new(3.0 * rng.next_f32() - 0.5, 0.6 + rng.next_f32(), 3.0 * rng.next_f32() - 1.5);
-            cloud.extend((0..3).map(|_| c + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 0.5));
+            let c = Vec3::new(
+                3.0 * rng.next_f32() - 0.5,
+                0.6 + rng.next_f32(),
+                3.0 * rng.next_f32() - 1.5,
+            );
+            cloud.extend((0..3).map(|_| {
+                c + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 0.5
+            }));
         }
         let cloud_faces = (0..60u32).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect();
         let cloud = Mesh::new(cloud, cloud_faces, None, None, false).unwrap();
-        let quad: Vec<Vec3> = [(-0.5, -2.0), (1.0, -2.0), (1.0, -0.8), (-0.5, -0.8)].map(|(x, z)| Vec3::new(x, 0.9, z)).to_vec();
-        let uvs = quad.iter().map(|p| Vec2::new(p.x * 2.0, p.z * 2.0)).collect();
+        let quad: Vec<Vec3> = [(-0.5, -2.0), (1.0, -2.0), (1.0, -0.8), (-0.5, -0.8)]
+            .map(|(x, z)| Vec3::new(x, 0.9, z))
+            .to_vec();
+        let uvs = quad
+            .iter()
+            .map(|p| Vec2::new(p.x * 2.0, p.z * 2.0))
+            .collect();
         let alpha: Vec<f32> = (0..64).map(|k| ((k / 8 + k % 8) % 2) as f32).collect();
-        let checker = Mesh::new(quad, vec![[0, 1, 2], [0, 2, 3]], Some(uvs), Some(AlphaTexture::new(8, 8, &alpha).unwrap()), false).unwrap();
+        let checker = Mesh::new(
+            quad,
+            vec![[0, 1, 2], [0, 2, 3]],
+            Some(uvs),
+            Some(AlphaTexture::new(8, 8, &alpha).unwrap()),
+            false,
+        )
+        .unwrap();
         Scene::new(vec![ground, sphere, cloud, checker]).unwrap()
     }
 
     /// Ground receivers, some invalid, with tilted normals (samples behind the tangent plane).
     fn receivers(n: usize) -> Receivers {
-        let points = (0..n * n).map(|i| Vec3::new(-2.5 + 5.0 * (i % n) as f32 / n as f32, 0.0, -2.5 + 5.0 * (i / n) as f32 / n as f32)).collect();
-        let normals = (0..n * n).map(|i| Vec3::new(0.3 * ((i % 5) as f32 - 2.0) / 2.0, 1.0, 0.0).normalize()).collect();
+        let points = (0..n * n)
+            .map(|i| {
+                Vec3::new(
+                    -2.5 + 5.0 * (i % n) as f32 / n as f32,
+                    0.0,
+                    -2.5 + 5.0 * (i / n) as f32 / n as f32,
+                )
+            })
+            .collect();
+        let normals = (0..n * n)
+            .map(|i| Vec3::new(0.3 * ((i % 5) as f32 - 2.0) / 2.0, 1.0, 0.0).normalize())
+            .collect();
         let valid = (0..n * n).map(|i| i % 13 != 4).collect();
         Receivers::new(points, normals, valid, n, n).unwrap()
     }
 
     /// Checks that both backends give the same masks; returns how many receivers are partly lit.
-    fn agree(light: &Light, samples: &SampleSet, opts: AliasFreeOptions, limits: Option<DispatchLimits>) -> usize {
+    fn agree(
+        light: &Light,
+        samples: &SampleSet,
+        opts: AliasFreeOptions,
+        limits: Option<DispatchLimits>,
+    ) -> usize {
         agree_on(&receivers(40), light, samples, opts, limits)
     }
 
-    fn agree_on(rx: &Receivers, light: &Light, samples: &SampleSet, opts: AliasFreeOptions, limits: Option<DispatchLimits>) -> usize {
+    fn agree_on(
+        rx: &Receivers,
+        light: &Light,
+        samples: &SampleSet,
+        opts: AliasFreeOptions,
+        limits: Option<DispatchLimits>,
+    ) -> usize {
         let scene = scene();
-        let cpu = sample_masks(&scene, light, rx, samples, &opts, false, &mut Stats::default()).unwrap();
+        let cpu = sample_masks(
+            &scene,
+            light,
+            rx,
+            samples,
+            &opts,
+            false,
+            &mut Stats::default(),
+        )
+        .unwrap();
         let _serial = LIMITS.lock().unwrap_or_else(|p| p.into_inner());
         force_limits(limits).unwrap();
         let mut stats = Stats::default();
-        let gpu = sample_masks(&scene, light, rx, samples, &AliasFreeOptions { backend: Backend::Gpu, ..opts }, false, &mut stats);
+        let gpu = sample_masks(
+            &scene,
+            light,
+            rx,
+            samples,
+            &AliasFreeOptions {
+                backend: Backend::Gpu,
+                ..opts
+            },
+            false,
+            &mut stats,
+        );
         force_limits(None).unwrap();
         let gpu = gpu.unwrap();
-        let differ = (0..rx.len()).filter(|&i| cpu.mask(i) != gpu.mask(i)).count();
-        assert_eq!(differ, 0, "{differ} of {} receivers' masks differ ({opts:?}, {limits:?})", rx.len());
+        let differ = (0..rx.len())
+            .filter(|&i| cpu.mask(i) != gpu.mask(i))
+            .count();
+        assert_eq!(
+            differ,
+            0,
+            "{differ} of {} receivers' masks differ ({opts:?}, {limits:?})",
+            rx.len()
+        );
         assert!(stats.get("max_list_length").unwrap_or(0.0) >= 1.0);
-        (0..rx.len()).filter(|&i| cpu.mask(i).iter().any(|&w| w != 0) && cpu.visibility(i) > 0.0).count()
+        (0..rx.len())
+            .filter(|&i| cpu.mask(i).iter().any(|&w| w != 0) && cpu.visibility(i) > 0.0)
+            .count()
     }
 
     fn samples(light: &Light, n: usize, rotate: bool) -> SampleSet {
@@ -689,62 +1039,144 @@ mod tests {
         if !have_gpu() {
             return;
         }
-        let rect = Light::rect(Vec3::new(0.3, 4.0, -0.2), Vec3::new(0.6, 0.0, 0.0), Vec3::new(0.0, 0.0, -0.6)).unwrap();
+        let rect = Light::rect(
+            Vec3::new(0.3, 4.0, -0.2),
+            Vec3::new(0.6, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, -0.6),
+        )
+        .unwrap();
         let disk = Light::disk(Vec3::new(-0.2, 3.5, 0.4), Vec3::new(0.1, -1.0, 0.2), 0.7).unwrap();
         let sphere = Light::sphere(Vec3::new(0.5, 3.0, 0.0), 0.5).unwrap();
-        let base = AliasFreeOptions { resolution: 64, bias: 1e-4, ..Default::default() };
-        for (light, n, rotate) in [(&rect, 100, false), (&disk, 64, true), (&sphere, 200, false)] {
+        let base = AliasFreeOptions {
+            resolution: 64,
+            bias: 1e-4,
+            ..Default::default()
+        };
+        for (light, n, rotate) in [
+            (&rect, 100, false),
+            (&disk, 64, true),
+            (&sphere, 200, false),
+        ] {
             for lut in [None, Some(16)] {
-                let partly = agree(light, &samples(light, n, rotate), AliasFreeOptions { lut, ..base }, None);
+                let partly = agree(
+                    light,
+                    &samples(light, n, rotate),
+                    AliasFreeOptions { lut, ..base },
+                    None,
+                );
                 assert!(partly > 50, "{partly} receivers in penumbra");
             }
         }
-        let all = AliasFreeOptions { casters: Casters::All, restrict_to_penumbra: false, hull_degree: 5, ..base };
+        let all = AliasFreeOptions {
+            casters: Casters::All,
+            restrict_to_penumbra: false,
+            hull_degree: 5,
+            ..base
+        };
         agree(&disk, &samples(&disk, 33, false), all, None);
         let point = Light::point(Vec3::new(0.2, 4.0, 0.1)).unwrap();
         agree(&point, &samples(&point, 1, false), base, None);
     }
 
     #[test]
-    fn view_samples_too_near_the_light_for_the_table_test_exactly_on_both_backends() -> crate::error::Result<()> {
+    fn view_samples_too_near_the_light_for_the_table_test_exactly_on_both_backends(
+    ) -> crate::error::Result<()> {
         if !have_gpu() {
             return Ok(());
         }
         // The light's bounding sphere (radius 2.1) is wider than TABLE_MAX_SPREAD of the distance
         // of the ground just below it, not of the ground farther out: one run has both kinds.
-        let rect = Light::rect(Vec3::new(0.3, 4.0, -0.2), Vec3::new(1.5, 0.0, 0.0), Vec3::new(0.0, 0.0, -1.5))?;
+        let rect = Light::rect(
+            Vec3::new(0.3, 4.0, -0.2),
+            Vec3::new(1.5, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, -1.5),
+        )?;
         let set = samples(&rect, 100, false);
-        let opts = AliasFreeOptions { resolution: 64, bias: 1e-4, lut: Some(16), ..Default::default() };
+        let opts = AliasFreeOptions {
+            resolution: 64,
+            bias: 1e-4,
+            lut: Some(16),
+            ..Default::default()
+        };
         let mut stats = Stats::default();
-        sample_masks(&scene(), &rect, &receivers(40), &set, &opts, false, &mut stats)?;
-        let (exact, view) = (stats.get("exact_view_samples").unwrap_or(0.0), stats.get("view_samples").unwrap_or(0.0));
-        assert!(exact > 0.0 && exact < view, "{exact} of {view} view samples tested exactly");
+        sample_masks(
+            &scene(),
+            &rect,
+            &receivers(40),
+            &set,
+            &opts,
+            false,
+            &mut stats,
+        )?;
+        let (exact, view) = (
+            stats.get("exact_view_samples").unwrap_or(0.0),
+            stats.get("view_samples").unwrap_or(0.0),
+        );
+        assert!(
+            exact > 0.0 && exact < view,
+            "{exact} of {view} view samples tested exactly"
+        );
         let partly = agree(&rect, &set, opts, None);
         assert!(partly > 50, "{partly} receivers in penumbra");
         Ok(())
     }
 
     #[test]
-    fn receivers_inside_a_closed_mesh_see_every_triangle_on_both_backends() -> crate::error::Result<()> {
+    fn receivers_inside_a_closed_mesh_see_every_triangle_on_both_backends(
+    ) -> crate::error::Result<()> {
         if !have_gpu() {
             return Ok(());
         }
         // Ground receivers, and a grid within the closed sphere (center (-1, 1.2, 0.3), radius
         // 0.5) facing up: culling would leave them the light; every closed triangle blocks them.
         let n = 24;
-        let mut points: Vec<Vec3> = (0..n * n).map(|i| Vec3::new(-2.5 + 5.0 * (i % n) as f32 / n as f32, 0.0, -2.5 + 5.0 * (i / n) as f32 / n as f32)).collect();
-        let inner: Vec<Vec3> = (0..n * n).map(|i| Vec3::new(-1.25 + 0.5 * (i % n) as f32 / n as f32, 1.2, 0.05 + 0.5 * (i / n) as f32 / n as f32)).collect();
+        let mut points: Vec<Vec3> = (0..n * n)
+            .map(|i| {
+                Vec3::new(
+                    -2.5 + 5.0 * (i % n) as f32 / n as f32,
+                    0.0,
+                    -2.5 + 5.0 * (i / n) as f32 / n as f32,
+                )
+            })
+            .collect();
+        let inner: Vec<Vec3> = (0..n * n)
+            .map(|i| {
+                Vec3::new(
+                    -1.25 + 0.5 * (i % n) as f32 / n as f32,
+                    1.2,
+                    0.05 + 0.5 * (i / n) as f32 / n as f32,
+                )
+            })
+            .collect();
         points.extend(&inner);
-        let rx = Receivers::new(points, vec![Vec3::Y; 2 * n * n], vec![true; 2 * n * n], n, 2 * n)?;
-        let rect = Light::rect(Vec3::new(0.3, 4.0, -0.2), Vec3::new(0.6, 0.0, 0.0), Vec3::new(0.0, 0.0, -0.6))?;
+        let rx = Receivers::new(
+            points,
+            vec![Vec3::Y; 2 * n * n],
+            vec![true; 2 * n * n],
+            n,
+            2 * n,
+        )?;
+        let rect = Light::rect(
+            Vec3::new(0.3, 4.0, -0.2),
+            Vec3::new(0.6, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, -0.6),
+        )?;
         let point = Light::point(Vec3::new(0.2, 4.0, 0.1))?;
         for (light, count) in [(&rect, 64), (&point, 1)] {
             let set = samples(light, count, false);
             for lut in [None, Some(16)] {
-                let opts = AliasFreeOptions { resolution: 64, bias: 1e-4, lut, ..Default::default() };
+                let opts = AliasFreeOptions {
+                    resolution: 64,
+                    bias: 1e-4,
+                    lut,
+                    ..Default::default()
+                };
                 let mut stats = Stats::default();
                 let masks = sample_masks(&scene(), light, &rx, &set, &opts, false, &mut stats)?;
-                assert!(stats.get("inside_view_samples").unwrap_or(0.0) >= (n * n) as f64, "{stats:?}");
+                assert!(
+                    stats.get("inside_view_samples").unwrap_or(0.0) >= (n * n) as f64,
+                    "{stats:?}"
+                );
                 // Exactly dark with exact tests; the table's binned planes leave holes.
                 assert!(lut.is_some() || (n * n..2 * n * n).all(|i| masks.visibility(i) == 0.0));
                 agree_on(&rx, light, &set, opts, None);
@@ -761,11 +1193,26 @@ mod tests {
         if !have_gpu() {
             return;
         }
-        let rect = Light::rect(Vec3::new(0.3, 4.0, -0.2), Vec3::new(0.6, 0.0, 0.0), Vec3::new(0.0, 0.0, -0.6)).unwrap();
+        let rect = Light::rect(
+            Vec3::new(0.3, 4.0, -0.2),
+            Vec3::new(0.6, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, -0.6),
+        )
+        .unwrap();
         let rx = receivers(128);
-        let opts = AliasFreeOptions { resolution: 4, bias: 1e-4, ..Default::default() };
+        let opts = AliasFreeOptions {
+            resolution: 4,
+            bias: 1e-4,
+            ..Default::default()
+        };
         agree_on(&rx, &rect, &samples(&rect, 256, false), opts, None);
-        agree_on(&receivers(48), &rect, &samples(&rect, 1024, false), AliasFreeOptions { lut: None, ..opts }, None);
+        agree_on(
+            &receivers(48),
+            &rect,
+            &samples(&rect, 1024, false),
+            AliasFreeOptions { lut: None, ..opts },
+            None,
+        );
     }
 
     #[test]
@@ -773,11 +1220,29 @@ mod tests {
         if !have_gpu() {
             return;
         }
-        let rect = Light::rect(Vec3::new(0.3, 4.0, -0.2), Vec3::new(0.6, 0.0, 0.0), Vec3::new(0.0, 0.0, -0.6)).unwrap();
+        let rect = Light::rect(
+            Vec3::new(0.3, 4.0, -0.2),
+            Vec3::new(0.6, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, -0.6),
+        )
+        .unwrap();
         // 4 KiB bindings: chunks of 25 view samples, ranges of a few rows, batches of a few casters.
-        let limits = DispatchLimits { workgroups: 2, binding_bytes: 4096 };
-        let opts = AliasFreeOptions { resolution: 32, bias: 1e-4, lut: Some(8), ..Default::default() };
+        let limits = DispatchLimits {
+            workgroups: 2,
+            binding_bytes: 4096,
+        };
+        let opts = AliasFreeOptions {
+            resolution: 32,
+            bias: 1e-4,
+            lut: Some(8),
+            ..Default::default()
+        };
         agree(&rect, &samples(&rect, 64, false), opts, Some(limits));
-        agree(&rect, &samples(&rect, 40, false), AliasFreeOptions { lut: None, ..opts }, Some(limits));
+        agree(
+            &rect,
+            &samples(&rect, 40, false),
+            AliasFreeOptions { lut: None, ..opts },
+            Some(limits),
+        );
     }
 }

@@ -65,8 +65,17 @@ struct Clock {
 
 impl Clock {
     fn new(gpu: &Gpu) -> Clock {
-        let set = gpu.device.create_query_set(&wgpu::QuerySetDescriptor { label: Some("stage clock"), ty: wgpu::QueryType::Timestamp, count: wgpu::QUERY_SET_MAX_QUERIES });
-        Clock { set, written: 0, seconds: 0.0, incomplete: false }
+        let set = gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("stage clock"),
+            ty: wgpu::QueryType::Timestamp,
+            count: wgpu::QUERY_SET_MAX_QUERIES,
+        });
+        Clock {
+            set,
+            written: 0,
+            seconds: 0.0,
+            incomplete: false,
+        }
     }
 
     /// The timestamp writes of the next pass; `None` once the set is full.
@@ -84,7 +93,9 @@ impl Clock {
 ///
 /// Errors: `Unavailable` when no adapter or device can be had, saying how to get one.
 pub fn context() -> Result<&'static Gpu> {
-    GPU.get_or_init(std::process::id() as usize, create).as_ref().map_err(|message| Error::Unavailable(message.clone()))
+    GPU.get_or_init(std::process::id() as usize, create)
+        .as_ref()
+        .map_err(|message| Error::Unavailable(message.clone()))
 }
 
 /// Forgets the parent's context in a forked child, so that its next call makes its own (see the
@@ -109,7 +120,9 @@ struct Entry<T> {
 
 impl<T: Send + Sync> Keyed<T> {
     const fn new() -> Keyed<T> {
-        Keyed { current: AtomicPtr::new(ptr::null_mut()) }
+        Keyed {
+            current: AtomicPtr::new(ptr::null_mut()),
+        }
     }
 
     /// The value of `key`, made by `make` on the first call with this key.
@@ -132,8 +145,14 @@ impl<T: Send + Sync> Keyed<T> {
                     return entry;
                 }
             }
-            let fresh = Box::into_raw(Box::new(Entry { key, value: OnceLock::new() }));
-            match self.current.compare_exchange(seen, fresh, Ordering::AcqRel, Ordering::Acquire) {
+            let fresh = Box::into_raw(Box::new(Entry {
+                key,
+                value: OnceLock::new(),
+            }));
+            match self
+                .current
+                .compare_exchange(seen, fresh, Ordering::AcqRel, Ordering::Acquire)
+            {
                 // SAFETY: `fresh` is from `Box::into_raw`, and once installed it is never freed.
                 Ok(_) => return unsafe { &*fresh },
                 Err(newer) => {
@@ -175,7 +194,10 @@ fn create() -> std::result::Result<Gpu, String> {
         descriptor.backends = wgpu::Backends::PRIMARY;
     }
     let instance = wgpu::Instance::new(descriptor);
-    let options = wgpu::RequestAdapterOptions { power_preference: wgpu::PowerPreference::HighPerformance, ..Default::default() };
+    let options = wgpu::RequestAdapterOptions {
+        power_preference: wgpu::PowerPreference::HighPerformance,
+        ..Default::default()
+    };
     let adapter = pollster::block_on(instance.request_adapter(&options)).map_err(|e| {
         format!(
             "no GPU adapter ({e}): backend=\"gpu\" needs a Vulkan, Metal or DirectX 12 driver; \
@@ -185,20 +207,36 @@ fn create() -> std::result::Result<Gpu, String> {
     // The adapter's own limits, not WebGPU's defaults: large maps and point buffers need them;
     // and 64-bit floats where the adapter has them (cssm's summed-area table).
     let limits = adapter.limits();
-    let features = adapter.features() & (wgpu::Features::SHADER_F64 | wgpu::Features::TIMESTAMP_QUERY);
-    let descriptor = wgpu::DeviceDescriptor { label: Some("softshadows"), required_limits: limits.clone(), required_features: features, ..Default::default() };
-    let (device, queue) = pollster::block_on(adapter.request_device(&descriptor)).map_err(|e| format!("the GPU adapter refused a device: {e}"))?;
+    let features =
+        adapter.features() & (wgpu::Features::SHADER_F64 | wgpu::Features::TIMESTAMP_QUERY);
+    let descriptor = wgpu::DeviceDescriptor {
+        label: Some("softshadows"),
+        required_limits: limits.clone(),
+        required_features: features,
+        ..Default::default()
+    };
+    let (device, queue) = pollster::block_on(adapter.request_device(&descriptor))
+        .map_err(|e| format!("the GPU adapter refused a device: {e}"))?;
     let adapter_limits = DispatchLimits {
         workgroups: limits.max_compute_workgroups_per_dimension,
-        binding_bytes: limits.max_storage_buffer_binding_size.min(limits.max_buffer_size),
+        binding_bytes: limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size),
     };
-    Ok(Gpu { device, queue, info: adapter.get_info(), adapter_limits })
+    Ok(Gpu {
+        device,
+        queue,
+        info: adapter.get_info(),
+        adapter_limits,
+    })
 }
 
 impl Gpu {
     /// The limits that split work: the adapter's, lowered by [`super::force_limits`].
     pub fn limits(&self) -> DispatchLimits {
-        forced_limits().map_or(self.adapter_limits, |forced| forced.min(self.adapter_limits))
+        forced_limits().map_or(self.adapter_limits, |forced| {
+            forced.min(self.adapter_limits)
+        })
     }
 
     /// The adapter's name, backend, device type and driver, and the splitting limits.
@@ -207,10 +245,24 @@ impl Gpu {
         [
             ("name", self.info.name.clone()),
             ("backend", format!("{:?}", self.info.backend).to_lowercase()),
-            ("device_type", format!("{:?}", self.info.device_type).to_lowercase()),
-            ("driver", format!("{} {}", self.info.driver, self.info.driver_info).trim().to_string()),
-            ("max_workgroups_per_dimension", limits.workgroups.to_string()),
-            ("max_storage_binding_bytes", limits.binding_bytes.to_string()),
+            (
+                "device_type",
+                format!("{:?}", self.info.device_type).to_lowercase(),
+            ),
+            (
+                "driver",
+                format!("{} {}", self.info.driver, self.info.driver_info)
+                    .trim()
+                    .to_string(),
+            ),
+            (
+                "max_workgroups_per_dimension",
+                limits.workgroups.to_string(),
+            ),
+            (
+                "max_storage_binding_bytes",
+                limits.binding_bytes.to_string(),
+            ),
             ("timestamp_queries", self.has_timestamps().to_string()),
         ]
         .into_iter()
@@ -224,9 +276,14 @@ impl Gpu {
         let out_of_memory = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let out = work();
-        let errors = [pollster::block_on(validation.pop()), pollster::block_on(out_of_memory.pop())];
+        let errors = [
+            pollster::block_on(validation.pop()),
+            pollster::block_on(out_of_memory.pop()),
+        ];
         match errors.into_iter().flatten().next() {
-            Some(error) => Err(Error::Unavailable(format!("the GPU refused the work: {error}"))),
+            Some(error) => Err(Error::Unavailable(format!(
+                "the GPU refused the work: {error}"
+            ))),
             None => out,
         }
     }
@@ -238,7 +295,9 @@ impl Gpu {
 
     /// Whether stage times come from the GPU's timestamp queries (see the module doc).
     pub fn has_timestamps(&self) -> bool {
-        self.device.features().contains(wgpu::Features::TIMESTAMP_QUERY)
+        self.device
+            .features()
+            .contains(wgpu::Features::TIMESTAMP_QUERY)
     }
 
     /// Runs `work` and adds its stage time to `*seconds`: the GPU's execution time of the compute
@@ -257,10 +316,23 @@ impl Gpu {
     }
 
     /// A compute pass on `encoder`, with timestamp writes inside a [`Gpu::timed`] scope.
-    pub fn begin_pass<'e>(&self, encoder: &'e mut wgpu::CommandEncoder, label: &str) -> wgpu::ComputePass<'e> {
+    pub fn begin_pass<'e>(
+        &self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        label: &str,
+    ) -> wgpu::ComputePass<'e> {
         let slot = CLOCK.with(|c| c.borrow_mut().as_mut().and_then(Clock::next_pass));
-        let writes = slot.as_ref().map(|(set, at)| wgpu::ComputePassTimestampWrites { query_set: set, beginning_of_pass_write_index: Some(*at), end_of_pass_write_index: Some(at + 1) });
-        encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: writes })
+        let writes = slot
+            .as_ref()
+            .map(|(set, at)| wgpu::ComputePassTimestampWrites {
+                query_set: set,
+                beginning_of_pass_write_index: Some(*at),
+                end_of_pass_write_index: Some(at + 1),
+            });
+        encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(label),
+            timestamp_writes: writes,
+        })
     }
 
     /// A bind group layout for compute shaders with buffers at the given binding numbers.
@@ -273,10 +345,23 @@ impl Gpu {
                     Binding::Read => wgpu::BufferBindingType::Storage { read_only: true },
                     Binding::ReadWrite => wgpu::BufferBindingType::Storage { read_only: false },
                 };
-                wgpu::BindGroupLayoutEntry { binding, visibility: wgpu::ShaderStages::COMPUTE, ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None }, count: None }
+                wgpu::BindGroupLayoutEntry {
+                    binding,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Buffer {
+                        ty,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                }
             })
             .collect();
-        self.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries: &entries })
+        self.device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some(label),
+                entries: &entries,
+            })
     }
 
     /// A compute pipeline for `entry` of the WGSL `source`, its layout derived from the entry.
@@ -286,26 +371,60 @@ impl Gpu {
 
     /// A compute pipeline for `entry` of the WGSL `source` whose group 0 is `layout` (for entries
     /// that share bind groups while each uses only some of the bindings).
-    pub fn pipeline_with_layout(&self, label: &str, source: &str, entry: &str, layout: &wgpu::BindGroupLayout) -> wgpu::ComputePipeline {
-        let layout = self.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some(label), bind_group_layouts: &[Some(layout)], immediate_size: 0 });
+    pub fn pipeline_with_layout(
+        &self,
+        label: &str,
+        source: &str,
+        entry: &str,
+        layout: &wgpu::BindGroupLayout,
+    ) -> wgpu::ComputePipeline {
+        let layout = self
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(label),
+                bind_group_layouts: &[Some(layout)],
+                immediate_size: 0,
+            });
         self.compute_pipeline(label, source, entry, Some(&layout))
     }
 
-    fn compute_pipeline(&self, label: &str, source: &str, entry: &str, layout: Option<&wgpu::PipelineLayout>) -> wgpu::ComputePipeline {
-        let module = self.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(label), source: wgpu::ShaderSource::Wgsl(source.into()) });
-        self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some(label),
-            layout,
-            module: &module,
-            entry_point: Some(entry),
-            compilation_options: Default::default(),
-            cache: None,
-        })
+    fn compute_pipeline(
+        &self,
+        label: &str,
+        source: &str,
+        entry: &str,
+        layout: Option<&wgpu::PipelineLayout>,
+    ) -> wgpu::ComputePipeline {
+        let module = self
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(label),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
+            });
+        self.device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(label),
+                layout,
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
     }
 
     /// A buffer holding `contents` with `usage`.
-    pub fn buffer_init(&self, label: &str, contents: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
-        self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
+    pub fn buffer_init(
+        &self,
+        label: &str,
+        contents: &[u8],
+        usage: wgpu::BufferUsages,
+    ) -> wgpu::Buffer {
+        self.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
     }
 
     /// A storage buffer of `size` bytes that can be cleared and copied from.
@@ -313,14 +432,22 @@ impl Gpu {
         self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(label),
             size,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         })
     }
 
     /// Records `pipeline` over `items` threads (workgroups of [`WORKGROUP`]) in dispatches of at
     /// most the workgroup limit; `bind(first, count)` makes each dispatch's bind group.
-    pub fn dispatch(&self, encoder: &mut wgpu::CommandEncoder, pipeline: &wgpu::ComputePipeline, items: u64, bind: impl Fn(u64, u64) -> wgpu::BindGroup) {
+    pub fn dispatch(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        pipeline: &wgpu::ComputePipeline,
+        items: u64,
+        bind: impl Fn(u64, u64) -> wgpu::BindGroup,
+    ) {
         let per_dispatch = u64::from(self.limits().workgroups) * WORKGROUP;
         let mut first = 0;
         while first < items {
@@ -336,20 +463,46 @@ impl Gpu {
     }
 
     /// A bind group of `layout` binding `buffers` to bindings 0, 1, ... in order.
-    pub fn bind(&self, layout: &wgpu::BindGroupLayout, buffers: &[&wgpu::Buffer]) -> wgpu::BindGroup {
-        let numbered: Vec<(u32, &wgpu::Buffer)> = buffers.iter().enumerate().map(|(k, &b)| (k as u32, b)).collect();
+    pub fn bind(
+        &self,
+        layout: &wgpu::BindGroupLayout,
+        buffers: &[&wgpu::Buffer],
+    ) -> wgpu::BindGroup {
+        let numbered: Vec<(u32, &wgpu::Buffer)> = buffers
+            .iter()
+            .enumerate()
+            .map(|(k, &b)| (k as u32, b))
+            .collect();
         self.bind_numbered(layout, &numbered)
     }
 
     /// A bind group of `layout` binding each buffer to its binding number.
-    pub fn bind_numbered(&self, layout: &wgpu::BindGroupLayout, buffers: &[(u32, &wgpu::Buffer)]) -> wgpu::BindGroup {
-        let entries: Vec<wgpu::BindGroupEntry<'_>> = buffers.iter().map(|&(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }).collect();
-        self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout, entries: &entries })
+    pub fn bind_numbered(
+        &self,
+        layout: &wgpu::BindGroupLayout,
+        buffers: &[(u32, &wgpu::Buffer)],
+    ) -> wgpu::BindGroup {
+        let entries: Vec<wgpu::BindGroupEntry<'_>> = buffers
+            .iter()
+            .map(|&(binding, b)| wgpu::BindGroupEntry {
+                binding,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout,
+            entries: &entries,
+        })
     }
 
     /// A uniform buffer holding the 32-bit words `params`.
     pub fn uniform(&self, params: &[u32]) -> wgpu::Buffer {
-        self.buffer_init("params", bytemuck::cast_slice(params), wgpu::BufferUsages::UNIFORM)
+        self.buffer_init(
+            "params",
+            bytemuck::cast_slice(params),
+            wgpu::BufferUsages::UNIFORM,
+        )
     }
 
     /// Submits `encoder` and waits until the GPU has run it.
@@ -358,7 +511,11 @@ impl Gpu {
     }
 
     /// Submits `encoder`, copies `source` into a staging buffer and waits for its 32-bit words.
-    pub fn finish_and_read(&self, mut encoder: wgpu::CommandEncoder, source: &wgpu::Buffer) -> Result<Vec<u32>> {
+    pub fn finish_and_read(
+        &self,
+        mut encoder: wgpu::CommandEncoder,
+        source: &wgpu::Buffer,
+    ) -> Result<Vec<u32>> {
         let staging = self.staging(source.size());
         encoder.copy_buffer_to_buffer(source, 0, &staging, 0, source.size());
         self.submit(encoder)?;
@@ -372,7 +529,12 @@ impl Gpu {
             let mut clock = c.borrow_mut();
             let clock = clock.as_mut().filter(|clock| clock.written > 0)?;
             let bytes = 8 * u64::from(clock.written);
-            let resolved = self.device.create_buffer(&wgpu::BufferDescriptor { label: Some("timestamps"), size: bytes, usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC, mapped_at_creation: false });
+            let resolved = self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("timestamps"),
+                size: bytes,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
             encoder.resolve_query_set(&clock.set, 0..clock.written, &resolved, 0);
             let staging = self.staging(bytes);
             encoder.copy_buffer_to_buffer(&resolved, 0, &staging, 0, bytes);
@@ -383,20 +545,38 @@ impl Gpu {
         self.wait()?;
         if let Some(staging) = pending {
             let words = self.read(&staging)?;
-            let ticks: u64 = words.chunks(4).map(|q| (u64::from(q[2]) | u64::from(q[3]) << 32).saturating_sub(u64::from(q[0]) | u64::from(q[1]) << 32)).sum();
+            let ticks: u64 = words
+                .chunks(4)
+                .map(|q| {
+                    (u64::from(q[2]) | u64::from(q[3]) << 32)
+                        .saturating_sub(u64::from(q[0]) | u64::from(q[1]) << 32)
+                })
+                .sum();
             let seconds = ticks as f64 * f64::from(self.queue.get_timestamp_period()) * 1e-9;
-            CLOCK.with(|c| c.borrow_mut().as_mut().map(|clock| clock.seconds += seconds));
+            CLOCK.with(|c| {
+                c.borrow_mut()
+                    .as_mut()
+                    .map(|clock| clock.seconds += seconds)
+            });
         }
         Ok(())
     }
 
     fn wait(&self) -> Result<()> {
-        self.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(|e| Error::Unavailable(format!("GPU poll failed: {e}")))
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map(|_| ())
+            .map_err(|e| Error::Unavailable(format!("GPU poll failed: {e}")))
     }
 
     /// A buffer of `size` bytes to copy into and map for reading.
     fn staging(&self, size: u64) -> wgpu::Buffer {
-        self.device.create_buffer(&wgpu::BufferDescriptor { label: Some("readback"), size, usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false })
+        self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
     }
 
     /// The 32-bit words of `staging` (submitted and waited for).
@@ -411,7 +591,11 @@ impl Gpu {
             .recv()
             .map_err(|e| Error::Unavailable(format!("GPU readback lost: {e}")))?
             .map_err(|e| Error::Unavailable(format!("GPU readback failed: {e}")))?;
-        let words = bytemuck::pod_collect_to_vec(&slice.get_mapped_range().map_err(|e| Error::Unavailable(format!("GPU readback failed: {e}")))?);
+        let words = bytemuck::pod_collect_to_vec(
+            &slice
+                .get_mapped_range()
+                .map_err(|e| Error::Unavailable(format!("GPU readback failed: {e}")))?,
+        );
         staging.unmap();
         Ok(words)
     }
@@ -444,8 +628,15 @@ mod tests {
         static KEYED: Keyed<usize> = Keyed::new();
         let made = AtomicUsize::new(0);
         let values: Vec<usize> = std::thread::scope(|scope| {
-            let handles: Vec<_> = (0..8).map(|_| scope.spawn(|| *KEYED.get_or_init(1, || made.fetch_add(1, Ordering::Relaxed)))).collect();
-            handles.into_iter().filter_map(|handle| handle.join().ok()).collect()
+            let handles: Vec<_> = (0..8)
+                .map(|_| {
+                    scope.spawn(|| *KEYED.get_or_init(1, || made.fetch_add(1, Ordering::Relaxed)))
+                })
+                .collect();
+            handles
+                .into_iter()
+                .filter_map(|handle| handle.join().ok())
+                .collect()
         });
         assert_eq!(values, vec![0; 8]);
         assert_eq!(made.load(Ordering::Relaxed), 1);

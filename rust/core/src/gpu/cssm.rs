@@ -33,20 +33,44 @@ pub fn cssm(map: &DepthMap, shared: &Shared, starts: &[Start]) -> Result<(Vec<f3
     let pipelines = pipelines(gpu);
     let mut seconds = [0.0; 3];
     let tables = gpu.scoped(|| {
-        let depth = gpu.buffer_init("cssm depth", bytemuck::cast_slice(&map.depth), wgpu::BufferUsages::STORAGE);
+        let depth = gpu.buffer_init(
+            "cssm depth",
+            bytemuck::cast_slice(&map.depth),
+            wgpu::BufferUsages::STORAGE,
+        );
         let dummy = gpu.storage("cssm receivers (unused)", RECEIVER_BYTES);
-        let tables: Vec<wgpu::Buffer> = groups.iter().map(|g| gpu.storage("cssm table", table_bytes(map, g.channels()))).collect();
+        let tables: Vec<wgpu::Buffer> = groups
+            .iter()
+            .map(|g| gpu.storage("cssm table", table_bytes(map, g.channels())))
+            .collect();
         // Items per group: texels; rows and columns times the group's channels.
         let stages: [(&str, &wgpu::ComputePipeline, ItemCount); 3] = [
-            ("basis", &pipelines.basis, |m, _| (m.width * m.height) as u64),
-            ("rows", &pipelines.rows, |m, g| (m.height * g.channels()) as u64),
-            ("columns", &pipelines.columns, |m, g| (m.width * g.channels()) as u64),
+            ("basis", &pipelines.basis, |m, _| {
+                (m.width * m.height) as u64
+            }),
+            ("rows", &pipelines.rows, |m, g| {
+                (m.height * g.channels()) as u64
+            }),
+            ("columns", &pipelines.columns, |m, g| {
+                (m.width * g.channels()) as u64
+            }),
         ];
         for (stage, (name, pipeline, items)) in stages.into_iter().enumerate() {
             gpu.timed(&mut seconds[usize::from(stage > 0)], || {
-                let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(name) });
+                let mut encoder = gpu
+                    .device
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(name) });
                 for (group, table) in groups.iter().zip(&tables) {
-                    run(gpu, &mut encoder, pipelines, pipeline, [&depth, table, &dummy], items(map, group), group, (map, shared));
+                    run(
+                        gpu,
+                        &mut encoder,
+                        pipelines,
+                        pipeline,
+                        [&depth, table, &dummy],
+                        items(map, group),
+                        group,
+                        (map, shared),
+                    );
                 }
                 gpu.finish(encoder)
             })?;
@@ -56,7 +80,9 @@ pub fn cssm(map: &DepthMap, shared: &Shared, starts: &[Start]) -> Result<(Vec<f3
     let per_chunk = (limits.binding_bytes / RECEIVER_BYTES).max(1) as usize;
     let mut vis = Vec::with_capacity(starts.len());
     for chunk in starts.chunks(per_chunk) {
-        vis.extend(gpu.timed(&mut seconds[2], || gpu.scoped(|| lookup_chunk(gpu, pipelines, map, shared, &groups, &tables, chunk)))?);
+        vis.extend(gpu.timed(&mut seconds[2], || {
+            gpu.scoped(|| lookup_chunk(gpu, pipelines, map, shared, &groups, &tables, chunk))
+        })?);
     }
     Ok((vis, seconds))
 }
@@ -75,7 +101,15 @@ struct Pipelines {
 fn pipelines(gpu: &Gpu) -> &'static Pipelines {
     static PIPELINES: PerContext<Pipelines> = PerContext::new();
     PIPELINES.get_or_init(gpu, || {
-        let layout = gpu.layout("cssm", &[(0, Binding::Uniform), (1, Binding::Read), (2, Binding::ReadWrite), (3, Binding::ReadWrite)]);
+        let layout = gpu.layout(
+            "cssm",
+            &[
+                (0, Binding::Uniform),
+                (1, Binding::Read),
+                (2, Binding::ReadWrite),
+                (3, Binding::ReadWrite),
+            ],
+        );
         let make = |entry: &str| gpu.pipeline_with_layout("cssm", SHADER, entry, &layout);
         Pipelines {
             basis: make("basis"),
@@ -140,7 +174,9 @@ fn table_bytes(map: &DepthMap, channels: usize) -> u64 {
 /// Errors: a binding smaller than one coefficient's four table channels, or than the map.
 fn groups(map: &DepthMap, order: usize, limits: DispatchLimits) -> Result<Vec<Group>> {
     let channel = table_bytes(map, 1);
-    if 4 * channel > limits.binding_bytes || (map.width * map.height * 4) as u64 > limits.binding_bytes {
+    if 4 * channel > limits.binding_bytes
+        || (map.width * map.height * 4) as u64 > limits.binding_bytes
+    {
         return Err(Error::invalid(
             "resolution",
             format!(
@@ -153,10 +189,23 @@ fn groups(map: &DepthMap, order: usize, limits: DispatchLimits) -> Result<Vec<Gr
         ));
     }
     let per_group = ((limits.binding_bytes / channel) as usize / 4).clamp(1, order.max(1));
-    let mut groups: Vec<Group> = (0..order).step_by(per_group).map(|k0| Group { k0, nk: per_group.min(order - k0), has_z: false }).collect();
+    let mut groups: Vec<Group> = (0..order)
+        .step_by(per_group)
+        .map(|k0| Group {
+            k0,
+            nk: per_group.min(order - k0),
+            has_z: false,
+        })
+        .collect();
     match groups.last_mut() {
-        Some(last) if (last.channels() as u64 + 1) * channel <= limits.binding_bytes => last.has_z = true,
-        _ => groups.push(Group { k0: order, nk: 0, has_z: true }),
+        Some(last) if (last.channels() as u64 + 1) * channel <= limits.binding_bytes => {
+            last.has_z = true
+        }
+        _ => groups.push(Group {
+            k0: order,
+            nk: 0,
+            has_z: true,
+        }),
     }
     Ok(groups)
 }
@@ -164,10 +213,22 @@ fn groups(map: &DepthMap, order: usize, limits: DispatchLimits) -> Result<Vec<Gr
 /// Records `pipeline` over `items` items for `group`, binding `buffers` (depth, table,
 /// receivers) after each dispatch's `Params`.
 #[allow(clippy::too_many_arguments)]
-fn run(gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, pipelines: &Pipelines, pipeline: &wgpu::ComputePipeline, buffers: [&wgpu::Buffer; 3], items: u64, group: &Group, (map, shared): (&DepthMap, &Shared)) {
+fn run(
+    gpu: &Gpu,
+    encoder: &mut wgpu::CommandEncoder,
+    pipelines: &Pipelines,
+    pipeline: &wgpu::ComputePipeline,
+    buffers: [&wgpu::Buffer; 3],
+    items: u64,
+    group: &Group,
+    (map, shared): (&DepthMap, &Shared),
+) {
     gpu.dispatch(encoder, pipeline, items, |first, count| {
         let params = gpu.uniform(&group.params(map, shared, first, count));
-        gpu.bind(&pipelines.layout, &[&params, buffers[0], buffers[1], buffers[2]])
+        gpu.bind(
+            &pipelines.layout,
+            &[&params, buffers[0], buffers[1], buffers[2]],
+        )
     });
 }
 
@@ -176,23 +237,88 @@ fn records(starts: &[Start]) -> Vec<f32> {
     starts
         .iter()
         .flat_map(|s| match *s {
-            Start::Done(v) => [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, f32::from_bits(1), v, 0.0, 0.0, 0.0],
-            Start::Look { center, half, depth, d } => [center.x, center.y, depth, d as f32, half.x, half.y, 0.0, f32::from_bits(0), 0.0, 0.0, 0.0, 0.0],
+            Start::Done(v) => [
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                f32::from_bits(1),
+                v,
+                0.0,
+                0.0,
+                0.0,
+            ],
+            Start::Look {
+                center,
+                half,
+                depth,
+                d,
+            } => [
+                center.x,
+                center.y,
+                depth,
+                d as f32,
+                half.x,
+                half.y,
+                0.0,
+                f32::from_bits(0),
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+            ],
         })
         .collect()
 }
 
 /// Stage 1 over every group, the blockers' depths, stage 2 over every group, the visibility.
-fn lookup_chunk(gpu: &Gpu, p: &Pipelines, map: &DepthMap, shared: &Shared, groups: &[Group], tables: &(wgpu::Buffer, Vec<wgpu::Buffer>), starts: &[Start]) -> Result<Vec<f32>> {
+fn lookup_chunk(
+    gpu: &Gpu,
+    p: &Pipelines,
+    map: &DepthMap,
+    shared: &Shared,
+    groups: &[Group],
+    tables: &(wgpu::Buffer, Vec<wgpu::Buffer>),
+    starts: &[Start],
+) -> Result<Vec<f32>> {
     let (depth, tables) = tables;
-    let state = gpu.buffer_init("cssm receivers", bytemuck::cast_slice(&records(starts)), wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC);
+    let state = gpu.buffer_init(
+        "cssm receivers",
+        bytemuck::cast_slice(&records(starts)),
+        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+    );
     let items = starts.len() as u64;
-    let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("cssm lookup") });
+    let mut encoder = gpu
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("cssm lookup"),
+        });
     for after_stage in [&p.blockers, &p.finish] {
         for (group, table) in groups.iter().zip(tables) {
-            run(gpu, &mut encoder, p, &p.accumulate, [depth, table, &state], items, group, (map, shared));
+            run(
+                gpu,
+                &mut encoder,
+                p,
+                &p.accumulate,
+                [depth, table, &state],
+                items,
+                group,
+                (map, shared),
+            );
         }
-        run(gpu, &mut encoder, p, after_stage, [depth, &tables[0], &state], items, &groups[0], (map, shared));
+        run(
+            gpu,
+            &mut encoder,
+            p,
+            after_stage,
+            [depth, &tables[0], &state],
+            items,
+            &groups[0],
+            (map, shared),
+        );
     }
     let words = gpu.finish_and_read(encoder, &state)?;
     Ok(words.chunks(12).map(|r| f32::from_bits(r[8])).collect())

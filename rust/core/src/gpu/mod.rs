@@ -44,7 +44,11 @@ pub mod cssm {
     use crate::methods::cssm::{Shared, Start};
     use crate::raster::depth::DepthMap;
 
-    pub fn cssm(_map: &DepthMap, _shared: &Shared, _starts: &[Start]) -> Result<(Vec<f32>, [f64; 3])> {
+    pub fn cssm(
+        _map: &DepthMap,
+        _shared: &Shared,
+        _starts: &[Start],
+    ) -> Result<(Vec<f32>, [f64; 3])> {
         Err(super::unavailable())
     }
 }
@@ -63,7 +67,12 @@ pub mod multiview {
             Err(super::unavailable())
         }
 
-        pub fn accumulate_maps(&self, _maps: &[&DepthMap], _views: &[LightFrustum], _weights: &[f32]) -> Result<()> {
+        pub fn accumulate_maps(
+            &self,
+            _maps: &[&DepthMap],
+            _views: &[LightFrustum],
+            _weights: &[f32],
+        ) -> Result<()> {
             match *self {}
         }
 
@@ -87,7 +96,12 @@ pub mod mvr {
             Err(super::unavailable())
         }
 
-        pub fn draw_and_light(&self, _views: &[LightFrustum], _weights: &[f32], _lighting: &Lighting) -> Result<(f64, f64, u64)> {
+        pub fn draw_and_light(
+            &self,
+            _views: &[LightFrustum],
+            _weights: &[f32],
+            _lighting: &Lighting,
+        ) -> Result<(f64, f64, u64)> {
             match *self {}
         }
     }
@@ -117,7 +131,12 @@ pub mod vwss {
             Err(super::unavailable())
         }
 
-        pub fn warp_and_light(&self, _views: &[LightFrustum], _weights: &[f32], _lighting: &Lighting) -> Result<(f64, f64)> {
+        pub fn warp_and_light(
+            &self,
+            _views: &[LightFrustum],
+            _weights: &[f32],
+            _lighting: &Lighting,
+        ) -> Result<(f64, f64)> {
             match *self {}
         }
     }
@@ -154,7 +173,10 @@ pub struct DispatchLimits {
 impl DispatchLimits {
     /// The smaller of each limit.
     pub fn min(self, other: DispatchLimits) -> DispatchLimits {
-        DispatchLimits { workgroups: self.workgroups.min(other.workgroups), binding_bytes: self.binding_bytes.min(other.binding_bytes) }
+        DispatchLimits {
+            workgroups: self.workgroups.min(other.workgroups),
+            binding_bytes: self.binding_bytes.min(other.binding_bytes),
+        }
     }
 }
 
@@ -166,23 +188,34 @@ static FORCED: Mutex<Option<DispatchLimits>> = Mutex::new(None);
 pub fn force_limits(limits: Option<DispatchLimits>) -> Result<()> {
     if let Some(l) = limits {
         if l.workgroups == 0 || l.binding_bytes < 256 {
-            return Err(Error::invalid("limits", format!("need >= 1 workgroup and >= 256 binding bytes, got {l:?}")));
+            return Err(Error::invalid(
+                "limits",
+                format!("need >= 1 workgroup and >= 256 binding bytes, got {l:?}"),
+            ));
         }
     }
-    *FORCED.lock().unwrap_or_else(|poisoned| poisoned.into_inner()) = limits;
+    *FORCED
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner()) = limits;
     Ok(())
 }
 
 /// The forced limits, if any.
 #[cfg_attr(not(feature = "gpu"), allow(dead_code))]
 fn forced_limits() -> Option<DispatchLimits> {
-    *FORCED.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+    *FORCED
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
 }
 
 /// Runs GPU `work` and adds its stage time to `{stage}_seconds` in `stats`: the GPU's execution
 /// time of its compute passes by timestamp queries where the adapter has them, else the wall
 /// clock ([`Gpu::timed`]).
-pub fn timed_stage<T>(stats: &mut crate::stats::Stats, stage: &str, work: impl FnOnce() -> Result<T>) -> Result<T> {
+pub fn timed_stage<T>(
+    stats: &mut crate::stats::Stats,
+    stage: &str,
+    work: impl FnOnce() -> Result<T>,
+) -> Result<T> {
     #[cfg(feature = "gpu")]
     {
         let mut seconds = 0.0;
@@ -213,7 +246,10 @@ pub fn info() -> Result<Vec<(String, String)>> {
 /// The error of a GPU request that cannot be served.
 #[cfg(not(feature = "gpu"))]
 pub(crate) fn unavailable() -> Error {
-    Error::Unavailable("softshadows was built without the `gpu` feature: rebuild with it for backend=\"gpu\"".into())
+    Error::Unavailable(
+        "softshadows was built without the `gpu` feature: rebuild with it for backend=\"gpu\""
+            .into(),
+    )
 }
 
 #[cfg(test)]
@@ -226,15 +262,40 @@ mod shader_tests {
         let frustum = include_str!("frustum.wgsl");
         let vector64 = include_str!("vector64.wgsl");
         for (name, source, capabilities) in [
-            ("vwss.wgsl", format!("{frustum}\n{}", include_str!("vwss.wgsl")), Capabilities::empty()),
-            ("multiview.wgsl", format!("{frustum}\n{}", include_str!("multiview.wgsl")), Capabilities::empty()),
-            ("pcss.wgsl", format!("{frustum}\n{}", include_str!("pcss.wgsl")), Capabilities::FLOAT64),
-            ("mvr.wgsl", format!("{frustum}\n{vector64}\n{}", include_str!("mvr.wgsl")), Capabilities::FLOAT64),
-            ("cssm.wgsl", include_str!("cssm.wgsl").to_string(), Capabilities::FLOAT64),
-            ("alias_free.wgsl", format!("{frustum}\n{vector64}\n{}", include_str!("alias_free.wgsl")), Capabilities::FLOAT64),
+            (
+                "vwss.wgsl",
+                format!("{frustum}\n{}", include_str!("vwss.wgsl")),
+                Capabilities::empty(),
+            ),
+            (
+                "multiview.wgsl",
+                format!("{frustum}\n{}", include_str!("multiview.wgsl")),
+                Capabilities::empty(),
+            ),
+            (
+                "pcss.wgsl",
+                format!("{frustum}\n{}", include_str!("pcss.wgsl")),
+                Capabilities::FLOAT64,
+            ),
+            (
+                "mvr.wgsl",
+                format!("{frustum}\n{vector64}\n{}", include_str!("mvr.wgsl")),
+                Capabilities::FLOAT64,
+            ),
+            (
+                "cssm.wgsl",
+                include_str!("cssm.wgsl").to_string(),
+                Capabilities::FLOAT64,
+            ),
+            (
+                "alias_free.wgsl",
+                format!("{frustum}\n{vector64}\n{}", include_str!("alias_free.wgsl")),
+                Capabilities::FLOAT64,
+            ),
         ] {
             let source = source.as_str();
-            let module = naga::front::wgsl::parse_str(source).unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(source)));
+            let module = naga::front::wgsl::parse_str(source)
+                .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(source)));
             naga::valid::Validator::new(naga::valid::ValidationFlags::all(), capabilities)
                 .validate(&module)
                 .unwrap_or_else(|e| panic!("{name}: {e:?}"));

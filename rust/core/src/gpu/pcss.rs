@@ -12,7 +12,9 @@ const SHADER: &str = include_str!("pcss.wgsl");
 
 fn pipeline(gpu: &Gpu) -> &'static wgpu::ComputePipeline {
     static PIPELINE: PerContext<wgpu::ComputePipeline> = PerContext::new();
-    PIPELINE.get_or_init(gpu, || gpu.pipeline("pcss", &format!("{FRUSTUM}\n{SHADER}"), "pcss"))
+    PIPELINE.get_or_init(gpu, || {
+        gpu.pipeline("pcss", &format!("{FRUSTUM}\n{SHADER}"), "pcss")
+    })
 }
 
 /// The visibility of every receiver of `rx`, equal to the CPU's lookups, and the fraction of
@@ -33,13 +35,26 @@ pub fn pcss(lookup: &Lookup<'_>, rx: &Receivers) -> Result<(Vec<f32>, f64)> {
     gpu.scoped(|| {
         let maps = upload_maps(gpu, &[map])?;
         let view = upload_views(gpu, std::slice::from_ref(lookup.frustum), &[1.0]);
-        let taps: Vec<[f32; 2]> = lookup.blocker_taps.iter().chain(lookup.filter_taps).map(|t| t.to_array()).collect();
-        let taps = gpu.buffer_init("pcss taps", bytemuck::cast_slice(&taps), wgpu::BufferUsages::STORAGE);
+        let taps: Vec<[f32; 2]> = lookup
+            .blocker_taps
+            .iter()
+            .chain(lookup.filter_taps)
+            .map(|t| t.to_array())
+            .collect();
+        let taps = gpu.buffer_init(
+            "pcss taps",
+            bytemuck::cast_slice(&taps),
+            wgpu::BufferUsages::STORAGE,
+        );
         let layout = pipeline(gpu).get_bind_group_layout(0);
         let (mut out, mut valid, mut free) = (Vec::with_capacity(rx.len()), 0usize, 0usize);
         for (receivers, count) in receiver_chunks(gpu, rx) {
             let results = gpu.storage("pcss results", (count.max(1) * 8) as u64);
-            let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("pcss") });
+            let mut encoder = gpu
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("pcss"),
+                });
             gpu.dispatch(&mut encoder, pipeline(gpu), count as u64, |first, n| {
                 let f = f32::to_bits;
                 let params = [
@@ -56,7 +71,17 @@ pub fn pcss(lookup: &Lookup<'_>, rx: &Receivers) -> Result<(Vec<f32>, f64)> {
                     f(lookup.footprint.y),
                     0,
                 ];
-                gpu.bind(&layout, &[&gpu.uniform(&params), &view, &maps, &receivers, &taps, &results])
+                gpu.bind(
+                    &layout,
+                    &[
+                        &gpu.uniform(&params),
+                        &view,
+                        &maps,
+                        &receivers,
+                        &taps,
+                        &results,
+                    ],
+                )
             });
             let words = gpu.finish_and_read(encoder, &results)?;
             for pair in words[..2 * count].chunks(2) {
@@ -66,6 +91,13 @@ pub fn pcss(lookup: &Lookup<'_>, rx: &Receivers) -> Result<(Vec<f32>, f64)> {
                 out.push(f32::from_bits(pair[0]));
             }
         }
-        Ok((out, if valid > 0 { free as f64 / valid as f64 } else { 0.0 }))
+        Ok((
+            out,
+            if valid > 0 {
+                free as f64 / valid as f64
+            } else {
+                0.0
+            },
+        ))
     })
 }

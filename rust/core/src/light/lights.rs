@@ -29,15 +29,25 @@ impl EmissionTexture {
     /// A texture of non-negative, finite values, not all zero.
     pub fn new(width: usize, height: usize, values: Vec<f32>) -> Result<Self> {
         if width == 0 || height == 0 || values.len() != width * height {
-            return Err(Error::invalid("emission", format!("expected a non-empty (H, W) array, got {height}x{width}")));
+            return Err(Error::invalid(
+                "emission",
+                format!("expected a non-empty (H, W) array, got {height}x{width}"),
+            ));
         }
         if values.iter().any(|v| !v.is_finite() || *v < 0.0) {
             return Err(Error::invalid("emission", "values must be finite and >= 0"));
         }
         if values.iter().all(|v| *v == 0.0) {
-            return Err(Error::invalid("emission", "all values are zero: the light emits nothing"));
+            return Err(Error::invalid(
+                "emission",
+                "all values are zero: the light emits nothing",
+            ));
         }
-        Ok(Self { width, height, values })
+        Ok(Self {
+            width,
+            height,
+            values,
+        })
     }
 
     fn lookup(&self, st: Vec2) -> f32 {
@@ -50,16 +60,32 @@ impl EmissionTexture {
 /// The geometric shape of a light.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Shape {
-    Point { position: Vec3 },
+    Point {
+        position: Vec3,
+    },
     /// `u`, `v`: half-extent vectors; the light faces `normalize(u x v)`.
-    Rect { center: Vec3, u: Vec3, v: Vec3 },
-    Disk { center: Vec3, normal: Vec3, radius: f32 },
+    Rect {
+        center: Vec3,
+        u: Vec3,
+        v: Vec3,
+    },
+    Disk {
+        center: Vec3,
+        normal: Vec3,
+        radius: f32,
+    },
     /// Emits from its whole volume (Sintorn et al. 2008, Sample Based Visibility for Soft Shadows).
-    Sphere { center: Vec3, radius: f32 },
+    Sphere {
+        center: Vec3,
+        radius: f32,
+    },
     /// Emits from its whole volume: the points `center + axes x` with `|x| <= 1`; the columns
     /// of `axes` are the three mutually orthogonal semi-axes
     /// (Sintorn et al. 2008, Sample Based Visibility for Soft Shadows, section 4.1).
-    Ellipsoid { center: Vec3, axes: Mat3 },
+    Ellipsoid {
+        center: Vec3,
+        axes: Mat3,
+    },
 }
 
 /// A light: a shape and an optional emission texture.
@@ -84,7 +110,10 @@ fn positive_radius(r: f32) -> Result<()> {
     if r.is_finite() && r > 0.0 {
         Ok(())
     } else {
-        Err(Error::invalid("radius", format!("must be finite and > 0, got {r}")))
+        Err(Error::invalid(
+            "radius",
+            format!("must be finite and > 0, got {r}"),
+        ))
     }
 }
 
@@ -104,7 +133,11 @@ pub(crate) fn concentric_disk(s: f32, t: f32) -> Vec2 {
     if a == 0.0 && b == 0.0 {
         return Vec2::ZERO;
     }
-    let (r, phi) = if a.abs() > b.abs() { (a, PI / 4.0 * (b / a)) } else { (b, PI / 2.0 - PI / 4.0 * (a / b)) };
+    let (r, phi) = if a.abs() > b.abs() {
+        (a, PI / 4.0 * (b / a))
+    } else {
+        (b, PI / 2.0 - PI / 4.0 * (a / b))
+    };
     Vec2::new(r * phi.cos(), r * phi.sin())
 }
 
@@ -133,7 +166,10 @@ fn concentric_square(p: Vec2) -> Vec2 {
 impl Light {
     pub fn point(position: Vec3) -> Result<Self> {
         finite_vec("position", position)?;
-        Ok(Self { shape: Shape::Point { position }, emission: None })
+        Ok(Self {
+            shape: Shape::Point { position },
+            emission: None,
+        })
     }
 
     /// A rectangle with half-extent vectors `u`, `v`; refuses zero area, and `u`, `v` parallel to
@@ -148,9 +184,15 @@ impl Light {
         let (du, dv) = (u.as_dvec3(), v.as_dvec3());
         let (uu, vv, uv) = (du.dot(du), dv.dot(dv), du.dot(dv));
         if uu * vv - uv * uv <= 1e-12 * uu * vv {
-            return Err(Error::invalid("u", format!("u = {u} and v = {v} span (almost) zero area: parallel to within 1e-6 rad")));
+            return Err(Error::invalid(
+                "u",
+                format!("u = {u} and v = {v} span (almost) zero area: parallel to within 1e-6 rad"),
+            ));
         }
-        Ok(Self { shape: Shape::Rect { center, u, v }, emission: None })
+        Ok(Self {
+            shape: Shape::Rect { center, u, v },
+            emission: None,
+        })
     }
 
     /// A disk facing `normal`; refuses a zero normal or a radius <= 0.
@@ -161,14 +203,24 @@ impl Light {
         if normal.length_squared() == 0.0 {
             return Err(Error::invalid("normal", "must be non-zero"));
         }
-        Ok(Self { shape: Shape::Disk { center, normal: normal.normalize(), radius }, emission: None })
+        Ok(Self {
+            shape: Shape::Disk {
+                center,
+                normal: normal.normalize(),
+                radius,
+            },
+            emission: None,
+        })
     }
 
     /// A volumetric sphere; refuses a radius <= 0.
     pub fn sphere(center: Vec3, radius: f32) -> Result<Self> {
         finite_vec("center", center)?;
         positive_radius(radius)?;
-        Ok(Self { shape: Shape::Sphere { center, radius }, emission: None })
+        Ok(Self {
+            shape: Shape::Sphere { center, radius },
+            emission: None,
+        })
     }
 
     /// A volumetric ellipsoid with the three semi-axis vectors `axes` (columns); refuses
@@ -178,16 +230,28 @@ impl Light {
         for (k, a) in axes.iter().enumerate() {
             finite_vec("axes", *a)?;
             if a.length_squared() == 0.0 || !a.length_squared().is_finite() {
-                return Err(Error::invalid("axes", format!("semi-axis {k} = {a} has no usable length")));
+                return Err(Error::invalid(
+                    "axes",
+                    format!("semi-axis {k} = {a} has no usable length"),
+                ));
             }
         }
         for (i, j) in [(0, 1), (0, 2), (1, 2)] {
             let (a, b) = (axes[i], axes[j]);
             if a.dot(b).abs() > 1e-4 * a.length() * b.length() {
-                return Err(Error::invalid("axes", format!("semi-axes {i} = {a} and {j} = {b} are not orthogonal")));
+                return Err(Error::invalid(
+                    "axes",
+                    format!("semi-axes {i} = {a} and {j} = {b} are not orthogonal"),
+                ));
             }
         }
-        Ok(Self { shape: Shape::Ellipsoid { center, axes: Mat3::from_cols(axes[0], axes[1], axes[2]) }, emission: None })
+        Ok(Self {
+            shape: Shape::Ellipsoid {
+                center,
+                axes: Mat3::from_cols(axes[0], axes[1], axes[2]),
+            },
+            emission: None,
+        })
     }
 
     /// Adds an emission texture (rectangles and disks only).
@@ -197,7 +261,10 @@ impl Light {
                 self.emission = Some(texture);
                 Ok(self)
             }
-            _ => Err(Error::invalid("emission", "only RectLight and DiskLight take an emission texture")),
+            _ => Err(Error::invalid(
+                "emission",
+                "only RectLight and DiskLight take an emission texture",
+            )),
         }
     }
 
@@ -235,7 +302,11 @@ impl Light {
             Shape::Rect { u, v, .. } => (u + v).length().max((u - v).length()),
             Shape::Disk { radius, .. } | Shape::Sphere { radius, .. } => radius,
             // Orthogonal semi-axes: the longest is the farthest point.
-            Shape::Ellipsoid { axes, .. } => axes.x_axis.length().max(axes.y_axis.length()).max(axes.z_axis.length()),
+            Shape::Ellipsoid { axes, .. } => axes
+                .x_axis
+                .length()
+                .max(axes.y_axis.length())
+                .max(axes.z_axis.length()),
         }
     }
 
@@ -245,7 +316,9 @@ impl Light {
         match self.shape {
             Shape::Point { .. } => 0.0,
             Shape::Rect { u, v, .. } => u.dot(axis).abs() + v.dot(axis).abs(),
-            Shape::Disk { normal, radius, .. } => radius * (1.0 - normal.dot(axis).powi(2)).max(0.0).sqrt(),
+            Shape::Disk { normal, radius, .. } => {
+                radius * (1.0 - normal.dot(axis).powi(2)).max(0.0).sqrt()
+            }
             Shape::Sphere { radius, .. } => radius,
             // The support function of the ellipsoid: |Aᵀ axis|.
             Shape::Ellipsoid { axes, .. } => axes.transpose().mul_vec3(axis).length(),
@@ -265,8 +338,14 @@ impl Light {
     pub fn map(&self, p: [f32; 3]) -> Vec3 {
         match self.shape {
             Shape::Point { position } => position,
-            Shape::Rect { center, u, v } => center + u * (2.0 * p[0] - 1.0) + v * (2.0 * p[1] - 1.0),
-            Shape::Disk { center, normal, radius } => {
+            Shape::Rect { center, u, v } => {
+                center + u * (2.0 * p[0] - 1.0) + v * (2.0 * p[1] - 1.0)
+            }
+            Shape::Disk {
+                center,
+                normal,
+                radius,
+            } => {
                 let (t, b) = tangent_frame(normal);
                 let d = concentric_disk(p[0], p[1]) * radius;
                 center + t * d.x + b * d.y
@@ -290,7 +369,11 @@ impl Light {
                 let (a, b) = ((du * vv - dv * uv) / det, (dv * uu - du * uv) / det);
                 Vec2::new(((a + 1.0) * 0.5) as f32, ((b + 1.0) * 0.5) as f32)
             }
-            Shape::Disk { center, normal, radius } => {
+            Shape::Disk {
+                center,
+                normal,
+                radius,
+            } => {
                 let (t, b) = tangent_frame(normal);
                 let d = y - center;
                 concentric_square(Vec2::new(d.dot(t), d.dot(b)) / radius)
@@ -316,7 +399,9 @@ impl Light {
                 let st = st - st.floor();
                 center + u * (2.0 * st.x - 1.0) + v * (2.0 * st.y - 1.0)
             }
-            Shape::Disk { center, normal, .. } => center + glam::Quat::from_axis_angle(normal, 2.0 * PI * r[0]) * (y - center),
+            Shape::Disk { center, normal, .. } => {
+                center + glam::Quat::from_axis_angle(normal, 2.0 * PI * r[0]) * (y - center)
+            }
             Shape::Sphere { center, .. } => center + random_rotation(r) * (y - center),
             // In f64, and back into the unit ball: for a very skinny ellipsoid, the f32 rounding of
             // `y` across its thin axis grows by the inverse's huge scale, and rotated into the
@@ -324,7 +409,11 @@ impl Light {
             Shape::Ellipsoid { center, axes } => {
                 let a = axes.as_dmat3();
                 let unit = a.inverse() * (y - center).as_dvec3();
-                let unit = if unit.length() > 1.0 { unit.normalize() } else { unit };
+                let unit = if unit.length() > 1.0 {
+                    unit.normalize()
+                } else {
+                    unit
+                };
                 center + (a * (random_rotation(r).as_dmat3() * unit)).as_vec3()
             }
         }
@@ -338,7 +427,10 @@ impl Light {
     pub fn rigid_rotation(&self, r: RotationSeed) -> Option<Mat3> {
         match self.shape {
             Shape::Point { .. } => Some(Mat3::IDENTITY),
-            Shape::Disk { normal, .. } => Some(Mat3::from_quat(glam::Quat::from_axis_angle(normal, 2.0 * PI * r[0]))),
+            Shape::Disk { normal, .. } => Some(Mat3::from_quat(glam::Quat::from_axis_angle(
+                normal,
+                2.0 * PI * r[0],
+            ))),
             Shape::Sphere { .. } => Some(random_rotation(r)),
             Shape::Rect { .. } | Shape::Ellipsoid { .. } => None,
         }
@@ -375,24 +467,42 @@ mod tests {
     #[test]
     fn rotated_samples_of_extreme_lights_stay_on_the_light() {
         for h in [1e-12f32, 1e-3, 1e12] {
-            let light = Light::rect(Vec3::new(1.0, 2.0, 3.0), Vec3::new(h, 0.0, 0.0), Vec3::new(0.0, 0.0, h)).unwrap();
+            let light = Light::rect(
+                Vec3::new(1.0, 2.0, 3.0),
+                Vec3::new(h, 0.0, 0.0),
+                Vec3::new(0.0, 0.0, h),
+            )
+            .unwrap();
             let y = light.map([0.3, 0.6, 0.0]);
             let z = light.rotate(y, [0.4, 0.7, 0.0]);
             let d = z - light.center();
-            assert!(z.is_finite() && d.x.abs() <= h * 1.001 && d.z.abs() <= h * 1.001 && d.y == 0.0, "half extent {h}: {z}");
+            assert!(
+                z.is_finite() && d.x.abs() <= h * 1.001 && d.z.abs() <= h * 1.001 && d.y == 0.0,
+                "half extent {h}: {z}"
+            );
         }
-        let axes = [Vec3::new(1e8, 0.0, 0.0), Vec3::new(0.0, 1e-9, 0.0), Vec3::new(0.0, 0.0, 1.0)];
+        let axes = [
+            Vec3::new(1e8, 0.0, 0.0),
+            Vec3::new(0.0, 1e-9, 0.0),
+            Vec3::new(0.0, 0.0, 1.0),
+        ];
         let light = Light::ellipsoid(Vec3::ZERO, axes).unwrap();
         let z = light.rotate(light.map([0.2, 0.5, 0.7]), [0.3, 0.1, 0.9]);
         let unit = Vec3::new(z.x / 1e8, z.y / 1e-9, z.z);
-        assert!(unit.length() <= 1.0 + 1e-3, "{z} lies off the ellipsoid ({unit})");
+        assert!(
+            unit.length() <= 1.0 + 1e-3,
+            "{z} lies off the ellipsoid ({unit})"
+        );
     }
 
     #[test]
     fn concentric_map_round_trips() {
         for &(s, t) in &[(0.1, 0.2), (0.9, 0.3), (0.5, 0.95), (0.3, 0.7), (0.05, 0.5)] {
             let back = concentric_square(concentric_disk(s, t));
-            assert!((back - Vec2::new(s, t)).length() < 1e-5, "{s},{t} -> {back}");
+            assert!(
+                (back - Vec2::new(s, t)).length() < 1e-5,
+                "{s},{t} -> {back}"
+            );
         }
     }
 
@@ -416,7 +526,12 @@ mod tests {
 
     #[test]
     fn skewed_rectangles_map_back_to_their_parameters() {
-        let rect = Light::rect(Vec3::new(1.0, 2.0, 3.0), Vec3::new(1.0, 0.0, 0.3), Vec3::new(0.4, 0.0, 0.8)).unwrap();
+        let rect = Light::rect(
+            Vec3::new(1.0, 2.0, 3.0),
+            Vec3::new(1.0, 0.0, 0.3),
+            Vec3::new(0.4, 0.0, 0.8),
+        )
+        .unwrap();
         for &(s, t) in &[(0.1f32, 0.2f32), (0.9, 0.35), (0.5, 0.5), (0.02, 0.97)] {
             let st = rect.params(rect.map([s, t, 0.0]));
             assert!((st - Vec2::new(s, t)).length() < 1e-5, "{s},{t} -> {st}");
@@ -425,7 +540,13 @@ mod tests {
 
     #[test]
     fn disk_frames_are_right_handed_around_the_normal() {
-        for n in [Vec3::Y, -Vec3::Y, Vec3::X, Vec3::new(0.6, 0.0, 0.8), Vec3::new(-0.95, 0.1, 0.0).normalize()] {
+        for n in [
+            Vec3::Y,
+            -Vec3::Y,
+            Vec3::X,
+            Vec3::new(0.6, 0.0, 0.8),
+            Vec3::new(-0.95, 0.1, 0.0).normalize(),
+        ] {
             let (t, b) = tangent_frame(n);
             assert!((t.cross(b) - n).length() < 1e-6 && t.dot(n).abs() < 1e-6);
         }
@@ -433,15 +554,28 @@ mod tests {
 
     #[test]
     fn zero_area_and_bad_radius_are_refused() {
-        assert!(matches!(Light::rect(Vec3::ZERO, Vec3::X, Vec3::X * 2.0), Err(Error::InvalidInput { .. })));
-        assert!(matches!(Light::disk(Vec3::ZERO, Vec3::Y, -1.0), Err(Error::InvalidInput { .. })));
-        assert!(matches!(Light::sphere(Vec3::ZERO, 0.0), Err(Error::InvalidInput { .. })));
+        assert!(matches!(
+            Light::rect(Vec3::ZERO, Vec3::X, Vec3::X * 2.0),
+            Err(Error::InvalidInput { .. })
+        ));
+        assert!(matches!(
+            Light::disk(Vec3::ZERO, Vec3::Y, -1.0),
+            Err(Error::InvalidInput { .. })
+        ));
+        assert!(matches!(
+            Light::sphere(Vec3::ZERO, 0.0),
+            Err(Error::InvalidInput { .. })
+        ));
     }
 
     /// A tilted prolate ellipsoid: semi-axes 0.9, 0.3 and 0.2 along a rotated frame.
     fn ellipsoid() -> Light {
         let r = Mat3::from_rotation_y(0.7) * Mat3::from_rotation_x(-0.4);
-        Light::ellipsoid(Vec3::new(1.0, 3.0, -2.0), [r.x_axis * 0.9, r.y_axis * 0.3, r.z_axis * 0.2]).unwrap()
+        Light::ellipsoid(
+            Vec3::new(1.0, 3.0, -2.0),
+            [r.x_axis * 0.9, r.y_axis * 0.3, r.z_axis * 0.2],
+        )
+        .unwrap()
     }
 
     /// `|A⁻¹ (y − c)|`: at most 1 inside the ellipsoid.
@@ -478,9 +612,19 @@ mod tests {
 
     #[test]
     fn degenerate_or_skewed_ellipsoids_are_refused() {
-        let bad = [[Vec3::X, Vec3::Y, Vec3::ZERO], [Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Z], [Vec3::X, Vec3::Y, Vec3::splat(f32::NAN)]];
+        let bad = [
+            [Vec3::X, Vec3::Y, Vec3::ZERO],
+            [Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Z],
+            [Vec3::X, Vec3::Y, Vec3::splat(f32::NAN)],
+        ];
         for axes in bad {
-            assert!(matches!(Light::ellipsoid(Vec3::ZERO, axes), Err(Error::InvalidInput { .. })), "{axes:?}");
+            assert!(
+                matches!(
+                    Light::ellipsoid(Vec3::ZERO, axes),
+                    Err(Error::InvalidInput { .. })
+                ),
+                "{axes:?}"
+            );
         }
     }
 }

@@ -112,13 +112,23 @@ pub fn unit_pattern(pattern: Pattern, n: usize, dim: usize, seed: u64) -> Vec<[f
         Pattern::Stratified => stratified(n, dim, &mut rng),
         Pattern::Poisson => poisson(n, dim, &mut rng),
         Pattern::Sobol => {
-            let shift = [rng.next_u64() as u32, rng.next_u64() as u32, rng.next_u64() as u32];
-            (0..n as u32).map(|i| point(dim, |d| to_unit(sobol(i, d) ^ shift[d]))).collect()
+            let shift = [
+                rng.next_u64() as u32,
+                rng.next_u64() as u32,
+                rng.next_u64() as u32,
+            ];
+            (0..n as u32)
+                .map(|i| point(dim, |d| to_unit(sobol(i, d) ^ shift[d])))
+                .collect()
         }
         Pattern::Halton => {
             let shift = [rng.next_f32(), rng.next_f32(), rng.next_f32()];
             (0..n as u32)
-                .map(|i| point(dim, |d| (radical_inverse(i, [2, 3, 5][d]) + shift[d]).fract()))
+                .map(|i| {
+                    point(dim, |d| {
+                        (radical_inverse(i, [2, 3, 5][d]) + shift[d]).fract()
+                    })
+                })
                 .collect()
         }
     }
@@ -127,7 +137,10 @@ pub fn unit_pattern(pattern: Pattern, n: usize, dim: usize, seed: u64) -> Vec<[f
 /// `n` points of `pattern` in the unit disk (the unit square mapped by Shirley and Chiu's
 /// concentric map, which keeps strata and Poisson spacing), e.g. the tap patterns of PCSS.
 pub fn unit_disk_pattern(pattern: Pattern, n: usize, seed: u64) -> Vec<glam::Vec2> {
-    unit_pattern(pattern, n, 2, seed).into_iter().map(|p| crate::light::lights::concentric_disk(p[0], p[1])).collect()
+    unit_pattern(pattern, n, 2, seed)
+        .into_iter()
+        .map(|p| crate::light::lights::concentric_disk(p[0], p[1]))
+        .collect()
 }
 
 fn point(dim: usize, mut f: impl FnMut(usize) -> f32) -> [f32; 3] {
@@ -159,7 +172,13 @@ fn stratified(n: usize, dim: usize, rng: &mut Rng) -> Vec<[f32; 3]> {
             perm.swap(i, rng.below(i + 1));
         }
     }
-    (0..n).map(|i| point(dim, |d| ((perms[d][i] as f32 + rng.next_f32()) / n as f32).min(1.0 - f32::EPSILON))).collect()
+    (0..n)
+        .map(|i| {
+            point(dim, |d| {
+                ((perms[d][i] as f32 + rng.next_f32()) / n as f32).min(1.0 - f32::EPSILON)
+            })
+        })
+        .collect()
 }
 
 /// Poisson-disk dart throwing (Cook 1986, Stochastic Sampling in Computer Graphics, section 3.2):
@@ -211,7 +230,10 @@ fn throw_darts<const D: usize>(n: usize, mut radius: f32, rng: &mut Rng) -> (Vec
                     cov.mark(&p);
                 }
                 pts.push(p);
-            } else if D == 2 && coverage.is_none() && darts > n.saturating_mul(Coverage::JAMMED_DARTS) {
+            } else if D == 2
+                && coverage.is_none()
+                && darts > n.saturating_mul(Coverage::JAMMED_DARTS)
+            {
                 coverage = Some(Coverage::new(grid.cells, radius, &pts));
             }
         }
@@ -258,7 +280,11 @@ impl Coverage {
     /// The coverage of `pts` at `radius` on sub-cells of a grid of `cells` per side.
     fn new(cells: usize, radius: f32, pts: &[[f32; 3]]) -> Self {
         let per_side = cells.saturating_mul(Self::SUBDIVISION);
-        let mut cov = Self { per_side, bits: vec![0; per_side.saturating_mul(per_side).div_ceil(64)], safe: 0.0 };
+        let mut cov = Self {
+            per_side,
+            bits: vec![0; per_side.saturating_mul(per_side).div_ceil(64)],
+            safe: 0.0,
+        };
         cov.reset(radius, pts);
         cov
     }
@@ -336,7 +362,11 @@ pub fn poisson_scratch_bytes(n: usize, dim: usize) -> u64 {
     let side = (cells as u64).saturating_add(2 * reach as u64);
     let grid = crate::limits::bytes(&[side; 3][..dim]).saturating_mul(4 * dim as u64 + 1);
     let sub_cells = (cells as u64).saturating_mul(Coverage::SUBDIVISION as u64);
-    let coverage = if dim == 2 { crate::limits::bytes(&[sub_cells, sub_cells]) / 8 } else { 0 };
+    let coverage = if dim == 2 {
+        crate::limits::bytes(&[sub_cells, sub_cells]) / 8
+    } else {
+        0
+    };
     grid.saturating_add(coverage)
 }
 
@@ -402,7 +432,13 @@ impl<const D: usize> DartGrid<D> {
             offsets = offsets
                 .into_iter()
                 .flat_map(|(o, gap, centres)| {
-                    (-reach..=reach).map(move |c| (o * side + c, gap + ((c.abs() - 1).max(0) as f64).powi(2), centres + c * c))
+                    (-reach..=reach).map(move |c| {
+                        (
+                            o * side + c,
+                            gap + ((c.abs() - 1).max(0) as f64).powi(2),
+                            centres + c * c,
+                        )
+                    })
                 })
                 .collect();
         }
@@ -413,7 +449,9 @@ impl<const D: usize> DartGrid<D> {
 
     /// The index of the cell holding `p` (a point of the unit cube).
     fn cell(&self, p: &[f32; D]) -> usize {
-        p.iter().rev().fold(0, |index, &x| index * self.side + ((x * self.cells as f32) as usize).min(self.cells - 1) + self.reach)
+        p.iter().rev().fold(0, |index, &x| {
+            index * self.side + ((x * self.cells as f32) as usize).min(self.cells - 1) + self.reach
+        })
     }
 
     fn is_crowded(&self, cell: usize) -> bool {
@@ -427,7 +465,11 @@ impl<const D: usize> DartGrid<D> {
         self.offsets.iter().all(|&offset| {
             let cell = home.wrapping_add_signed(offset);
             squared_distance(&self.first[cell], c) >= r2
-                && !(self.is_crowded(cell) && self.more.get(&cell).is_some_and(|qs| qs.iter().any(|q| squared_distance(q, c) < r2)))
+                && !(self.is_crowded(cell)
+                    && self
+                        .more
+                        .get(&cell)
+                        .is_some_and(|qs| qs.iter().any(|q| squared_distance(q, c) < r2)))
         })
     }
 
@@ -456,7 +498,10 @@ pub fn poisson_testing_every_point(n: usize, dim: usize, rng: &mut Rng) -> Vec<[
         while pts.len() < n && darts < darts_per_radius {
             darts += 1;
             let c = point(dim, |_| rng.next_f32());
-            if pts.iter().all(|q| (0..dim).map(|d| (q[d] - c[d]).powi(2)).sum::<f32>() >= r2) {
+            if pts
+                .iter()
+                .all(|q| (0..dim).map(|d| (q[d] - c[d]).powi(2)).sum::<f32>() >= r2)
+            {
                 pts.push(c);
             }
         }
@@ -484,7 +529,9 @@ fn sobol(i: u32, d: usize) -> u32 {
             }
         }
     }
-    (0..32).filter(|&k| i >> k & 1 == 1).fold(0, |acc, k| acc ^ v[k])
+    (0..32)
+        .filter(|&k| i >> k & 1 == 1)
+        .fold(0, |acc, k| acc ^ v[k])
 }
 
 fn radical_inverse(mut i: u32, base: u32) -> f32 {
@@ -512,12 +559,20 @@ impl Interleave {
     /// `k x k` patterns for the pixels of a `width x height` receiver grid (an empty grid counts
     /// as one pixel).
     pub fn for_grid(k: usize, width: usize, height: usize) -> Self {
-        Self { k, columns: k.min(width.max(1)), rows: k.min(height.max(1)) }
+        Self {
+            k,
+            columns: k.min(width.max(1)),
+            rows: k.min(height.max(1)),
+        }
     }
 
     /// Every pattern of the `k x k` tile, for receivers on any grid.
     pub fn full(k: usize) -> Self {
-        Self { k, columns: k, rows: k }
+        Self {
+            k,
+            columns: k,
+            rows: k,
+        }
     }
 
     /// The number of patterns built (saturating).
@@ -561,7 +616,15 @@ impl SampleSet {
         rotate: bool,
         frame: u64,
     ) -> Result<Self> {
-        Self::generate_for(light, n, pattern, seed, Interleave::full(interleave), rotate, frame)
+        Self::generate_for(
+            light,
+            n,
+            pattern,
+            seed,
+            Interleave::full(interleave),
+            rotate,
+            frame,
+        )
     }
 
     /// [`SampleSet::generate`] with only the patterns of `tile` built; pattern `i + k j` of the
@@ -587,10 +650,20 @@ impl SampleSet {
         for j in 0..tile.rows {
             for i in 0..tile.columns {
                 crate::interrupt::check()?;
-                patterns.push(light_samples(light, n, pattern, Rng::stream(seed, tile.stream(i, j)).next_u64(), frame));
+                patterns.push(light_samples(
+                    light,
+                    n,
+                    pattern,
+                    Rng::stream(seed, tile.stream(i, j)).next_u64(),
+                    frame,
+                ));
             }
         }
-        Ok(Self { patterns, tile, rotate: rotate.then_some(seed) })
+        Ok(Self {
+            patterns,
+            tile,
+            rotate: rotate.then_some(seed),
+        })
     }
 
     /// Refuses `n` samples for each of `receivers` receivers before any pattern is built when
@@ -599,14 +672,20 @@ impl SampleSet {
     /// patterns are drawn).
     pub fn refuse_more_pairs_than_the_work_limit(receivers: usize, n: usize) -> Result<()> {
         let what = format!("{n} light samples for each of {receivers} receivers");
-        crate::limits::Work::default().loop_of(&[receivers as u64, n as u64]).refuse_above_limit(&what)
+        crate::limits::Work::default()
+            .loop_of(&[receivers as u64, n as u64])
+            .refuse_above_limit(&what)
     }
 
     /// The bytes [`SampleSet::generate_for`] takes: its patterns, and the grid of a Poisson
     /// pattern while it is thrown (saturating).
     pub fn estimated_bytes(light: &Light, n: usize, pattern: Pattern, tile: Interleave) -> u64 {
         let patterns = crate::limits::bytes(&[n as u64, tile.patterns(), 12]);
-        let scratch = if pattern == Pattern::Poisson { poisson_scratch_bytes(n, light.dim().max(2)) } else { 0 };
+        let scratch = if pattern == Pattern::Poisson {
+            poisson_scratch_bytes(n, light.dim().max(2))
+        } else {
+            0
+        };
         patterns.saturating_add(scratch)
     }
 
@@ -616,9 +695,16 @@ impl SampleSet {
             return Err(Error::invalid("samples", "needs at least one light sample"));
         }
         if let Some(i) = samples.iter().position(|s| !s.is_finite()) {
-            return Err(Error::invalid("samples", format!("sample {i} is not finite")));
+            return Err(Error::invalid(
+                "samples",
+                format!("sample {i} is not finite"),
+            ));
         }
-        Ok(Self { patterns: vec![samples], tile: Interleave::full(1), rotate })
+        Ok(Self {
+            patterns: vec![samples],
+            tile: Interleave::full(1),
+            rotate,
+        })
     }
 
     /// The radius of a sphere about the light's center that holds the light and every sample of
@@ -626,7 +712,12 @@ impl SampleSet {
     /// samples' distances; the other decorrelations keep samples on the light.
     pub fn bounding_radius(&self, light: &Light) -> f64 {
         let center = light.center();
-        let farthest = self.patterns.iter().flatten().map(|y| (*y - center).length()).fold(light.extent(), f32::max);
+        let farthest = self
+            .patterns
+            .iter()
+            .flatten()
+            .map(|y| (*y - center).length())
+            .fold(light.extent(), f32::max);
         f64::from(farthest) * (1.0 + 1e-6) + 1e-12
     }
 
@@ -667,7 +758,14 @@ impl SampleSet {
     }
 
     /// Writes receiver `index`'s samples (at pixel `(x, y)`) and their weights into the buffers.
-    pub fn fill(&self, light: &Light, index: usize, (x, y): (usize, usize), out: &mut Vec<Vec3>, weights: &mut Vec<f32>) {
+    pub fn fill(
+        &self,
+        light: &Light,
+        index: usize,
+        (x, y): (usize, usize),
+        out: &mut Vec<Vec3>,
+        weights: &mut Vec<f32>,
+    ) {
         out.clear();
         out.extend_from_slice(self.pattern_for(x, y));
         if let Some(r) = self.rotation_for(index) {
@@ -684,7 +782,13 @@ fn rotation_seed(seed: u64, stream: u64) -> RotationSeed {
 }
 
 /// `n` world-space samples of `pattern` on `light`, rotated as a whole for frame `frame` > 0.
-pub fn light_samples(light: &Light, n: usize, pattern: Pattern, seed: u64, frame: u64) -> Vec<Vec3> {
+pub fn light_samples(
+    light: &Light,
+    n: usize,
+    pattern: Pattern,
+    seed: u64,
+    frame: u64,
+) -> Vec<Vec3> {
     let unit = unit_pattern(pattern, n, light.dim().max(2), seed);
     let pts = unit.into_iter().map(|p| light.map(p));
     if frame == 0 {
@@ -733,17 +837,29 @@ mod tests {
     fn poisson_grid_throws_the_same_darts_as_the_reference() {
         // Counts about the interpolation's anchors (16, 64), powers of two and their neighbours,
         // and counts whose radius needs several shrinking rounds.
-        let counts = [1, 2, 3, 4, 5, 7, 9, 15, 16, 17, 31, 32, 33, 63, 64, 65, 100, 127, 128, 129, 200, 255, 256, 299, 300];
+        let counts = [
+            1, 2, 3, 4, 5, 7, 9, 15, 16, 17, 31, 32, 33, 63, 64, 65, 100, 127, 128, 129, 200, 255,
+            256, 299, 300,
+        ];
         for dim in [2, 3] {
             for seed in [0, 1, 0xDEAD_BEEF] {
                 for n in counts {
-                    let (mut grid_rng, mut reference_rng) = (Rng::stream(seed, 0x5A4D), Rng::stream(seed, 0x5A4D));
+                    let (mut grid_rng, mut reference_rng) =
+                        (Rng::stream(seed, 0x5A4D), Rng::stream(seed, 0x5A4D));
                     let grid = poisson(n, dim, &mut grid_rng);
                     let reference = poisson_testing_every_point(n, dim, &mut reference_rng);
                     assert_eq!(grid.len(), n);
-                    assert_eq!(bits(&grid), bits(&reference), "n {n}, dim {dim}, seed {seed}");
+                    assert_eq!(
+                        bits(&grid),
+                        bits(&reference),
+                        "n {n}, dim {dim}, seed {seed}"
+                    );
                     // The very same number of darts was drawn.
-                    assert_eq!(grid_rng.next_u64(), reference_rng.next_u64(), "n {n}, dim {dim}, seed {seed}");
+                    assert_eq!(
+                        grid_rng.next_u64(),
+                        reference_rng.next_u64(),
+                        "n {n}, dim {dim}, seed {seed}"
+                    );
                 }
             }
         }
@@ -761,13 +877,20 @@ mod tests {
         let mut grid = DartGrid::<D>::new(radius);
         let pts: Vec<[f32; D]> = (0..count).map(|_| draw()).collect();
         pts.iter().for_each(|&p| grid.insert(p));
-        assert!(grid.more.values().map(Vec::len).sum::<usize>() > count / 2, "dim {D}, radius {radius}: few crowded cells");
+        assert!(
+            grid.more.values().map(Vec::len).sum::<usize>() > count / 2,
+            "dim {D}, radius {radius}: few crowded cells"
+        );
         for shrink in [1.0, 0.99, 0.7, 0.3] {
             let r2 = (radius * shrink).powi(2);
             for _ in 0..2000 {
                 let c = draw();
                 let far = pts.iter().all(|q| squared_distance(q, &c) >= r2);
-                assert_eq!(grid.is_far(&c, r2), far, "dim {D}, radius {radius} x {shrink}, dart {c:?}");
+                assert_eq!(
+                    grid.is_far(&c, r2),
+                    far,
+                    "dim {D}, radius {radius} x {shrink}, dart {c:?}"
+                );
             }
         }
     }
@@ -799,13 +922,19 @@ mod tests {
                 let c = draw();
                 let rejects = pts.iter().any(|q| squared_distance(q, &c) < r2);
                 if cov.covers(&c) {
-                    assert!(rejects, "radius {radius}: dart {c:?} covered but far from every point");
+                    assert!(
+                        rejects,
+                        "radius {radius}: dart {c:?} covered but far from every point"
+                    );
                     covered += 1;
                 }
                 rejected += usize::from(rejects);
             }
             // Most rejected darts are caught by the coverage alone.
-            assert!(covered * 10 > rejected * 6, "radius {radius}: {covered} of {rejected}");
+            assert!(
+                covered * 10 > rejected * 6,
+                "radius {radius}: {covered} of {rejected}"
+            );
         }
     }
 
@@ -815,9 +944,16 @@ mod tests {
             let (pts, radius) = poisson_with_radius(10_000, dim, &mut Rng::stream(4, 0x5A4D));
             assert_eq!(pts.len(), 10_000);
             // The radius shrank by a few 1% steps at most, so the spacing is still Poisson's.
-            assert!(radius >= 0.9 * poisson_radius(10_000, dim), "dim {dim}: radius {radius}");
+            assert!(
+                radius >= 0.9 * poisson_radius(10_000, dim),
+                "dim {dim}: radius {radius}"
+            );
             let closest = closest_pair(&pts);
-            assert!(closest >= radius * radius, "dim {dim}: squared distance {closest} < {}", radius * radius);
+            assert!(
+                closest >= radius * radius,
+                "dim {dim}: squared distance {closest} < {}",
+                radius * radius
+            );
         }
     }
 
@@ -834,26 +970,72 @@ mod tests {
 
     /// Pattern `j` of an interleaved set seeded `seed`, built on its own.
     fn pattern_j(light: &Light, n: usize, seed: u64, j: u64) -> Vec<Vec3> {
-        light_samples(light, n, Pattern::Poisson, Rng::stream(seed, j).next_u64(), 2)
+        light_samples(
+            light,
+            n,
+            Pattern::Poisson,
+            Rng::stream(seed, j).next_u64(),
+            2,
+        )
     }
 
     #[test]
     fn interleaving_builds_only_the_patterns_the_grid_uses() -> Result<()> {
         let light = Light::rect(Vec3::new(0.0, 4.0, 0.0), Vec3::X, Vec3::Z)?;
         let (w, h) = (5, 4);
-        let set = SampleSet::generate_for(&light, 16, Pattern::Poisson, 9, Interleave::for_grid(1000, w, h), true, 2)?;
+        let set = SampleSet::generate_for(
+            &light,
+            16,
+            Pattern::Poisson,
+            9,
+            Interleave::for_grid(1000, w, h),
+            true,
+            2,
+        )?;
         assert_eq!(set.pattern_count(), w * h);
         for y in 0..h {
             for x in 0..w {
-                assert_eq!(set.pattern_for(x, y), pattern_j(&light, 16, 9, (x + 1000 * y) as u64).as_slice(), "pixel ({x}, {y})");
+                assert_eq!(
+                    set.pattern_for(x, y),
+                    pattern_j(&light, 16, 9, (x + 1000 * y) as u64).as_slice(),
+                    "pixel ({x}, {y})"
+                );
             }
         }
-        assert_eq!(SampleSet::estimated_bytes(&light, 16, Pattern::Poisson, Interleave::for_grid(1000, w, h)), 16 * 20 * 12 + poisson_scratch_bytes(16, 2));
+        assert_eq!(
+            SampleSet::estimated_bytes(
+                &light,
+                16,
+                Pattern::Poisson,
+                Interleave::for_grid(1000, w, h)
+            ),
+            16 * 20 * 12 + poisson_scratch_bytes(16, 2)
+        );
         // An explicit point set (height 1) uses one row of the tile.
-        assert_eq!(SampleSet::generate_for(&light, 4, Pattern::Uniform, 9, Interleave::for_grid(1000, 3, 1), false, 0)?.pattern_count(), 3);
+        assert_eq!(
+            SampleSet::generate_for(
+                &light,
+                4,
+                Pattern::Uniform,
+                9,
+                Interleave::for_grid(1000, 3, 1),
+                false,
+                0
+            )?
+            .pattern_count(),
+            3
+        );
         // Interleaving asked for stays interleaving (the methods that refuse it still do), even
         // where the grid uses one pattern only.
-        let one = SampleSet::generate_for(&light, 4, Pattern::Uniform, 9, Interleave::for_grid(4, 1, 1), false, 0)?;
+        let one = SampleSet::generate_for(
+            &light,
+            4,
+            Pattern::Uniform,
+            9,
+            Interleave::for_grid(4, 1, 1),
+            false,
+            0,
+        )?;
         assert_eq!(one.pattern_count(), 1);
         assert!(!one.is_single_pattern() && !one.is_shared());
         Ok(())
@@ -864,11 +1046,23 @@ mod tests {
         let light = Light::sphere(Vec3::ZERO, 0.5)?;
         let full = SampleSet::generate(&light, 8, Pattern::Poisson, 3, 3, false, 0)?;
         let (w, h) = (7, 5);
-        let fitted = SampleSet::generate_for(&light, 8, Pattern::Poisson, 3, Interleave::for_grid(3, w, h), false, 0)?;
+        let fitted = SampleSet::generate_for(
+            &light,
+            8,
+            Pattern::Poisson,
+            3,
+            Interleave::for_grid(3, w, h),
+            false,
+            0,
+        )?;
         assert_eq!((full.pattern_count(), fitted.pattern_count()), (9, 9));
         for y in 0..h {
             for x in 0..w {
-                assert_eq!(fitted.pattern_for(x, y), full.pattern_for(x, y), "pixel ({x}, {y})");
+                assert_eq!(
+                    fitted.pattern_for(x, y),
+                    full.pattern_for(x, y),
+                    "pixel ({x}, {y})"
+                );
             }
         }
         Ok(())
@@ -877,21 +1071,40 @@ mod tests {
     #[test]
     fn pixels_off_the_grid_reuse_its_patterns() -> Result<()> {
         let light = Light::rect(Vec3::ZERO, Vec3::X, Vec3::Z)?;
-        let set = SampleSet::generate_for(&light, 4, Pattern::Uniform, 1, Interleave::for_grid(1000, 2, 3), false, 0)?;
+        let set = SampleSet::generate_for(
+            &light,
+            4,
+            Pattern::Uniform,
+            1,
+            Interleave::for_grid(1000, 2, 3),
+            false,
+            0,
+        )?;
         assert_eq!(set.pattern_for(2, 3), set.pattern_for(0, 0));
         assert_eq!(set.pattern_for(1003, 2000), set.pattern_for(1, 0));
-        assert_eq!(set.pattern_for(usize::MAX, usize::MAX), set.pattern_for(usize::MAX % 1000 % 2, usize::MAX % 1000 % 3));
+        assert_eq!(
+            set.pattern_for(usize::MAX, usize::MAX),
+            set.pattern_for(usize::MAX % 1000 % 2, usize::MAX % 1000 % 3)
+        );
         Ok(())
     }
 
     #[test]
     fn patterns_are_deterministic_and_in_range() {
-        for pat in [Pattern::Uniform, Pattern::Stratified, Pattern::Poisson, Pattern::Sobol, Pattern::Halton] {
+        for pat in [
+            Pattern::Uniform,
+            Pattern::Stratified,
+            Pattern::Poisson,
+            Pattern::Sobol,
+            Pattern::Halton,
+        ] {
             for dim in [2, 3] {
                 let a = unit_pattern(pat, 37, dim, 11);
                 assert_eq!(a, unit_pattern(pat, 37, dim, 11));
                 assert_ne!(a, unit_pattern(pat, 37, dim, 12));
-                assert!(a.iter().all(|p| p.iter().take(dim).all(|&c| (0.0..1.0).contains(&c))));
+                assert!(a
+                    .iter()
+                    .all(|p| p.iter().take(dim).all(|&c| (0.0..1.0).contains(&c))));
             }
         }
     }

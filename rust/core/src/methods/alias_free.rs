@@ -62,8 +62,12 @@ use crate::gpu::{self, Backend};
 use crate::light::lights::{Light, Shape};
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, object_work, Peak};
-use crate::raster::depth::{band_rows, casters, Caster, FaceFilter, LightFrustum, RasterMode, RasterOptions};
-use crate::raster::influence::{check_hull_degree, influence_hull, LightBounds, ReceiverLists};
+use crate::raster::depth::{
+    band_rows, casters, Caster, FaceFilter, LightFrustum, RasterMode, RasterOptions,
+};
+use crate::raster::influence::{
+    by_light_face, check_hull_degree, influence_hull, LightBounds, ReceiverLists,
+};
 use crate::raster::region::conservative_rows;
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
@@ -133,14 +137,23 @@ impl Default for AliasFreeOptions {
 impl AliasFreeOptions {
     fn validate(&self) -> Result<()> {
         if !(1..=crate::raster::depth::MAX_RESOLUTION).contains(&self.resolution) {
-            return Err(Error::invalid("resolution", format!("must be in 1..=65536, got {}", self.resolution)));
+            return Err(Error::invalid(
+                "resolution",
+                format!("must be in 1..=65536, got {}", self.resolution),
+            ));
         }
         if !(self.bias.is_finite() && self.bias >= 0.0) {
-            return Err(Error::invalid("bias", format!("must be finite and >= 0, got {}", self.bias)));
+            return Err(Error::invalid(
+                "bias",
+                format!("must be finite and >= 0, got {}", self.bias),
+            ));
         }
         if let Some(k) = self.lut {
             if !(4..=256).contains(&k) {
-                return Err(Error::invalid("lut", format!("must be in 4..=256 bins (or None for exact tests), got {k}")));
+                return Err(Error::invalid(
+                    "lut",
+                    format!("must be in 4..=256 bins (or None for exact tests), got {k}"),
+                ));
             }
         }
         check_hull_degree(self.hull_degree)
@@ -214,26 +227,49 @@ pub(crate) struct Lut {
 impl Lut {
     fn new(samples: &LightSamples, center: DVec3, extent: f64, bins: usize) -> Result<Self> {
         let words = samples.words;
-        limits::check_memory("alias_free lookup table", limits::bytes(&[bins as u64, bins as u64, bins as u64, words as u64, 8]))?;
+        limits::check_memory(
+            "alias_free lookup table",
+            limits::bytes(&[bins as u64, bins as u64, bins as u64, words as u64, 8]),
+        )?;
         let mut masks = vec![0u64; bins * bins * bins * words];
-        masks.par_chunks_mut(bins * words).enumerate().for_each(|(ij, chunk)| {
-            let (i, j) = (ij / bins, ij % bins);
-            let m = Self::normal(bins, i, j);
-            for (k, out) in chunk.chunks_mut(words).enumerate() {
-                let d = ((k as f64 + 0.5) / bins as f64 * 2.0 - 1.0) * extent;
-                samples.below(m, m.dot(center) + d, out);
-            }
-        });
+        masks
+            .par_chunks_mut(bins * words)
+            .enumerate()
+            .for_each(|(ij, chunk)| {
+                let (i, j) = (ij / bins, ij % bins);
+                let m = Self::normal(bins, i, j);
+                for (k, out) in chunk.chunks_mut(words).enumerate() {
+                    let d = ((k as f64 + 0.5) / bins as f64 * 2.0 - 1.0) * extent;
+                    samples.below(m, m.dot(center) + d, out);
+                }
+            });
         let angle = |k: usize, range: f64| k as f64 / bins as f64 * range;
-        let theta_bounds = (1..bins).map(|k| angle(k, std::f64::consts::PI).cos()).collect();
-        let phi_bounds = (1..bins).map(|k| angle(k, 2.0 * std::f64::consts::PI)).map(|a| [a.cos(), a.sin()]).collect();
-        Ok(Self { bins, center, extent, words, masks, theta_bounds, phi_bounds })
+        let theta_bounds = (1..bins)
+            .map(|k| angle(k, std::f64::consts::PI).cos())
+            .collect();
+        let phi_bounds = (1..bins)
+            .map(|k| angle(k, 2.0 * std::f64::consts::PI))
+            .map(|a| [a.cos(), a.sin()])
+            .collect();
+        Ok(Self {
+            bins,
+            center,
+            extent,
+            words,
+            masks,
+            theta_bounds,
+            phi_bounds,
+        })
     }
 
     fn normal(bins: usize, i: usize, j: usize) -> DVec3 {
         let theta = (i as f64 + 0.5) / bins as f64 * std::f64::consts::PI;
         let phi = (j as f64 + 0.5) / bins as f64 * 2.0 * std::f64::consts::PI;
-        DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos())
+        DVec3::new(
+            theta.sin() * phi.cos(),
+            theta.sin() * phi.sin(),
+            theta.cos(),
+        )
     }
 
     /// The polar bin of the unit normal `u`: the number of boundaries `k π / bins` that
@@ -265,7 +301,10 @@ impl Lut {
     /// none of it behind: the caller decides by the center).
     fn lookup(&self, m: DVec3, k: f64) -> Option<&[u64]> {
         let len = m.length();
-        let (u, d) = (m / len, (k / len - (m / len).dot(self.center)) / self.extent);
+        let (u, d) = (
+            m / len,
+            (k / len - (m / len).dot(self.center)) / self.extent,
+        );
         if !(-1.0..1.0).contains(&d) {
             return None;
         }
@@ -327,7 +366,9 @@ impl Planes<'_> {
             },
             None => {
                 self.samples.below(m, k, scratch);
-                mask.iter_mut().zip(scratch.iter()).for_each(|(a, b)| *a &= b);
+                mask.iter_mut()
+                    .zip(scratch.iter())
+                    .for_each(|(a, b)| *a &= b);
             }
         }
     }
@@ -354,7 +395,11 @@ impl Prepared {
     /// This caster as a view sample inside a closed mesh sees it: blocking from either side of
     /// its plane, tested from the moved point.
     fn seen_from_inside(&self) -> Prepared {
-        Prepared { moved: true, front_only: false, ..*self }
+        Prepared {
+            moved: true,
+            front_only: false,
+            ..*self
+        }
     }
 }
 
@@ -392,8 +437,17 @@ fn blocks_point(t: &Prepared, p: DVec3, y: DVec3) -> bool {
 
 /// The samples of `samples` that triangle `t` blocks from view point `p`, written into `out`
 /// (false when none), following the module documentation.
-fn blocked_by(t: &Prepared, p: DVec3, planes: &Planes<'_>, full: &[u64], out: &mut [u64], scratch: &mut [u64]) -> bool {
-    let Some(bounds) = bounding_planes(t, p) else { return false };
+fn blocked_by(
+    t: &Prepared,
+    p: DVec3,
+    planes: &Planes<'_>,
+    full: &[u64],
+    out: &mut [u64],
+    scratch: &mut [u64],
+) -> bool {
+    let Some(bounds) = bounding_planes(t, p) else {
+        return false;
+    };
     // The light's bounding sphere decides most planes without looking at a sample: wholly above a
     // plane, nothing is blocked; wholly below, the plane removes nothing.
     let mut straddling = [false; 4];
@@ -417,7 +471,14 @@ fn blocked_by(t: &Prepared, p: DVec3, planes: &Planes<'_>, full: &[u64], out: &m
 }
 
 /// For a perforated caster, clears the blocked samples whose segment crosses a transparent texel.
-fn alpha_test(scene: &Scene, t: &Prepared, p: DVec3, samples: &LightSamples, rotated: impl Fn(DVec3) -> DVec3, blocked: &mut [u64]) {
+fn alpha_test(
+    scene: &Scene,
+    t: &Prepared,
+    p: DVec3,
+    samples: &LightSamples,
+    rotated: impl Fn(DVec3) -> DVec3,
+    blocked: &mut [u64],
+) {
     let (e1, e2) = (t.v[1] - t.v[0], t.v[2] - t.v[0]);
     let nn = t.normal.length_squared();
     for s in 0..samples.points.len() {
@@ -443,22 +504,34 @@ fn faces_whole_light(bounds: &LightBounds<'_>, t: &[Vec3; 3]) -> bool {
     let n = (v[1] - v[0]).cross(v[2] - v[0]);
     let ahead = |y: DVec3| n.dot(y - v[0]);
     let Some(light) = bounds.volume() else {
-        return bounds.corners().is_some_and(|corners| corners.iter().all(|&y| ahead(y) > 0.0));
+        return bounds
+            .corners()
+            .is_some_and(|corners| corners.iter().all(|&y| ahead(y) > 0.0));
     };
     match light.shape {
         Shape::Point { position } => ahead(position.as_dvec3()) > 0.0,
         Shape::Rect { center, u, v: w } => {
             let (c, u, w) = (center.as_dvec3(), u.as_dvec3(), w.as_dvec3());
-            [c + u + w, c + u - w, c - u - w, c - u + w].into_iter().all(|y| ahead(y) > 0.0)
+            [c + u + w, c + u - w, c - u - w, c - u + w]
+                .into_iter()
+                .all(|y| ahead(y) > 0.0)
         }
-        Shape::Disk { center, normal, radius } => {
+        Shape::Disk {
+            center,
+            normal,
+            radius,
+        } => {
             let (nn, d) = (n.length(), normal.as_dvec3());
             let spread = f64::from(radius) * nn * (1.0 - (n.dot(d) / nn).powi(2)).max(0.0).sqrt();
             ahead(center.as_dvec3()) > spread
         }
-        Shape::Sphere { center, radius } => ahead(center.as_dvec3()) > f64::from(radius) * n.length(),
+        Shape::Sphere { center, radius } => {
+            ahead(center.as_dvec3()) > f64::from(radius) * n.length()
+        }
         // The ellipsoid's support function along n: |Aᵀ n|.
-        Shape::Ellipsoid { center, axes } => ahead(center.as_dvec3()) > (axes.as_dmat3().transpose() * n).length(),
+        Shape::Ellipsoid { center, axes } => {
+            ahead(center.as_dvec3()) > (axes.as_dmat3().transpose() * n).length()
+        }
     }
 }
 
@@ -475,13 +548,38 @@ fn faces_whole_light(bounds: &LightBounds<'_>, t: &[Vec3; 3]) -> bool {
 /// Errors: invalid options; no samples or more than [`MAX_SAMPLES`]; explicit samples of a
 /// point light off its position; rotated or interleaved samples; the light's center inside the
 /// view samples' bounds; `TooLarge`.
-pub fn alias_free(scene: &Scene, light: &Light, receivers: &Receivers, samples: &SampleSet, opts: &AliasFreeOptions) -> Result<(Vec<f32>, Stats)> {
+pub fn alias_free(
+    scene: &Scene,
+    light: &Light,
+    receivers: &Receivers,
+    samples: &SampleSet,
+    opts: &AliasFreeOptions,
+) -> Result<(Vec<f32>, Stats)> {
+    by_light_face(light, receivers, |part| {
+        alias_free_in_one_frustum(scene, light, part, samples, opts)
+    })
+}
+
+/// [`alias_free`] on receivers that one light frustum holds.
+fn alias_free_in_one_frustum(
+    scene: &Scene,
+    light: &Light,
+    receivers: &Receivers,
+    samples: &SampleSet,
+    opts: &AliasFreeOptions,
+) -> Result<(Vec<f32>, Stats)> {
     let mut stats = Stats::default();
     let n = receivers.len();
-    Peak::default().buffer(&[n as u64, 4]).and(masks_peak(scene, n, samples.count(), opts)).check("alias_free", &mut stats)?;
+    Peak::default()
+        .buffer(&[n as u64, 4])
+        .and(masks_peak(scene, n, samples.count(), opts))
+        .check("alias_free", &mut stats)?;
     object_work(scene, n, samples.count()).check("alias_free", &mut stats)?;
     let masks = sample_masks(scene, light, receivers, samples, opts, false, &mut stats)?;
-    Ok(((0..receivers.len()).map(|i| masks.visibility(i)).collect(), stats))
+    Ok((
+        (0..receivers.len()).map(|i| masks.visibility(i)).collect(),
+        stats,
+    ))
 }
 
 /// Per receiver, the bitmask of its blocked light samples (bit `k`: sample `k`; one bit, the
@@ -504,7 +602,9 @@ impl SampleMasks {
     pub fn visibility(&self, i: usize) -> f32 {
         let m = self.mask(i);
         let total: f64 = self.weights.iter().sum();
-        let lit = (0..self.weights.len()).filter(|&k| m[k / 64] >> (k % 64) & 1 == 0).fold(0.0f64, |acc, k| acc + self.weights[k]);
+        let lit = (0..self.weights.len())
+            .filter(|&k| m[k / 64] >> (k % 64) & 1 == 0)
+            .fold(0.0f64, |acc, k| acc + self.weights[k]);
         if total > 0.0 {
             (lit / total).clamp(0.0, 1.0) as f32
         } else {
@@ -518,13 +618,29 @@ impl SampleMasks {
 /// view sample and point, and the lists; per caster its set-up, influence region and band bins;
 /// the lookup table; the penumbra flags and the silhouettes. (The row spans of the penumbra
 /// regions, transient, are left out.)
-pub(crate) fn masks_peak(scene: &Scene, receivers: usize, samples: usize, opts: &AliasFreeOptions) -> Peak {
-    let (n, words, res) = (receivers as u64, samples.div_ceil(64).max(1) as u64, opts.resolution as u64);
+pub(crate) fn masks_peak(
+    scene: &Scene,
+    receivers: usize,
+    samples: usize,
+    opts: &AliasFreeOptions,
+) -> Peak {
+    let (n, words, res) = (
+        receivers as u64,
+        samples.div_ceil(64).max(1) as u64,
+        opts.resolution as u64,
+    );
     let hull = 24 + 16 * 3 * opts.hull_degree.max(8) as u64;
     let bands = res.div_ceil(band_rows(opts.resolution) as u64);
-    let per_caster = (std::mem::size_of::<Caster>() + std::mem::size_of::<Prepared>()) as u64 + hull + 4 * bands;
-    let lut = opts.lut.map_or(Peak::default(), |bins| Peak::default().buffer(&[bins as u64, bins as u64, bins as u64, words, 8]));
-    let penumbra = if opts.restrict_to_penumbra { Peak::default().buffer(&[res, res]).and(edges_peak(scene)) } else { Peak::default() };
+    let per_caster =
+        (std::mem::size_of::<Caster>() + std::mem::size_of::<Prepared>()) as u64 + hull + 4 * bands;
+    let lut = opts.lut.map_or(Peak::default(), |bins| {
+        Peak::default().buffer(&[bins as u64, bins as u64, bins as u64, words, 8])
+    });
+    let penumbra = if opts.restrict_to_penumbra {
+        Peak::default().buffer(&[res, res]).and(edges_peak(scene))
+    } else {
+        Peak::default()
+    };
     Peak::default()
         .buffer(&[n, words, 3 * 8])
         .buffer(&[n, std::mem::size_of::<ViewSample>() as u64 + 12])
@@ -547,37 +663,88 @@ pub(crate) fn sample_masks(
 ) -> Result<SampleMasks> {
     opts.validate()?;
     let light_samples = light_samples(light, samples)?;
-    for name in ["list_build_seconds", "rasterization_seconds", "visibility_seconds", "view_samples", "casters", "average_list_length", "max_list_length", "occupied_texels_percent", "silhouette_edges", "penumbra_texels_percent"] {
+    for name in [
+        "list_build_seconds",
+        "rasterization_seconds",
+        "visibility_seconds",
+        "view_samples",
+        "casters",
+        "average_list_length",
+        "max_list_length",
+        "occupied_texels_percent",
+        "silhouette_edges",
+        "penumbra_texels_percent",
+    ] {
         stats.set(name, 0.0);
     }
     stats.set("light_samples", light_samples.points.len() as f64);
     stats.set("exact_view_samples", 0.0);
     stats.set("inside_view_samples", 0.0);
     let words = light_samples.words;
-    limits::check_memory("alias_free bitmasks", limits::bytes(&[receivers.len() as u64, words as u64, 8]))?;
-    let mut out = SampleMasks { words, masks: vec![!0u64; receivers.len() * words], weights: light_samples.weights.clone() };
+    limits::check_memory(
+        "alias_free bitmasks",
+        limits::bytes(&[receivers.len() as u64, words as u64, 8]),
+    )?;
+    let mut out = SampleMasks {
+        words,
+        masks: vec![!0u64; receivers.len() * words],
+        weights: light_samples.weights.clone(),
+    };
     let bounds = LightBounds::new(light, samples, opts.hull_degree)?;
     let mut view = view_samples(light, &bounds, receivers, samples, opts.bias);
     stats.set("view_samples", view.len() as f64);
     if view.is_empty() {
         return Ok(out);
     }
-    let inside = if opts.casters == Casters::Backfacing { stats.time_add("list_build", || mark_inside_closed_meshes(scene, &mut view))? } else { 0 };
+    let inside = if opts.casters == Casters::Backfacing {
+        stats.time_add("list_build", || mark_inside_closed_meshes(scene, &mut view))?
+    } else {
+        0
+    };
     stats.set("inside_view_samples", inside as f64);
     // A view sample inside a closed mesh is tested from its moved point against every closed
     // triangle, so it is listed there: the casters' regions must hold the point they block.
-    let points: Vec<Vec3> = view.iter().map(|s| if s.inside { s.moved } else { s.p }.as_vec3()).collect();
-    let frustum = stats.time_add("list_build", || ReceiverLists::fit(light, &points, opts.resolution))?;
+    let points: Vec<Vec3> = view
+        .iter()
+        .map(|s| if s.inside { s.moved } else { s.p }.as_vec3())
+        .collect();
+    let frustum = stats.time_add("list_build", || {
+        ReceiverLists::fit(light, &points, opts.resolution)
+    })?;
     let center = light.center().as_dvec3();
-    let radius = light_samples.points.iter().map(|y| (*y - center).length()).fold(0.0f64, f64::max) * (1.0 + 1e-9) + 1e-12;
-    let exact_views = if opts.lut.is_some() && light_samples.points.len() > 1 { mark_too_near_for_the_table(&mut view, center, radius) } else { 0 };
+    let radius = light_samples
+        .points
+        .iter()
+        .map(|y| (*y - center).length())
+        .fold(0.0f64, f64::max)
+        * (1.0 + 1e-9)
+        + 1e-12;
+    let exact_views = if opts.lut.is_some() && light_samples.points.len() > 1 {
+        mark_too_near_for_the_table(&mut view, center, radius)
+    } else {
+        0
+    };
     stats.set("exact_view_samples", exact_views as f64);
-    let casters = stats.time_add("rasterization", || CasterSet::prepare(scene, &bounds, &frustum, opts, opaque_only, inside > 0));
+    let casters = stats.time_add("rasterization", || {
+        CasterSet::prepare(scene, &bounds, &frustum, opts, opaque_only, inside > 0)
+    });
     stats.set("casters", casters.prepared.len() as f64);
     let penumbra = if opts.restrict_to_penumbra && light_samples.points.len() > 1 {
-        let (flags, silhouettes) = stats.time_add("rasterization", || penumbra_texels(scene, &bounds, &frustum, &casters, opts.hull_degree, (center, radius)));
+        let (flags, silhouettes) = stats.time_add("rasterization", || {
+            penumbra_texels(
+                scene,
+                &bounds,
+                &frustum,
+                &casters,
+                opts.hull_degree,
+                (center, radius),
+            )
+        });
         stats.set("silhouette_edges", silhouettes as f64);
-        stats.set("penumbra_texels_percent", 100.0 * flags.iter().filter(|&&f| f).count() as f64 / flags.len() as f64);
+        stats.set(
+            "penumbra_texels_percent",
+            100.0 * flags.iter().filter(|&&f| f).count() as f64 / flags.len() as f64,
+        );
         Some(flags)
     } else {
         stats.set("penumbra_texels_percent", 100.0);
@@ -587,7 +754,11 @@ pub(crate) fn sample_masks(
     // center to decide, which is right only for planes that miss every sample).
     let extent = f64::from(bounds.reach());
     let lut = match opts.lut {
-        Some(bins) if light_samples.points.len() > 1 && extent > 0.0 && exact_views < view.len() => Some(Lut::new(&light_samples, center, extent, bins)?),
+        Some(bins)
+            if light_samples.points.len() > 1 && extent > 0.0 && exact_views < view.len() =>
+        {
+            Some(Lut::new(&light_samples, center, extent, bins)?)
+        }
         _ => None,
     };
     let setup = Setup {
@@ -645,12 +816,18 @@ pub(crate) struct Setup<'a> {
 /// The bitmask of every view sample (view order) on the CPU: the lists, then bands of rows in
 /// parallel over the casters binned to them. Errors: interrupted.
 fn cpu_masks(setup: &Setup<'_>, stats: &mut Stats) -> Result<Vec<u64>> {
-    let lists = stats.time_add("list_build", || ReceiverLists::with_frustum(setup.frustum, setup.points));
+    let lists = stats.time_add("list_build", || {
+        ReceiverLists::with_frustum(setup.frustum, setup.points)
+    });
     lists.record_stats(stats);
     let bins = stats.time_add("rasterization", || lists.bin(&setup.casters.hulls));
     let words = setup.full.len();
     let mut masks = initial_masks(&lists, setup.view, setup.samples, setup.center);
-    let tester = Tester { setup, lists: &lists, bins: &bins };
+    let tester = Tester {
+        setup,
+        lists: &lists,
+        bins: &bins,
+    };
     stats.time("visibility", || tester.run(&mut masks))?;
     let mut by_view = vec![0u64; masks.len()];
     for (e, &i) in lists.entries.iter().enumerate() {
@@ -675,7 +852,10 @@ fn light_samples(light: &Light, samples: &SampleSet) -> Result<LightSamples> {
     }
     let ys = samples.pattern_for(0, 0);
     if ys.is_empty() || ys.len() > MAX_SAMPLES {
-        return Err(Error::invalid("samples", format!("needs 1..={MAX_SAMPLES} light samples, got {}", ys.len())));
+        return Err(Error::invalid(
+            "samples",
+            format!("needs 1..={MAX_SAMPLES} light samples, got {}", ys.len()),
+        ));
     }
     let point = matches!(light.shape, Shape::Point { .. });
     // A point light's one bit is its position (rotations map every sample there): samples
@@ -686,24 +866,57 @@ fn light_samples(light: &Light, samples: &SampleSet) -> Result<LightSamples> {
             "alias_free tests a point light at its position only; pass samples at the position (or a count), or a SphereLight for samples around it",
         ));
     }
-    let points: Vec<DVec3> = if point { vec![light.center().as_dvec3()] } else { ys.iter().map(|y| y.as_dvec3()).collect() };
-    Ok(LightSamples { weights: points.iter().map(|y| f64::from(light.weight(y.as_vec3()))).collect(), words: points.len().div_ceil(64), points })
+    let points: Vec<DVec3> = if point {
+        vec![light.center().as_dvec3()]
+    } else {
+        ys.iter().map(|y| y.as_dvec3()).collect()
+    };
+    Ok(LightSamples {
+        weights: points
+            .iter()
+            .map(|y| f64::from(light.weight(y.as_vec3())))
+            .collect(),
+        words: points.len().div_ceil(64),
+        points,
+    })
 }
 
 /// The view samples: valid receivers that face some part of the light or some sample (depths
 /// set later).
-fn view_samples(light: &Light, bounds: &LightBounds<'_>, receivers: &Receivers, samples: &SampleSet, bias: f32) -> Vec<ViewSample> {
+fn view_samples(
+    light: &Light,
+    bounds: &LightBounds<'_>,
+    receivers: &Receivers,
+    samples: &SampleSet,
+    bias: f32,
+) -> Vec<ViewSample> {
     let center = light.center().as_dvec3();
     let extent = f64::from(bounds.reach());
     (0..receivers.len())
         .filter(|&i| receivers.valid[i])
         .map(|i| {
-            let (p, n) = (receivers.points[i].as_dvec3(), receivers.normals[i].as_dvec3());
-            let rotation = samples.rotation_for(i).and_then(|r| light.rigid_rotation(r)).map(|m| m.as_dmat3().transpose());
+            let (p, n) = (
+                receivers.points[i].as_dvec3(),
+                receivers.normals[i].as_dvec3(),
+            );
+            let rotation = samples
+                .rotation_for(i)
+                .and_then(|r| light.rigid_rotation(r))
+                .map(|m| m.as_dmat3().transpose());
             let moved = p + n * f64::from(bias);
-            ViewSample { receiver: i as u32, p, moved, n, rotation, inside: false, exact_planes: false }
+            ViewSample {
+                receiver: i as u32,
+                p,
+                moved,
+                n,
+                rotation,
+                inside: false,
+                exact_planes: false,
+            }
         })
-        .filter(|s| s.n.dot(center - s.p) > -extent * s.n.length() && (center - s.p).length_squared() > 0.0)
+        .filter(|s| {
+            s.n.dot(center - s.p) > -extent * s.n.length() && (center - s.p).length_squared() > 0.0
+        })
         .collect()
 }
 
@@ -716,7 +929,10 @@ const INSIDE_PROBE: f64 = 1e-5;
 /// Two directions of rays from a probed point, along no axis or diagonal of a regular grid: the
 /// watertight test counts a ray through a shared edge or vertex on both triangles, so a ray
 /// that grazes one finds the wrong parity; two such rays at once are left to chance.
-const INSIDE_RAYS: [Vec3; 2] = [Vec3::new(0.289_1, 0.836_7, 0.465_1), Vec3::new(-0.613_6, 0.178_9, -0.769_1)];
+const INSIDE_RAYS: [Vec3; 2] = [
+    Vec3::new(0.289_1, 0.836_7, 0.465_1),
+    Vec3::new(-0.613_6, 0.178_9, -0.769_1),
+];
 
 /// Flags the view samples whose moved point lies inside a closed mesh (see the module doc,
 /// step 4) and returns their number: those within a closed mesh's bounding box, probed
@@ -731,8 +947,14 @@ fn mark_inside_closed_meshes(scene: &Scene, view: &mut [ViewSample]) -> Result<u
         .enumerate()
         .filter(|(_, m)| m.closed && !m.faces.is_empty())
         .map(|(k, m)| {
-            let corners = m.faces.iter().flatten().map(|&v| m.positions[v as usize].as_dvec3());
-            let (lo, hi) = corners.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p), hi.max(p)));
+            let corners = m
+                .faces
+                .iter()
+                .flatten()
+                .map(|&v| m.positions[v as usize].as_dvec3());
+            let (lo, hi) = corners.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(p), hi.max(p))
+            });
             (k as u32, lo, hi)
         })
         .collect();
@@ -742,14 +964,20 @@ fn mark_inside_closed_meshes(scene: &Scene, view: &mut [ViewSample]) -> Result<u
         let len = s.n.length();
         s.p + s.n / len * (s.moved - s.p).length().max(least)
     };
-    let in_box = |q: DVec3, (_, lo, hi): &(u32, DVec3, DVec3)| q.cmpge(*lo).all() && q.cmple(*hi).all();
-    if !view.iter().any(|s| boxes.iter().any(|b| in_box(probe(s), b))) {
+    let in_box =
+        |q: DVec3, (_, lo, hi): &(u32, DVec3, DVec3)| q.cmpge(*lo).all() && q.cmple(*hi).all();
+    if !view
+        .iter()
+        .any(|s| boxes.iter().any(|b| in_box(probe(s), b)))
+    {
         return Ok(0);
     }
     let bvh = Bvh::build(scene)?;
     let odd = |q: DVec3, (mesh, lo, hi): &(u32, DVec3, DVec3)| {
         let reach = 2.0 * (*hi - *lo).length() as f32 + 1.0;
-        INSIDE_RAYS.iter().any(|d| bvh.count_hits(q.as_vec3(), *d, reach, |f| scene.face_ref(f).mesh == *mesh) % 2 == 1)
+        INSIDE_RAYS.iter().any(|d| {
+            bvh.count_hits(q.as_vec3(), *d, reach, |f| scene.face_ref(f).mesh == *mesh) % 2 == 1
+        })
     };
     view.par_iter_mut().for_each(|s| {
         let q = probe(s);
@@ -769,17 +997,25 @@ fn mark_too_near_for_the_table(view: &mut [ViewSample], center: DVec3, radius: f
 
 /// The initial bitmask of every list entry: the samples behind its view sample's tangent plane
 /// are blocked (`docs/design.md` section 3).
-fn initial_masks(lists: &ReceiverLists, view: &[ViewSample], samples: &LightSamples, center: DVec3) -> Vec<u64> {
+fn initial_masks(
+    lists: &ReceiverLists,
+    view: &[ViewSample],
+    samples: &LightSamples,
+    center: DVec3,
+) -> Vec<u64> {
     let words = samples.words;
     let mut masks = vec![0u64; lists.entries.len() * words];
-    masks.par_chunks_mut(words).zip(&lists.entries).for_each(|(m, &e)| {
-        let s = &view[e as usize];
-        for (k, y) in samples.points.iter().enumerate() {
-            if s.n.dot(rotate_about(center, s.rotation, *y) - s.p) <= 0.0 {
-                m[k / 64] |= 1 << (k % 64);
+    masks
+        .par_chunks_mut(words)
+        .zip(&lists.entries)
+        .for_each(|(m, &e)| {
+            let s = &view[e as usize];
+            for (k, y) in samples.points.iter().enumerate() {
+                if s.n.dot(rotate_about(center, s.rotation, *y) - s.p) <= 0.0 {
+                    m[k / 64] |= 1 << (k % 64);
+                }
             }
-        }
-    });
+        });
     masks
 }
 
@@ -794,20 +1030,41 @@ impl CasterSet {
     /// The casters of `scene` for the light of `bounds` (see the module documentation, step 4)
     /// and their influence regions in the lists' `frustum`, which bound the light's samples too;
     /// with `any_inside`, the culled closed triangles too, for the view samples inside.
-    fn prepare(scene: &Scene, bounds: &LightBounds<'_>, frustum: &LightFrustum, opts: &AliasFreeOptions, opaque_only: bool, any_inside: bool) -> CasterSet {
+    fn prepare(
+        scene: &Scene,
+        bounds: &LightBounds<'_>,
+        frustum: &LightFrustum,
+        opts: &AliasFreeOptions,
+        opaque_only: bool,
+        any_inside: bool,
+    ) -> CasterSet {
         let point = matches!(bounds.light.shape, Shape::Point { .. });
         let filter = match opts.casters {
             Casters::Backfacing if point => FaceFilter::BackFacingIfClosed,
             _ => FaceFilter::All,
         };
         let gathered = if any_inside { FaceFilter::All } else { filter };
-        let mut raw = casters(scene, &RasterOptions { mode: RasterMode::Conservative, faces: gathered, alpha_test: true }, frustum.eye);
-        let front_only = |id: u32| opts.casters == Casters::Backfacing && !point && scene.is_closed_face(id);
+        let mut raw = casters(
+            scene,
+            &RasterOptions {
+                mode: RasterMode::Conservative,
+                faces: gathered,
+                alpha_test: true,
+            },
+            frustum.eye,
+        );
+        let front_only =
+            |id: u32| opts.casters == Casters::Backfacing && !point && scene.is_closed_face(id);
         // A closed triangle facing every point of the light and every sample is back-facing to no
         // sample: it casts nothing, but for the view samples inside a closed mesh.
-        let culled = |id: u32, t: &[Vec3; 3]| (front_only(id) && faces_whole_light(bounds, t)) || !filter.keeps(scene, id, t, frustum.eye);
+        let culled = |id: u32, t: &[Vec3; 3]| {
+            (front_only(id) && faces_whole_light(bounds, t))
+                || !filter.keeps(scene, id, t, frustum.eye)
+        };
         // With `opaque_only`, perforated casters are left to `stsv`.
-        let left_out = |id: u32, t: &[Vec3; 3], alpha: bool| (!any_inside && culled(id, t)) || (opaque_only && alpha);
+        let left_out = |id: u32, t: &[Vec3; 3], alpha: bool| {
+            (!any_inside && culled(id, t)) || (opaque_only && alpha)
+        };
         raw.retain(|(id, t, alpha)| !left_out(*id, t, *alpha));
         let prepared = raw
             .iter()
@@ -816,13 +1073,32 @@ impl CasterSet {
                 // Only a point light's back-facing closed casters can skip the offset (section 3.3):
                 // near its own surface, a receiver's per-sample edge planes are degenerate.
                 let moved = opts.casters == Casters::All || !scene.is_closed_face(*id) || !point;
-                let near_depth = t.iter().map(|p| f64::from(frustum.to_view(*p).z)).fold(f64::INFINITY, f64::min);
+                let near_depth = t
+                    .iter()
+                    .map(|p| f64::from(frustum.to_view(*p).z))
+                    .fold(f64::INFINITY, f64::min);
                 let culled = any_inside && culled(*id, t);
-                Prepared { id: *id, v, normal: (v[1] - v[0]).cross(v[2] - v[0]), alpha: *alpha, moved, front_only: front_only(*id), culled, near_depth }
+                Prepared {
+                    id: *id,
+                    v,
+                    normal: (v[1] - v[0]).cross(v[2] - v[0]),
+                    alpha: *alpha,
+                    moved,
+                    front_only: front_only(*id),
+                    culled,
+                    near_depth,
+                }
             })
             .collect();
-        let hulls = raw.par_iter().map(|(_, t, _)| influence_hull(frustum, bounds, t, opts.hull_degree)).collect();
-        CasterSet { raw, prepared, hulls }
+        let hulls = raw
+            .par_iter()
+            .map(|(_, t, _)| influence_hull(frustum, bounds, t, opts.hull_degree))
+            .collect();
+        CasterSet {
+            raw,
+            prepared,
+            hulls,
+        }
     }
 }
 
@@ -832,19 +1108,46 @@ impl CasterSet {
 /// the regions at every nearer depth). A view sample in any other texel sees every sample, and
 /// the light's center, blocked or none: both the ball and `bounds` hold the center and every
 /// sample, and so the segment between them. Returns the flags and the number of silhouette edges.
-fn penumbra_texels(scene: &Scene, bounds: &LightBounds<'_>, frustum: &LightFrustum, casters: &CasterSet, degree: usize, (center, radius): (DVec3, f64)) -> (Vec<bool>, usize) {
+fn penumbra_texels(
+    scene: &Scene,
+    bounds: &LightBounds<'_>,
+    frustum: &LightFrustum,
+    casters: &CasterSet,
+    degree: usize,
+    (center, radius): (DVec3, f64),
+) -> (Vec<bool>, usize) {
     let (w, h) = (frustum.width, frustum.height);
-    let silhouettes: Vec<Edge> = edges(scene).into_iter().filter(|e| e.is_potential_silhouette(center, radius)).collect();
-    let edge_hulls = silhouettes.par_iter().map(|e| influence_hull(frustum, bounds, &e.ends, degree));
-    let perforated = casters.raw.iter().zip(&casters.hulls).filter(|((_, _, alpha), _)| *alpha).map(|(_, hull)| hull.clone());
-    let hulls: Vec<Option<Vec<DVec2>>> = edge_hulls.collect::<Vec<_>>().into_iter().chain(perforated).collect();
+    let silhouettes: Vec<Edge> = edges(scene)
+        .into_iter()
+        .filter(|e| e.is_potential_silhouette(center, radius))
+        .collect();
+    let edge_hulls = silhouettes
+        .par_iter()
+        .map(|e| influence_hull(frustum, bounds, &e.ends, degree));
+    let perforated = casters
+        .raw
+        .iter()
+        .zip(&casters.hulls)
+        .filter(|((_, _, alpha), _)| *alpha)
+        .map(|(_, hull)| hull.clone());
+    let hulls: Vec<Option<Vec<DVec2>>> = edge_hulls
+        .collect::<Vec<_>>()
+        .into_iter()
+        .chain(perforated)
+        .collect();
     if hulls.iter().any(Option::is_none) {
         return (vec![true; w * h], silhouettes.len());
     }
-    let spans: Vec<Vec<(usize, usize, usize)>> = hulls.par_iter().flatten().map(|hull| conservative_rows(hull, w, h)).collect();
+    let spans: Vec<Vec<(usize, usize, usize)>> = hulls
+        .par_iter()
+        .flatten()
+        .map(|hull| conservative_rows(hull, w, h))
+        .collect();
     let mut flags = vec![false; w * h];
     for (y, x0, x1) in spans.into_iter().flatten() {
-        flags[y * w + x0..y * w + x1].iter_mut().for_each(|f| *f = true);
+        flags[y * w + x0..y * w + x1]
+            .iter_mut()
+            .for_each(|f| *f = true);
     }
     (flags, silhouettes.len())
 }
@@ -863,25 +1166,47 @@ impl Tester<'_> {
     fn run(&self, masks: &mut [u64]) -> Result<()> {
         let parts = self.lists.split_by_band(masks, self.setup.full.len());
         let watch = crate::interrupt::watch();
-        parts.into_par_iter().for_each(|(b, rows, base, band_masks)| self.band(b, rows, base, band_masks, &watch));
+        parts
+            .into_par_iter()
+            .for_each(|(b, rows, base, band_masks)| self.band(b, rows, base, band_masks, &watch));
         crate::interrupt::check()
     }
 
     /// Tests the casters binned to band `b` (rows `rows`, list entries from `base` on) against
     /// the view samples of its lists.
-    fn band(&self, b: usize, rows: std::ops::Range<usize>, base: usize, band_masks: &mut [u64], watch: &crate::interrupt::Watch) {
+    fn band(
+        &self,
+        b: usize,
+        rows: std::ops::Range<usize>,
+        base: usize,
+        band_masks: &mut [u64],
+        watch: &crate::interrupt::Watch,
+    ) {
         let setup = self.setup;
         let (w, words, full) = (setup.frustum.width, setup.full.len(), &setup.full);
         let (lists, view, casters) = (self.lists, setup.view, setup.casters);
         let mut blocked = vec![0u64; words];
         let mut scratch = vec![0u64; words];
-        let Some(band_frustum) = lists.band_frustum(&rows) else { return };
+        let Some(band_frustum) = lists.band_frustum(&rows) else {
+            return;
+        };
         let (center, radius) = (setup.center, setup.radius);
-        let unrotated = Planes { samples: setup.samples, lut: setup.lut, center, radius, rotation: None };
+        let unrotated = Planes {
+            samples: setup.samples,
+            lut: setup.lut,
+            center,
+            radius,
+            rotation: None,
+        };
         for &c in self.bins[b].iter().take_while(|_| !watch.requested()) {
             let t = &casters.prepared[c as usize];
             let region = match &casters.hulls[c as usize] {
-                Some(_) => influence_hull(&band_frustum, setup.bounds, &casters.raw[c as usize].1, setup.hull_degree),
+                Some(_) => influence_hull(
+                    &band_frustum,
+                    setup.bounds,
+                    &casters.raw[c as usize].1,
+                    setup.hull_degree,
+                ),
                 None => None,
             };
             for (y, x0, x1) in lists.spans(region.as_deref(), &rows) {
@@ -894,7 +1219,10 @@ impl Tester<'_> {
                         }
                         let (i, s) = (lists.entries[e] as usize, &view[lists.entries[e] as usize]);
                         // Wholly beyond both the receiver and the light: it cannot cut their segment.
-                        if (t.culled && !s.inside) || t.near_depth > lists.depths[i].max(radius) + 1e-9 * t.near_depth.abs() {
+                        if (t.culled && !s.inside)
+                            || t.near_depth
+                                > lists.depths[i].max(radius) + 1e-9 * t.near_depth.abs()
+                        {
                             continue;
                         }
                         let from_inside;
@@ -912,10 +1240,21 @@ impl Tester<'_> {
                             }
                             continue;
                         }
-                        let planes = Planes { rotation: s.rotation, lut: setup.lut.filter(|_| !s.exact_planes), ..unrotated };
+                        let planes = Planes {
+                            rotation: s.rotation,
+                            lut: setup.lut.filter(|_| !s.exact_planes),
+                            ..unrotated
+                        };
                         if blocked_by(t, p, &planes, full, &mut blocked, &mut scratch) {
                             if t.alpha {
-                                alpha_test(setup.scene, t, p, setup.samples, |y| rotate_about(center, s.rotation, y), &mut blocked);
+                                alpha_test(
+                                    setup.scene,
+                                    t,
+                                    p,
+                                    setup.samples,
+                                    |y| rotate_about(center, s.rotation, y),
+                                    &mut blocked,
+                                );
                             }
                             m.iter_mut().zip(&blocked).for_each(|(a, b)| *a |= b);
                         }
@@ -944,7 +1283,13 @@ mod tests {
     fn through_polygon(v: DVec3, y: DVec3, poly: &[DVec3]) -> bool {
         let n = (poly[1] - poly[0]).cross(poly[2] - poly[0]);
         let x = v + (y - v) * (n.dot(poly[0] - v) / n.dot(y - v));
-        let sides: Vec<f64> = (0..poly.len()).map(|k| (poly[(k + 1) % poly.len()] - poly[k]).cross(x - poly[k]).dot(n)).collect();
+        let sides: Vec<f64> = (0..poly.len())
+            .map(|k| {
+                (poly[(k + 1) % poly.len()] - poly[k])
+                    .cross(x - poly[k])
+                    .dot(n)
+            })
+            .collect();
         let tol = 1e-9 * n.length() * (x - poly[0]).length().max(1.0);
         sides.iter().all(|&s| s >= -tol) || sides.iter().all(|&s| s <= tol)
     }
@@ -954,17 +1299,24 @@ mod tests {
         // Section 4.1: the cone from a vertex over the bounding polygon holds the whole light.
         let r = glam::Mat3::from_rotation_z(0.5) * glam::Mat3::from_rotation_x(0.9);
         let center = Vec3::new(0.0, 4.0, 0.0);
-        let light = Light::ellipsoid(center, [r.x_axis * 1.2, r.y_axis * 0.25, r.z_axis * 0.5]).unwrap();
+        let light =
+            Light::ellipsoid(center, [r.x_axis * 1.2, r.y_axis * 0.25, r.z_axis * 0.5]).unwrap();
         let mut rng = Rng::new(8);
         for degree in [3, 6, 16] {
             for _ in 0..50 {
-                let offset = Vec3::new(rng.next_f32() - 0.5, -rng.next_f32(), rng.next_f32() - 0.5) * 6.0;
+                let offset =
+                    Vec3::new(rng.next_f32() - 0.5, -rng.next_f32(), rng.next_f32() - 0.5) * 6.0;
                 let v = (center + offset + Vec3::new(0.0, -1.3, 0.0)).as_dvec3();
                 let poly = light_points(&light, v, degree);
                 assert_eq!(poly.len(), degree);
                 for _ in 0..200 {
-                    let y = light.map([rng.next_f32(), rng.next_f32(), rng.next_f32()]).as_dvec3();
-                    assert!(through_polygon(v, y, &poly), "degree {degree}, vertex {v}, light point {y}");
+                    let y = light
+                        .map([rng.next_f32(), rng.next_f32(), rng.next_f32()])
+                        .as_dvec3();
+                    assert!(
+                        through_polygon(v, y, &poly),
+                        "degree {degree}, vertex {v}, light point {y}"
+                    );
                 }
             }
         }

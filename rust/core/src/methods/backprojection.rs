@@ -44,11 +44,13 @@
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
+use crate::interrupt;
 use crate::light::lights::{concentric_disk, tangent_frame, Light, Shape};
 use crate::light::sampling::Rng;
-use crate::interrupt;
 use crate::limits::Peak;
-use crate::raster::depth::{raster_peak, raster_work, rasterize_depth, LightFrustum, RasterOptions};
+use crate::raster::depth::{
+    raster_peak, raster_work, rasterize_depth, LightFrustum, RasterOptions,
+};
 use crate::raster::influence::light_polytope;
 use crate::raster::pcf::{DepthBias, ReceiverDepth, RASTERIZED_SLACK};
 use crate::raster::pyramid::{MinMaxPyramid, MultiScaleMap};
@@ -144,20 +146,36 @@ impl Default for BackprojectionOptions {
 impl BackprojectionOptions {
     fn validate(&self, receivers: usize) -> Result<()> {
         if !(1..=crate::raster::depth::MAX_RESOLUTION).contains(&self.resolution) {
-            return Err(Error::invalid("resolution", format!("must be in 1..=65536, got {}", self.resolution)));
+            return Err(Error::invalid(
+                "resolution",
+                format!("must be in 1..=65536, got {}", self.resolution),
+            ));
         }
         if let Accumulation::Bitmask { side } = self.accumulation {
             if !(1..=64).contains(&side) {
-                return Err(Error::invalid("bitmask_side", format!("must be in 1..=64, got {side}")));
+                return Err(Error::invalid(
+                    "bitmask_side",
+                    format!("must be in 1..=64, got {side}"),
+                ));
             }
         }
         let positive = |b: f32| b.is_finite() && b >= 1.0;
         match &self.budget {
-            Budget::Uniform(b) if !positive(*b) => return Err(Error::invalid("budget", format!("must be >= 1, got {b}"))),
-            Budget::Map(m) if m.len() != receivers => {
-                return Err(Error::invalid("budget", format!("the budget map has {} values for {receivers} receivers", m.len())))
+            Budget::Uniform(b) if !positive(*b) => {
+                return Err(Error::invalid("budget", format!("must be >= 1, got {b}")))
             }
-            Budget::Map(m) if !m.iter().all(|&b| positive(b)) => return Err(Error::invalid("budget", "every budget must be >= 1")),
+            Budget::Map(m) if m.len() != receivers => {
+                return Err(Error::invalid(
+                    "budget",
+                    format!(
+                        "the budget map has {} values for {receivers} receivers",
+                        m.len()
+                    ),
+                ))
+            }
+            Budget::Map(m) if !m.iter().all(|&b| positive(b)) => {
+                return Err(Error::invalid("budget", "every budget must be >= 1"))
+            }
             _ => {}
         }
         if let Acceleration::Ysm { resolution } = self.acceleration {
@@ -166,7 +184,10 @@ impl BackprojectionOptions {
             }
         }
         if self.smoothing.is_multiple_of(2) || self.smoothing > 101 {
-            return Err(Error::invalid("smoothing", format!("must be odd and at most 101, got {}", self.smoothing)));
+            return Err(Error::invalid(
+                "smoothing",
+                format!("must be odd and at most 101, got {}", self.smoothing),
+            ));
         }
         Ok(())
     }
@@ -185,13 +206,20 @@ impl Accel {
         let base = match kind {
             Acceleration::Hsm => return Ok(Accel { hsm, multi: None }),
             Acceleration::Mssm => 0,
-            Acceleration::Ysm { resolution } => hsm.levels.iter().position(|l| l.width.max(l.height) <= resolution).unwrap_or(hsm.levels.len() - 1),
+            Acceleration::Ysm { resolution } => hsm
+                .levels
+                .iter()
+                .position(|l| l.width.max(l.height) <= resolution)
+                .unwrap_or(hsm.levels.len() - 1),
         };
         let multi = match kind {
             Acceleration::Mssm => MultiScaleMap::from_level(hsm.levels[0].clone())?,
             _ => MultiScaleMap::sharing_finest(&hsm.levels[base])?,
         };
-        Ok(Accel { hsm, multi: Some((base, multi)) })
+        Ok(Accel {
+            hsm,
+            multi: Some((base, multi)),
+        })
     }
 
     /// `(min, max)` over the non-empty level-0 rectangle `[x0, x1) × [y0, y1)`: the HSM reads a
@@ -200,15 +228,25 @@ impl Accel {
     /// that level's texels).
     fn range(&self, x0: usize, y0: usize, x1: usize, y1: usize) -> Option<(f32, f32)> {
         match &self.multi {
-            Some((base, multi)) if self.hsm.region_level(x0, y0, x1, y1) >= *base => {
-                multi.query_over(&self.hsm.levels[*base], x0 >> base, y0 >> base, ((x1 - 1) >> base) + 1, ((y1 - 1) >> base) + 1)
-            }
+            Some((base, multi)) if self.hsm.region_level(x0, y0, x1, y1) >= *base => multi
+                .query_over(
+                    &self.hsm.levels[*base],
+                    x0 >> base,
+                    y0 >> base,
+                    ((x1 - 1) >> base) + 1,
+                    ((y1 - 1) >> base) + 1,
+                ),
             _ => self.hsm.query_region(x0, y0, x1, y1),
         }
     }
 
     fn memory_bytes(&self) -> usize {
-        self.hsm.levels.iter().map(|l| l.min.len() * 8).sum::<usize>() + self.multi.as_ref().map_or(0, |(_, m)| m.memory_bytes())
+        self.hsm
+            .levels
+            .iter()
+            .map(|l| l.min.len() * 8)
+            .sum::<usize>()
+            + self.multi.as_ref().map_or(0, |(_, m)| m.memory_bytes())
     }
 }
 
@@ -233,8 +271,16 @@ struct Level {
 impl Levels {
     /// The min-aggregated levels of the pyramid; with `rects`, the microrects of section 5.2.
     fn new(hsm: &MinMaxPyramid, rects: bool) -> Levels {
-        let mut levels: Vec<Level> =
-            hsm.levels.iter().map(|l| Level { width: l.width, height: l.height, depth: l.min.clone(), extent: Vec::new() }).collect();
+        let mut levels: Vec<Level> = hsm
+            .levels
+            .iter()
+            .map(|l| Level {
+                width: l.width,
+                height: l.height,
+                depth: l.min.clone(),
+                extent: Vec::new(),
+            })
+            .collect();
         if rects {
             Microrects::build(&mut levels);
         }
@@ -260,7 +306,11 @@ struct Microrects;
 impl Microrects {
     fn build(levels: &mut [Level]) {
         let base = &mut levels[0];
-        base.extent = (0..base.height).flat_map(|y| (0..base.width).map(move |x| [x as u32, y as u32, x as u32 + 1, y as u32 + 1])).collect();
+        base.extent = (0..base.height)
+            .flat_map(|y| {
+                (0..base.width).map(move |x| [x as u32, y as u32, x as u32 + 1, y as u32 + 1])
+            })
+            .collect();
         for i in 1..levels.len() {
             let (finer, coarser) = levels.split_at_mut(i);
             let parents = Self::parents(&finer[i - 1], coarser[0].width);
@@ -274,7 +324,13 @@ impl Microrects {
     fn parents(fine: &Level, width: usize) -> Vec<u32> {
         let (w, h) = (fine.width, fine.height);
         // The kept coordinates within one texel of `c` (even ones), the smaller first.
-        let kept = |c: usize, n: usize| if c.is_multiple_of(2) { [Some(c), None] } else { [Some(c - 1), (c + 1 < n).then_some(c + 1)] };
+        let kept = |c: usize, n: usize| {
+            if c.is_multiple_of(2) {
+                [Some(c), None]
+            } else {
+                [Some(c - 1), (c + 1 < n).then_some(c + 1)]
+            }
+        };
         (0..w * h)
             .into_par_iter()
             .map(|k| {
@@ -298,8 +354,17 @@ impl Microrects {
         let mut extent = vec![[u32::MAX, u32::MAX, 0, 0]; out.width * out.height];
         let mut depth = vec![EMPTY; out.width * out.height];
         for (k, &parent) in parents.iter().enumerate() {
-            let (e, f, m) = (&mut extent[parent as usize], fine.extent[k], &mut depth[parent as usize]);
-            *e = [e[0].min(f[0]), e[1].min(f[1]), e[2].max(f[2]), e[3].max(f[3])];
+            let (e, f, m) = (
+                &mut extent[parent as usize],
+                fine.extent[k],
+                &mut depth[parent as usize],
+            );
+            *e = [
+                e[0].min(f[0]),
+                e[1].min(f[1]),
+                e[2].max(f[2]),
+                e[3].max(f[3]),
+            ];
             *m = m.min(fine.depth[k]);
         }
         out.extent = extent;
@@ -325,10 +390,18 @@ struct LightPlane {
 
 impl LightPlane {
     fn new(light: &Light, side: usize) -> Result<LightPlane> {
-        let bounds = light_polytope(light, 16).into_iter().map(|q| q.as_vec3()).collect();
+        let bounds = light_polytope(light, 16)
+            .into_iter()
+            .map(|q| q.as_vec3())
+            .collect();
         let mut rng = Rng::new(0x5EED_B4C7);
         let jittered: Vec<DVec2> = (0..side * side)
-            .map(|k| DVec2::new(((k % side) as f64 + f64::from(rng.next_f32())) / side as f64, ((k / side) as f64 + f64::from(rng.next_f32())) / side as f64))
+            .map(|k| {
+                DVec2::new(
+                    ((k % side) as f64 + f64::from(rng.next_f32())) / side as f64,
+                    ((k / side) as f64 + f64::from(rng.next_f32())) / side as f64,
+                )
+            })
             .collect();
         match light.shape {
             Shape::Rect { center, u, v } => {
@@ -337,19 +410,52 @@ impl LightPlane {
                 let (uu, uv, vv) = (u.dot(u), u.dot(v), v.dot(v));
                 let det = uu * vv - uv * uv;
                 let to_light = [(u * vv - v * uv) / det, (v * uu - u * uv) / det];
-                let outline = vec![DVec2::new(-1.0, -1.0), DVec2::new(1.0, -1.0), DVec2::new(1.0, 1.0), DVec2::new(-1.0, 1.0)];
+                let outline = vec![
+                    DVec2::new(-1.0, -1.0),
+                    DVec2::new(1.0, -1.0),
+                    DVec2::new(1.0, 1.0),
+                    DVec2::new(-1.0, 1.0),
+                ];
                 let samples: Vec<DVec2> = jittered.iter().map(|s| *s * 2.0 - 1.0).collect();
-                let world = samples.iter().map(|s| center.as_dvec3() + u * s.x + v * s.y).collect();
-                Ok(LightPlane { bounds, center: center.as_dvec3(), normal: u.cross(v).normalize(), to_light, outline, outline_area: 4.0, samples, world })
+                let world = samples
+                    .iter()
+                    .map(|s| center.as_dvec3() + u * s.x + v * s.y)
+                    .collect();
+                Ok(LightPlane {
+                    bounds,
+                    center: center.as_dvec3(),
+                    normal: u.cross(v).normalize(),
+                    to_light,
+                    outline,
+                    outline_area: 4.0,
+                    samples,
+                    world,
+                })
             }
-            Shape::Disk { center, normal, radius } => {
+            Shape::Disk {
+                center,
+                normal,
+                radius,
+            } => {
                 let (t, b) = tangent_frame(normal);
                 let r = f64::from(radius);
                 let k = 64;
-                let scale = (2.0 * std::f64::consts::PI / (k as f64 * (2.0 * std::f64::consts::PI / k as f64).sin())).sqrt();
-                let outline = (0..k).map(|i| DVec2::from_angle(2.0 * std::f64::consts::PI * i as f64 / k as f64) * scale).collect();
-                let samples: Vec<DVec2> = jittered.iter().map(|s| concentric_disk(s.x as f32, s.y as f32).as_dvec2()).collect();
-                let world = samples.iter().map(|s| center.as_dvec3() + (t.as_dvec3() * s.x + b.as_dvec3() * s.y) * r).collect();
+                let scale = (2.0 * std::f64::consts::PI
+                    / (k as f64 * (2.0 * std::f64::consts::PI / k as f64).sin()))
+                .sqrt();
+                let outline = (0..k)
+                    .map(|i| {
+                        DVec2::from_angle(2.0 * std::f64::consts::PI * i as f64 / k as f64) * scale
+                    })
+                    .collect();
+                let samples: Vec<DVec2> = jittered
+                    .iter()
+                    .map(|s| concentric_disk(s.x as f32, s.y as f32).as_dvec2())
+                    .collect();
+                let world = samples
+                    .iter()
+                    .map(|s| center.as_dvec3() + (t.as_dvec3() * s.x + b.as_dvec3() * s.y) * r)
+                    .collect();
                 Ok(LightPlane {
                     bounds,
                     center: center.as_dvec3(),
@@ -361,14 +467,20 @@ impl LightPlane {
                     world,
                 })
             }
-            _ => Err(Error::invalid("light", "backprojection needs a planar area light (RectLight or DiskLight)")),
+            _ => Err(Error::invalid(
+                "light",
+                "backprojection needs a planar area light (RectLight or DiskLight)",
+            )),
         }
     }
 
     /// Light coordinates of the projection of `x` from `p` onto the light's plane; `None` unless
     /// `x` lies strictly between `p` and the plane.
     fn project(&self, p: DVec3, x: DVec3) -> Option<DVec2> {
-        let (dp, dx) = (self.normal.dot(p - self.center), self.normal.dot(x - self.center));
+        let (dp, dx) = (
+            self.normal.dot(p - self.center),
+            self.normal.dot(x - self.center),
+        );
         if dp == 0.0 || dp * dx < 0.0 || dx.abs() >= dp.abs() {
             return None;
         }
@@ -424,7 +536,9 @@ fn clip_half_plane(poly: &[DVec2], a: DVec2, b: DVec2) -> Vec<DVec2> {
 }
 
 fn polygon_area(poly: &[DVec2]) -> f64 {
-    0.5 * (0..poly.len()).map(|i| poly[i].perp_dot(poly[(i + 1) % poly.len()])).sum::<f64>()
+    0.5 * (0..poly.len())
+        .map(|i| poly[i].perp_dot(poly[(i + 1) % poly.len()]))
+        .sum::<f64>()
 }
 
 /// Whether `s` lies inside the convex quadrilateral `q` (either winding).
@@ -457,7 +571,10 @@ enum Search {
     Umbra,
     /// The refined search area, grown to whole texels of level `⌈level⌉`, and the fractional
     /// level `ℓ` its budget gives (before smoothing).
-    Area { area: Rect, level: f32 },
+    Area {
+        area: Rect,
+        level: f32,
+    },
 }
 
 /// The micro-occluders one receiver's scan of one level read, and those it backprojected.
@@ -470,7 +587,10 @@ struct Counts {
 impl std::ops::Add for Counts {
     type Output = Counts;
     fn add(self, o: Counts) -> Counts {
-        Counts { processed: self.processed + o.processed, backprojected: self.backprojected + o.backprojected }
+        Counts {
+            processed: self.processed + o.processed,
+            backprojected: self.backprojected + o.backprojected,
+        }
     }
 }
 
@@ -483,7 +603,10 @@ impl Context<'_> {
     /// The receiver's projection and tangent-plane depth; `None` outside the map.
     fn receiver(&self, p: Vec3, n: Vec3) -> Option<ReceiverDepth> {
         let s = self.frustum.project(p)?;
-        let inside = s.x >= 0.0 && s.y >= 0.0 && s.x < self.frustum.width as f32 && s.y < self.frustum.height as f32;
+        let inside = s.x >= 0.0
+            && s.y >= 0.0
+            && s.x < self.frustum.width as f32
+            && s.y < self.frustum.height as f32;
         inside.then(|| ReceiverDepth::new(&self.frustum, p, n, s, self.bias))
     }
 
@@ -496,24 +619,41 @@ impl Context<'_> {
         let (mut lo, mut hi) = (rd.texel_coords(), rd.texel_coords());
         for q in &self.light.bounds {
             let zq = f.to_view(*q).z;
-            let t = if zp != zq { ((zp - z) / (zp - zq)).clamp(0.0, 1.0) } else { 1.0 };
+            let t = if zp != zq {
+                ((zp - z) / (zp - zq)).clamp(0.0, 1.0)
+            } else {
+                1.0
+            };
             if let Some(s) = f.project(p + (*q - p) * t) {
                 (lo, hi) = (lo.min(s.truncate()), hi.max(s.truncate()));
             } else {
-                (lo, hi) = (glam::Vec2::ZERO, glam::Vec2::new(f.width as f32, f.height as f32));
+                (lo, hi) = (
+                    glam::Vec2::ZERO,
+                    glam::Vec2::new(f.width as f32, f.height as f32),
+                );
             }
         }
         let (w, h) = (f.width, f.height);
         let clamp = |v: f32, n: usize| (v.max(0.0) as usize).min(n);
         let (x0, y0) = (clamp(lo.x.floor(), w), clamp(lo.y.floor(), h));
         let (x1, y1) = (clamp(hi.x.ceil() + 1.0, w), clamp(hi.y.ceil() + 1.0, h));
-        (x0.min(w - 1), y0.min(h - 1), x1.max(x0 + 1).min(w), y1.max(y0 + 1).min(h))
+        (
+            x0.min(w - 1),
+            y0.min(h - 1),
+            x1.max(x0 + 1).min(w),
+            y1.max(y0 + 1).min(h),
+        )
     }
 
     /// `area` grown to whole texels of `level` (the "over-precision" fix of Figure 7).
     fn aligned(&self, (x0, y0, x1, y1): Rect, level: usize) -> Rect {
         let s = 1usize << level;
-        (x0 / s * s, y0 / s * s, (x1.div_ceil(s) * s).min(self.frustum.width), (y1.div_ceil(s) * s).min(self.frustum.height))
+        (
+            x0 / s * s,
+            y0 / s * s,
+            (x1.div_ceil(s) * s).min(self.frustum.width),
+            (y1.div_ceil(s) * s).min(self.frustum.height),
+        )
     }
 
     /// Step 1: the refined search area and the umbra / lit classification. Each round takes the
@@ -527,10 +667,15 @@ impl Context<'_> {
         let mut found = None;
         for _ in 0..4 {
             let footprint = self.footprint(p, rd, z);
-            let level = self.opts.level.map_or_else(|| self.level_of(footprint, budget), |l| l.min(self.top()) as f32);
+            let level = self.opts.level.map_or_else(
+                || self.level_of(footprint, budget),
+                |l| l.min(self.top()) as f32,
+            );
             let j = level.ceil() as usize;
             let area = self.aligned(footprint, j);
-            let Some((lo, hi)) = self.accel.range(area.0, area.1, area.2, area.3) else { return Search::Lit };
+            let Some((lo, hi)) = self.accel.range(area.0, area.1, area.2, area.3) else {
+                return Search::Lit;
+            };
             if lo >= threshold {
                 return Search::Lit;
             }
@@ -568,15 +713,27 @@ impl Context<'_> {
 
     /// Steps 3 and 4 at integer level `level`: the visibility of receiver `p` (`rd`) from the
     /// micro-occluders of `area`, and how many the scan read and backprojected.
-    fn visibility(&self, (p, n): (DVec3, DVec3), rd: &ReceiverDepth, area: Rect, level: usize) -> (f32, Counts) {
+    fn visibility(
+        &self,
+        (p, n): (DVec3, DVec3),
+        rd: &ReceiverDepth,
+        area: Rect,
+        level: usize,
+    ) -> (f32, Counts) {
         let level = level.min(self.top());
         let lv = &self.levels.levels[level];
         let s = 1usize << level;
         let (mut bits, front) = self.light.behind(p, n);
         let mut covered = 0.0f64;
         let (tx0, ty0) = (area.0 / s, area.1 / s);
-        let (tx1, ty1) = (area.2.div_ceil(s).min(lv.width), area.3.div_ceil(s).min(lv.height));
-        let mut counts = Counts { processed: ((tx1 - tx0) * (ty1 - ty0)) as u32, backprojected: 0 };
+        let (tx1, ty1) = (
+            area.2.div_ceil(s).min(lv.width),
+            area.3.div_ceil(s).min(lv.height),
+        );
+        let mut counts = Counts {
+            processed: ((tx1 - tx0) * (ty1 - ty0)) as u32,
+            backprojected: 0,
+        };
         let mut occlude = |q: [DVec2; 4]| match self.opts.accumulation {
             Accumulation::Area => covered += self.light.covered_fraction(&q),
             Accumulation::Bitmask { .. } => {
@@ -607,10 +764,21 @@ impl Context<'_> {
                         }
                         let corners = [(tx, ty), (tx + 1, ty), (tx + 1, ty + 1), (tx, ty + 1)];
                         let depths = corners.map(|(x, y)| lv.depth[y * lv.width + x]);
-                        if !corners.iter().zip(&depths).all(|(&(x, y), &dz)| dz != EMPTY && dz < plane_min(rd, cell(x, y))) {
+                        if !corners
+                            .iter()
+                            .zip(&depths)
+                            .all(|(&(x, y), &dz)| dz != EMPTY && dz < plane_min(rd, cell(x, y)))
+                        {
                             continue;
                         }
-                        let quad = [0, 1, 2, 3].map(|i| f.unproject(((corners[i].0 * s) as f32) + 0.5 * s as f32, ((corners[i].1 * s) as f32) + 0.5 * s as f32, depths[i]).as_dvec3());
+                        let quad = [0, 1, 2, 3].map(|i| {
+                            f.unproject(
+                                ((corners[i].0 * s) as f32) + 0.5 * s as f32,
+                                ((corners[i].1 * s) as f32) + 0.5 * s as f32,
+                                depths[i],
+                            )
+                            .as_dvec3()
+                        });
                         if let Some(q) = project_quad(self.light, p, quad) {
                             counts.backprojected += 1;
                             occlude(q);
@@ -621,11 +789,16 @@ impl Context<'_> {
                 if d >= plane_min(rd, rect) {
                     continue;
                 }
-                let Some(q) = project_quad(self.light, p, self.rect(rect, d)) else { continue };
+                let Some(q) = project_quad(self.light, p, self.rect(rect, d)) else {
+                    continue;
+                };
                 counts.backprojected += 1;
                 occlude(q);
                 if self.opts.occluder == (Occluder::Micropatch { extend: true }) {
-                    for wall in [self.gap_wall(p, rd, lv, level, (tx, ty), &q, Neighbour::Left), self.gap_wall(p, rd, lv, level, (tx, ty), &q, Neighbour::Bottom)] {
+                    for wall in [
+                        self.gap_wall(p, rd, lv, level, (tx, ty), &q, Neighbour::Left),
+                        self.gap_wall(p, rd, lv, level, (tx, ty), &q, Neighbour::Bottom),
+                    ] {
                         wall.map(&mut occlude);
                     }
                 }
@@ -633,7 +806,10 @@ impl Context<'_> {
         }
         let visible = match self.opts.accumulation {
             Accumulation::Area => front * (1.0 - covered.min(1.0)),
-            Accumulation::Bitmask { .. } => 1.0 - bits.iter().map(|b| b.count_ones()).sum::<u32>() as f64 / self.light.samples.len() as f64,
+            Accumulation::Bitmask { .. } => {
+                1.0 - bits.iter().map(|b| b.count_ones()).sum::<u32>() as f64
+                    / self.light.samples.len() as f64
+            }
         };
         (visible as f32, counts)
     }
@@ -649,7 +825,16 @@ impl Context<'_> {
     /// between two occluding micropatches closes once, and no wall reaches a texel that no
     /// occluder covers: an empty neighbour, or one behind `p`, gets none.
     #[allow(clippy::too_many_arguments)]
-    fn gap_wall(&self, p: DVec3, rd: &ReceiverDepth, lv: &Level, level: usize, (tx, ty): (usize, usize), patch: &[DVec2; 4], towards: Neighbour) -> Option<[DVec2; 4]> {
+    fn gap_wall(
+        &self,
+        p: DVec3,
+        rd: &ReceiverDepth,
+        lv: &Level,
+        level: usize,
+        (tx, ty): (usize, usize),
+        patch: &[DVec2; 4],
+        towards: Neighbour,
+    ) -> Option<[DVec2; 4]> {
         let s = 1usize << level;
         let (nx, ny) = match towards {
             Neighbour::Left => (tx.checked_sub(1)?, ty),
@@ -664,13 +849,23 @@ impl Context<'_> {
         }
         // The shared edge in level-0 texel coordinates: the patch's corners 3 → 0 (left) or 2 → 3
         // (bottom) of `rect`'s winding.
-        let (x0, y0, x1, y1) = ((tx * s) as f32, (ty * s) as f32, ((tx + 1) * s) as f32, ((ty + 1) * s) as f32);
+        let (x0, y0, x1, y1) = (
+            (tx * s) as f32,
+            (ty * s) as f32,
+            ((tx + 1) * s) as f32,
+            ((ty + 1) * s) as f32,
+        );
         let (a, b, (ia, ib)) = match towards {
             Neighbour::Left => ((x0, y1), (x0, y0), (3, 0)),
             Neighbour::Bottom => ((x1, y1), (x0, y1), (2, 3)),
         };
         let f = &self.frustum;
-        let far = [self.light.project(p, f.unproject(a.0, a.1, dn).as_dvec3())?, self.light.project(p, f.unproject(b.0, b.1, dn).as_dvec3())?];
+        let far = [
+            self.light
+                .project(p, f.unproject(a.0, a.1, dn).as_dvec3())?,
+            self.light
+                .project(p, f.unproject(b.0, b.1, dn).as_dvec3())?,
+        ];
         let (ea, eb) = (patch[ia], patch[ib]);
         let centroid = (patch[0] + patch[1] + patch[2] + patch[3]) * 0.25;
         let mid = (far[0] + far[1]) * 0.5;
@@ -701,12 +896,20 @@ enum Neighbour {
 /// extent, or a tilted receiver would shadow itself.
 fn plane_min(rd: &ReceiverDepth, (x0, y0, x1, y1): (usize, usize, usize, usize)) -> f32 {
     let (x1, y1) = (x1.max(x0 + 1) - 1, y1.max(y0 + 1) - 1);
-    [(x0, y0), (x1, y0), (x0, y1), (x1, y1)].map(|(x, y)| rd.at(x as i64, y as i64)).into_iter().fold(f32::INFINITY, f32::min)
+    [(x0, y0), (x1, y0), (x0, y1), (x1, y1)]
+        .map(|(x, y)| rd.at(x as i64, y as i64))
+        .into_iter()
+        .fold(f32::INFINITY, f32::min)
 }
 
 /// The light-coordinate quad of `quad` projected from `p`; `None` unless it lies between them.
 fn project_quad(light: &LightPlane, p: DVec3, quad: [DVec3; 4]) -> Option<[DVec2; 4]> {
-    let q = [light.project(p, quad[0])?, light.project(p, quad[1])?, light.project(p, quad[2])?, light.project(p, quad[3])?];
+    let q = [
+        light.project(p, quad[0])?,
+        light.project(p, quad[1])?,
+        light.project(p, quad[2])?,
+        light.project(p, quad[3])?,
+    ];
     Some(q)
 }
 
@@ -717,9 +920,17 @@ fn project_quad(light: &LightPlane, p: DVec3, quad: [DVec3; 4]) -> Option<[DVec2
 /// every term of `x`'s mean is at least its own level and smoothing never lowers a level below
 /// the one its budget needs (the budget's bound holds at every pixel), while the box still turns
 /// the steps of the raw map into ramps.
-fn smooth_levels(levels: &[Option<f32>], depth: &[f32], (w, h): (usize, usize), side: usize) -> Vec<Option<f32>> {
+fn smooth_levels(
+    levels: &[Option<f32>],
+    depth: &[f32],
+    (w, h): (usize, usize),
+    side: usize,
+) -> Vec<Option<f32>> {
     let r = side / 2;
-    let joined = |a: usize, b: usize| levels[b].is_some() && (depth[a] - depth[b]).abs() <= 0.02 * depth[a].abs().max(depth[b].abs());
+    let joined = |a: usize, b: usize| {
+        levels[b].is_some()
+            && (depth[a] - depth[b]).abs() <= 0.02 * depth[a].abs().max(depth[b].abs())
+    };
     // The run around `i` along `step`: `i` and the joined receivers within `r` on either side.
     let run = |i: usize, step: (usize, usize), visit: &mut dyn FnMut(usize)| {
         visit(i);
@@ -727,7 +938,10 @@ fn smooth_levels(levels: &[Option<f32>], depth: &[f32], (w, h): (usize, usize), 
         for dir in [-1i64, 1] {
             let mut prev = i;
             for k in 1..=r as i64 {
-                let (nx, ny) = (x as i64 + dir * k * step.0 as i64, y as i64 + dir * k * step.1 as i64);
+                let (nx, ny) = (
+                    x as i64 + dir * k * step.0 as i64,
+                    y as i64 + dir * k * step.1 as i64,
+                );
                 if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
                     break;
                 }
@@ -778,15 +992,26 @@ fn receiver_work(opts: &BackprojectionOptions, (w, h): (usize, usize)) -> u64 {
     }
 }
 
-fn peak(scene: &Scene, receivers: usize, (w, h): (usize, usize), opts: &BackprojectionOptions) -> Peak {
+fn peak(
+    scene: &Scene,
+    receivers: usize,
+    (w, h): (usize, usize),
+    opts: &BackprojectionOptions,
+) -> Peak {
     let hsm = MinMaxPyramid::peak(w, h);
     let accel = match opts.acceleration {
         Acceleration::Hsm => hsm,
         Acceleration::Mssm => hsm.and(MultiScaleMap::peak(w, h)),
-        Acceleration::Ysm { resolution } => hsm.and(MultiScaleMap::peak(w.min(resolution), h.min(resolution))),
+        Acceleration::Ysm { resolution } => {
+            hsm.and(MultiScaleMap::peak(w.min(resolution), h.min(resolution)))
+        }
     };
     // Microrects: the level's depths and extents, and the merge's parents, extents and depths.
-    let per_texel = if opts.occluder == Occluder::Microrect { 4 + 16 + 4 + 16 + 4 } else { 4 };
+    let per_texel = if opts.occluder == Occluder::Microrect {
+        4 + 16 + 4 + 16 + 4
+    } else {
+        4
+    };
     // The search, the raw and smoothed levels and the two of each filter pass, the depths, the
     // result, and the visibility and level returned.
     let per_receiver = std::mem::size_of::<(Search, Option<ReceiverDepth>)>()
@@ -813,7 +1038,12 @@ fn peak(scene: &Scene, receivers: usize, (w, h): (usize, usize), opts: &Backproj
 /// classified so).
 ///
 /// Errors: invalid options; a light that is not a rectangle or a disk; `TooLarge`.
-pub fn backprojection(scene: &Scene, light: &Light, receivers: &Receivers, opts: &BackprojectionOptions) -> Result<(Vec<f32>, Stats)> {
+pub fn backprojection(
+    scene: &Scene,
+    light: &Light,
+    receivers: &Receivers,
+    opts: &BackprojectionOptions,
+) -> Result<(Vec<f32>, Stats)> {
     backprojection_levels(scene, light, receivers, opts).map(|out| (out.visibility, out.stats))
 }
 
@@ -831,7 +1061,12 @@ pub struct Backprojected {
 }
 
 /// [`backprojection`] with the LOQ map and the micro-occluders processed per receiver.
-pub fn backprojection_levels(scene: &Scene, light: &Light, receivers: &Receivers, opts: &BackprojectionOptions) -> Result<Backprojected> {
+pub fn backprojection_levels(
+    scene: &Scene,
+    light: &Light,
+    receivers: &Receivers,
+    opts: &BackprojectionOptions,
+) -> Result<Backprojected> {
     super::refuse_textured(light, "backprojection")?;
     opts.validate(receivers.len())?;
     let side = match opts.accumulation {
@@ -840,24 +1075,80 @@ pub fn backprojection_levels(scene: &Scene, light: &Light, receivers: &Receivers
     };
     let plane = LightPlane::new(light, side)?;
     let mut stats = Stats::default();
-    for name in ["depth_map_seconds", "acceleration_seconds", "microrects_seconds", "search_seconds", "smoothing_seconds", "backprojection_seconds", "backprojecting_percent", "processed_mean", "processed_std", "processed_max", "backprojected_mean", "backprojected_std", "backprojected_max", "level_mean", "umbra", "lit"] {
+    for name in [
+        "depth_map_seconds",
+        "acceleration_seconds",
+        "microrects_seconds",
+        "search_seconds",
+        "smoothing_seconds",
+        "backprojection_seconds",
+        "backprojecting_percent",
+        "processed_mean",
+        "processed_std",
+        "processed_max",
+        "backprojected_mean",
+        "backprojected_std",
+        "backprojected_max",
+        "level_mean",
+        "umbra",
+        "lit",
+    ] {
         stats.set(name, 0.0);
     }
     let n = receivers.len();
-    let Some(bounds) = receivers.bounds() else { return Ok(Backprojected { visibility: vec![0.0; n], levels: vec![f32::NAN; n], processed: vec![0; n], stats }) };
+    let Some(bounds) = receivers.bounds() else {
+        return Ok(Backprojected {
+            visibility: vec![0.0; n],
+            levels: vec![f32::NAN; n],
+            processed: vec![0; n],
+            stats,
+        });
+    };
     let frustum = LightFrustum::for_light_aligned(light, bounds, opts.resolution)?;
     peak(scene, n, (frustum.width, frustum.height), opts).check("backprojection", &mut stats)?;
     raster_work(scene, frustum.width, frustum.height)
-        .loop_of(&[n as u64, receiver_work(opts, (frustum.width, frustum.height))])
+        .loop_of(&[
+            n as u64,
+            receiver_work(opts, (frustum.width, frustum.height)),
+        ])
         .check("backprojection", &mut stats)?;
-    let map = stats.time("depth_map", || rasterize_depth(scene, &frustum, &RasterOptions::default()))?;
-    let stored: Vec<f32> = map.depth.iter().map(|&d| if d.is_finite() { d } else { EMPTY }).collect();
-    let near = stored.iter().copied().fold(f32::INFINITY, f32::min).max(frustum.near);
-    let accel = stats.time("acceleration", || Accel::new(opts.acceleration, map.width, map.height, &stored))?;
+    let map = stats.time("depth_map", || {
+        rasterize_depth(scene, &frustum, &RasterOptions::default())
+    })?;
+    let stored: Vec<f32> = map
+        .depth
+        .iter()
+        .map(|&d| if d.is_finite() { d } else { EMPTY })
+        .collect();
+    let near = stored
+        .iter()
+        .copied()
+        .fold(f32::INFINITY, f32::min)
+        .max(frustum.near);
+    let accel = stats.time("acceleration", || {
+        Accel::new(opts.acceleration, map.width, map.height, &stored)
+    })?;
     stats.set("acceleration_bytes", accel.memory_bytes() as f64);
-    let levels = stats.time("microrects", || Levels::new(&accel.hsm, opts.occluder == Occluder::Microrect));
-    stats.set("microrects_bytes", levels.levels.iter().map(|l| l.extent.len() * 20).sum::<usize>() as f64);
-    let ctx = Context { frustum, accel: &accel, levels: &levels, light: &plane, opts, bias: DepthBias::new(opts.bias, RASTERIZED_SLACK)?, near };
+    let levels = stats.time("microrects", || {
+        Levels::new(&accel.hsm, opts.occluder == Occluder::Microrect)
+    });
+    stats.set(
+        "microrects_bytes",
+        levels
+            .levels
+            .iter()
+            .map(|l| l.extent.len() * 20)
+            .sum::<usize>() as f64,
+    );
+    let ctx = Context {
+        frustum,
+        accel: &accel,
+        levels: &levels,
+        light: &plane,
+        opts,
+        bias: DepthBias::new(opts.bias, RASTERIZED_SLACK)?,
+        near,
+    };
     let budget = |i: usize| match &opts.budget {
         Budget::Infinite => None,
         Budget::Uniform(b) => Some(*b),
@@ -871,33 +1162,69 @@ pub fn backprojection_levels(scene: &Scene, light: &Light, receivers: &Receivers
             if !receivers.valid[i] || nrm.dot(light.center() - p) <= 0.0 {
                 return (Search::Fixed(0.0), None);
             }
-            let Some(rd) = ctx.receiver(p, nrm) else { return (Search::Fixed(1.0), None) };
+            let Some(rd) = ctx.receiver(p, nrm) else {
+                return (Search::Fixed(1.0), None);
+            };
             (ctx.search(p, &rd, budget(i)), Some(rd))
         })
     })?;
-    let raw: Vec<Option<f32>> = searched.iter().map(|s| if let Search::Area { level, .. } = s.0 { Some(level) } else { None }).collect();
-    let smoothed = if matches!(opts.budget, Budget::Infinite) || opts.level.is_some() || opts.smoothing == 1 {
-        raw
-    } else {
-        let depth: Vec<f32> = searched.iter().map(|s| s.1.map_or(0.0, |rd| rd.depth())).collect();
-        stats.time("smoothing", || smooth_levels(&raw, &depth, (receivers.width, receivers.height), opts.smoothing))
-    };
+    let raw: Vec<Option<f32>> = searched
+        .iter()
+        .map(|s| {
+            if let Search::Area { level, .. } = s.0 {
+                Some(level)
+            } else {
+                None
+            }
+        })
+        .collect();
+    let smoothed =
+        if matches!(opts.budget, Budget::Infinite) || opts.level.is_some() || opts.smoothing == 1 {
+            raw
+        } else {
+            let depth: Vec<f32> = searched
+                .iter()
+                .map(|s| s.1.map_or(0.0, |rd| rd.depth()))
+                .collect();
+            stats.time("smoothing", || {
+                smooth_levels(
+                    &raw,
+                    &depth,
+                    (receivers.width, receivers.height),
+                    opts.smoothing,
+                )
+            })
+        };
     let results: Vec<(f32, Option<Counts>)> = stats.time("backprojection", || {
         interrupt::par_map(n, per_receiver, |i| {
             let ((search, rd), level) = (&searched[i], &smoothed[i]);
             match (search, rd, level) {
                 (Search::Fixed(v), _, _) => (*v, None),
-                (Search::Lit, _, _) => (ctx.light.behind(receivers.points[i].as_dvec3(), receivers.normals[i].as_dvec3()).1 as f32, None),
+                (Search::Lit, _, _) => (
+                    ctx.light
+                        .behind(
+                            receivers.points[i].as_dvec3(),
+                            receivers.normals[i].as_dvec3(),
+                        )
+                        .1 as f32,
+                    None,
+                ),
                 (Search::Umbra, _, _) => (0.0, None),
                 (Search::Area { area, .. }, Some(rd), Some(l)) => {
-                    let p = (receivers.points[i].as_dvec3(), receivers.normals[i].as_dvec3());
+                    let p = (
+                        receivers.points[i].as_dvec3(),
+                        receivers.normals[i].as_dvec3(),
+                    );
                     let (lo, hi) = (l.floor() as usize, l.ceil() as usize);
                     if !opts.blend || lo == hi {
                         let (v, c) = ctx.visibility(p, rd, *area, hi);
                         return (v, Some(c));
                     }
                     let alpha = l - l.floor();
-                    let ((v0, c0), (v1, c1)) = (ctx.visibility(p, rd, *area, lo), ctx.visibility(p, rd, *area, hi));
+                    let ((v0, c0), (v1, c1)) = (
+                        ctx.visibility(p, rd, *area, lo),
+                        ctx.visibility(p, rd, *area, hi),
+                    );
                     ((1.0 - alpha) * v0 + alpha * v1, Some(c0 + c1))
                 }
                 _ => (1.0, None),
@@ -906,28 +1233,71 @@ pub fn backprojection_levels(scene: &Scene, light: &Light, receivers: &Receivers
     })?;
     let valid = searched.iter().filter(|s| s.1.is_some()).count().max(1) as f64;
     let counts: Vec<Counts> = results.iter().filter_map(|r| r.1).collect();
-    stats.set("backprojecting_percent", 100.0 * counts.len() as f64 / valid);
-    for (name, values) in [("processed", counts.iter().map(|c| c.processed).collect::<Vec<_>>()), ("backprojected", counts.iter().map(|c| c.backprojected).collect())] {
+    stats.set(
+        "backprojecting_percent",
+        100.0 * counts.len() as f64 / valid,
+    );
+    for (name, values) in [
+        (
+            "processed",
+            counts.iter().map(|c| c.processed).collect::<Vec<_>>(),
+        ),
+        (
+            "backprojected",
+            counts.iter().map(|c| c.backprojected).collect(),
+        ),
+    ] {
         let (mean, std, max) = moments(&values);
         stats.set(&format!("{name}_mean"), mean);
         stats.set(&format!("{name}_std"), std);
         stats.set(&format!("{name}_max"), max);
     }
     let levels_used: Vec<f32> = smoothed.iter().flatten().copied().collect();
-    stats.set("level_mean", levels_used.iter().map(|&l| f64::from(l)).sum::<f64>() / levels_used.len().max(1) as f64);
-    stats.set("umbra", searched.iter().filter(|s| matches!(s.0, Search::Umbra)).count() as f64);
-    stats.set("lit", searched.iter().filter(|s| matches!(s.0, Search::Lit)).count() as f64);
+    stats.set(
+        "level_mean",
+        levels_used.iter().map(|&l| f64::from(l)).sum::<f64>() / levels_used.len().max(1) as f64,
+    );
+    stats.set(
+        "umbra",
+        searched
+            .iter()
+            .filter(|s| matches!(s.0, Search::Umbra))
+            .count() as f64,
+    );
+    stats.set(
+        "lit",
+        searched
+            .iter()
+            .filter(|s| matches!(s.0, Search::Lit))
+            .count() as f64,
+    );
     let levels = smoothed.iter().map(|l| l.unwrap_or(f32::NAN)).collect();
-    let processed = results.iter().map(|r| r.1.map_or(0, |c| c.processed)).collect();
-    Ok(Backprojected { visibility: results.into_iter().map(|r| r.0).collect(), levels, processed, stats })
+    let processed = results
+        .iter()
+        .map(|r| r.1.map_or(0, |c| c.processed))
+        .collect();
+    Ok(Backprojected {
+        visibility: results.into_iter().map(|r| r.0).collect(),
+        levels,
+        processed,
+        stats,
+    })
 }
 
 /// The mean, standard deviation and maximum of `values` (zeros when empty).
 fn moments(values: &[u32]) -> (f64, f64, f64) {
     let n = values.len().max(1) as f64;
     let mean = values.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
-    let var = values.iter().map(|&v| (f64::from(v) - mean).powi(2)).sum::<f64>() / n;
-    (mean, var.sqrt(), values.iter().copied().max().map_or(0.0, f64::from))
+    let var = values
+        .iter()
+        .map(|&v| (f64::from(v) - mean).powi(2))
+        .sum::<f64>()
+        / n;
+    (
+        mean,
+        var.sqrt(),
+        values.iter().copied().max().map_or(0.0, f64::from),
+    )
 }
 
 #[cfg(test)]
@@ -936,7 +1306,17 @@ mod tests {
 
     /// A depth map of two plateaus (near on the left third, far elsewhere) with empty texels.
     fn map(w: usize, h: usize) -> Vec<f32> {
-        (0..w * h).map(|i| if i % w < w / 3 { 2.0 } else if (i / w) % 7 == 3 { EMPTY } else { 5.0 + (i % w) as f32 * 0.01 }).collect()
+        (0..w * h)
+            .map(|i| {
+                if i % w < w / 3 {
+                    2.0
+                } else if (i / w) % 7 == 3 {
+                    EMPTY
+                } else {
+                    5.0 + (i % w) as f32 * 0.01
+                }
+            })
+            .collect()
     }
 
     /// For every level, the level-0 texels each microrect holds (following the merges down).
@@ -957,7 +1337,8 @@ mod tests {
     }
 
     #[test]
-    fn each_microrect_is_the_bounding_rectangle_and_minimum_depth_of_the_texels_it_replaces() -> Result<()> {
+    fn each_microrect_is_the_bounding_rectangle_and_minimum_depth_of_the_texels_it_replaces(
+    ) -> Result<()> {
         let (w, h) = (37, 29);
         let depth = map(w, h);
         let levels = Levels::new(&MinMaxPyramid::new(w, h, &depth)?, true);
@@ -967,17 +1348,29 @@ mod tests {
                 // Every texel merges into exactly one microrect per level (the sets partition the
                 // map), which keeps its reference point.
                 let (rx, ry) = ((k % lv.width) as u32 * s, (k / lv.width) as u32 * s);
-                assert!(texels.contains(&((ry as usize) * w + rx as usize)), "level {i}, microrect {k} lost its reference texel");
+                assert!(
+                    texels.contains(&((ry as usize) * w + rx as usize)),
+                    "level {i}, microrect {k} lost its reference texel"
+                );
                 let bounds = texels.iter().fold([u32::MAX, u32::MAX, 0, 0], |b, &t| {
                     let (x, y) = ((t % w) as u32, (t / w) as u32);
                     [b[0].min(x), b[1].min(y), b[2].max(x + 1), b[3].max(y + 1)]
                 });
-                assert_eq!(lv.extent[k], bounds, "level {i}, microrect {k}: extent is not its texels' bounding rectangle");
+                assert_eq!(
+                    lv.extent[k], bounds,
+                    "level {i}, microrect {k}: extent is not its texels' bounding rectangle"
+                );
                 let nearest = texels.iter().map(|&t| depth[t]).fold(EMPTY, f32::min);
-                assert_eq!(lv.depth[k], nearest, "level {i}, microrect {k}: depth is not its texels' minimum");
+                assert_eq!(
+                    lv.depth[k], nearest,
+                    "level {i}, microrect {k}: depth is not its texels' minimum"
+                );
                 // Section 5.2's constraints: no other reference point of the level inside.
                 let e = lv.extent[k];
-                assert!(e[0] + s > rx && e[2] <= rx + s && e[1] + s > ry && e[3] <= ry + s, "level {i}, microrect {k}: {e:?}");
+                assert!(
+                    e[0] + s > rx && e[2] <= rx + s && e[1] + s > ry && e[3] <= ry + s,
+                    "level {i}, microrect {k}: {e:?}"
+                );
             }
             assert_eq!(sets.iter().map(Vec::len).sum::<usize>(), w * h);
         }
@@ -988,19 +1381,44 @@ mod tests {
     fn microrects_merge_into_the_kept_neighbour_nearest_in_depth() -> Result<()> {
         let mut rng = Rng::new(11);
         let (w, h) = (33, 26);
-        let depth: Vec<f32> = (0..w * h).map(|i| if rng.next_f32() < 0.1 { EMPTY } else { (i % 5) as f32 + rng.next_f32() }).collect();
+        let depth: Vec<f32> = (0..w * h)
+            .map(|i| {
+                if rng.next_f32() < 0.1 {
+                    EMPTY
+                } else {
+                    (i % 5) as f32 + rng.next_f32()
+                }
+            })
+            .collect();
         let levels = Levels::new(&MinMaxPyramid::new(w, h, &depth)?, true);
         for i in 1..levels.levels.len() {
             let (fine, coarse) = (&levels.levels[i - 1], &levels.levels[i]);
             let parents = Microrects::parents(fine, coarse.width);
             for (k, &parent) in parents.iter().enumerate() {
                 let (x, y) = (k % fine.width, k / fine.width);
-                let gap = |px: usize, py: usize| (fine.depth[2 * py * fine.width + 2 * px] - fine.depth[k]).abs();
-                let (px, py) = (parent as usize % coarse.width, parent as usize / coarse.width);
-                assert!((2 * px).abs_diff(x) <= 1 && (2 * py).abs_diff(y) <= 1, "level {i}: {k} merged into a far microrect");
-                for cy in [y.wrapping_sub(1), y, y + 1].into_iter().filter(|&c| c < fine.height && c.is_multiple_of(2)) {
-                    for cx in [x.wrapping_sub(1), x, x + 1].into_iter().filter(|&c| c < fine.width && c.is_multiple_of(2)) {
-                        assert!(gap(px, py) <= gap(cx / 2, cy / 2), "level {i}: texel ({x}, {y}) skipped a nearer kept neighbour");
+                let gap = |px: usize, py: usize| {
+                    (fine.depth[2 * py * fine.width + 2 * px] - fine.depth[k]).abs()
+                };
+                let (px, py) = (
+                    parent as usize % coarse.width,
+                    parent as usize / coarse.width,
+                );
+                assert!(
+                    (2 * px).abs_diff(x) <= 1 && (2 * py).abs_diff(y) <= 1,
+                    "level {i}: {k} merged into a far microrect"
+                );
+                for cy in [y.wrapping_sub(1), y, y + 1]
+                    .into_iter()
+                    .filter(|&c| c < fine.height && c.is_multiple_of(2))
+                {
+                    for cx in [x.wrapping_sub(1), x, x + 1]
+                        .into_iter()
+                        .filter(|&c| c < fine.width && c.is_multiple_of(2))
+                    {
+                        assert!(
+                            gap(px, py) <= gap(cx / 2, cy / 2),
+                            "level {i}: texel ({x}, {y}) skipped a nearer kept neighbour"
+                        );
                     }
                 }
             }
@@ -1030,18 +1448,39 @@ mod tests {
     fn finer_structures_give_nested_depth_ranges() {
         let (w, h) = (200, 170);
         let mut rng = Rng::new(3);
-        let depth: Vec<f32> = (0..w * h).map(|i| if rng.next_f32() < 0.05 { EMPTY } else { 1.0 + ((i % w) as f32 * 0.05).sin() + rng.next_f32() }).collect();
+        let depth: Vec<f32> = (0..w * h)
+            .map(|i| {
+                if rng.next_f32() < 0.05 {
+                    EMPTY
+                } else {
+                    1.0 + ((i % w) as f32 * 0.05).sin() + rng.next_f32()
+                }
+            })
+            .collect();
         let hsm = Accel::new(Acceleration::Hsm, w, h, &depth).unwrap();
         let ysm = Accel::new(Acceleration::Ysm { resolution: 64 }, w, h, &depth).unwrap();
         let mssm = Accel::new(Acceleration::Mssm, w, h, &depth).unwrap();
         for _ in 0..3000 {
-            let (x0, y0) = ((rng.next_f32() * w as f32) as usize, (rng.next_f32() * h as f32) as usize);
-            let (x1, y1) = ((x0 + 1 + (rng.next_f32() * 40.0) as usize).min(w), (y0 + 1 + (rng.next_f32() * 40.0) as usize).min(h));
+            let (x0, y0) = (
+                (rng.next_f32() * w as f32) as usize,
+                (rng.next_f32() * h as f32) as usize,
+            );
+            let (x1, y1) = (
+                (x0 + 1 + (rng.next_f32() * 40.0) as usize).min(w),
+                (y0 + 1 + (rng.next_f32() * 40.0) as usize).min(h),
+            );
             let depth = &depth;
-            let exact = (y0..y1).flat_map(|y| (x0..x1).map(move |x| depth[y * w + x])).fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), d| (a.min(d), b.max(d)));
+            let exact = (y0..y1)
+                .flat_map(|y| (x0..x1).map(move |x| depth[y * w + x]))
+                .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), d| {
+                    (a.min(d), b.max(d))
+                });
             let [m, y, hh] = [&mssm, &ysm, &hsm].map(|a| a.range(x0, y0, x1, y1).unwrap());
             assert_eq!(m, exact);
-            assert!(hh.0 <= y.0 && y.0 <= m.0 && m.1 <= y.1 && y.1 <= hh.1, "{x0},{y0}..{x1},{y1}: hsm {hh:?} ysm {y:?} mssm {m:?}");
+            assert!(
+                hh.0 <= y.0 && y.0 <= m.0 && m.1 <= y.1 && y.1 <= hh.1,
+                "{x0},{y0}..{x1},{y1}: hsm {hh:?} ysm {y:?} mssm {m:?}"
+            );
         }
     }
 }

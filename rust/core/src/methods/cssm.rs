@@ -65,10 +65,13 @@ use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::gpu::{self, Backend};
-use crate::light::lights::Light;
 use crate::interrupt;
+use crate::light::lights::Light;
 use crate::limits::{self, Peak};
-use crate::raster::depth::{raster_peak, raster_work, rasterize_depth, DepthMap, LightFrustum, RasterOptions, MAX_RESOLUTION};
+use crate::raster::depth::{
+    raster_peak, raster_work, rasterize_depth, DepthMap, LightFrustum, RasterOptions,
+    MAX_RESOLUTION,
+};
 use crate::raster::footprint::LightFootprint;
 use crate::raster::pyramid::{MipMap, SummedAreaTable};
 use crate::stats::Stats;
@@ -133,29 +136,58 @@ impl Default for CssmOptions {
 impl CssmOptions {
     /// The depth shift in normalized depth.
     pub fn offset(&self) -> f32 {
-        self.offset.unwrap_or_else(|| first_lit_offset(self.order) as f32)
+        self.offset
+            .unwrap_or_else(|| first_lit_offset(self.order) as f32)
     }
 
     fn validate(&self) -> Result<()> {
         if !(1..=MAX_RESOLUTION).contains(&self.resolution) {
-            return Err(Error::invalid("resolution", format!("must be in 1..={MAX_RESOLUTION}, got {}", self.resolution)));
+            return Err(Error::invalid(
+                "resolution",
+                format!("must be in 1..={MAX_RESOLUTION}, got {}", self.resolution),
+            ));
         }
         if !(1..=MAX_ORDER).contains(&self.order) {
-            return Err(Error::invalid("order", format!("must be in 1..={MAX_ORDER}, got {}", self.order)));
+            return Err(Error::invalid(
+                "order",
+                format!("must be in 1..={MAX_ORDER}, got {}", self.order),
+            ));
         }
         if self.backend == Backend::Gpu && self.prefilter != Prefilter::Sat {
-            return Err(Error::invalid("prefilter", "the GPU prefilters by summed-area tables: use prefilter='sat' with backend='gpu'"));
+            return Err(Error::invalid(
+                "prefilter",
+                "the GPU prefilters by summed-area tables: use prefilter='sat' with backend='gpu'",
+            ));
         }
         if let Some(z) = self.near {
             if !(z.is_finite() && z > 0.0) {
-                return Err(Error::invalid("near", format!("must be finite and > 0 (or None), got {z}")));
+                return Err(Error::invalid(
+                    "near",
+                    format!("must be finite and > 0 (or None), got {z}"),
+                ));
             }
         }
         let checks = [
-            ("offset", self.offset(), self.offset().is_finite() && (0.0..0.5).contains(&self.offset())),
-            ("scale", self.scale, self.scale.is_finite() && self.scale > 0.0),
-            ("sharpen_a", self.sharpen_a, self.sharpen_a.is_finite() && self.sharpen_a >= 0.0),
-            ("sharpen_b", self.sharpen_b, self.sharpen_b.is_finite() && self.sharpen_b >= 0.0),
+            (
+                "offset",
+                self.offset(),
+                self.offset().is_finite() && (0.0..0.5).contains(&self.offset()),
+            ),
+            (
+                "scale",
+                self.scale,
+                self.scale.is_finite() && self.scale > 0.0,
+            ),
+            (
+                "sharpen_a",
+                self.sharpen_a,
+                self.sharpen_a.is_finite() && self.sharpen_a >= 0.0,
+            ),
+            (
+                "sharpen_b",
+                self.sharpen_b,
+                self.sharpen_b.is_finite() && self.sharpen_b >= 0.0,
+            ),
         ];
         for (arg, value, ok) in checks {
             if !ok {
@@ -164,7 +196,10 @@ impl CssmOptions {
                     "scale" => "> 0",
                     _ => ">= 0",
                 };
-                return Err(Error::invalid(arg, format!("must be finite and {rule}, got {value}")));
+                return Err(Error::invalid(
+                    arg,
+                    format!("must be finite and {rule}, got {value}"),
+                ));
             }
         }
         Ok(())
@@ -192,19 +227,24 @@ impl DepthRange {
 /// for each k, then `ẑ cos(c_k ẑ)`, `ẑ sin(c_k ẑ)` for each k, then `ẑ`.
 fn basis_images(map: &DepthMap, range: DepthRange, order: usize) -> Result<Vec<f32>> {
     let channels = 4 * order + 1;
-    limits::check_memory("cssm basis images", limits::bytes(&[map.depth.len() as u64, channels as u64, 4 + 8]))?;
+    limits::check_memory(
+        "cssm basis images",
+        limits::bytes(&[map.depth.len() as u64, channels as u64, 4 + 8]),
+    )?;
     let mut data = vec![0.0f32; map.depth.len() * channels];
-    data.par_chunks_mut(channels).zip(&map.depth).for_each(|(out, &z)| {
-        let zn = range.normalize(z);
-        for k in 0..order {
-            let (s, c) = (coefficient(k) * zn).sin_cos();
-            out[2 * k] = c as f32;
-            out[2 * k + 1] = s as f32;
-            out[2 * order + 2 * k] = (zn * c) as f32;
-            out[2 * order + 2 * k + 1] = (zn * s) as f32;
-        }
-        out[4 * order] = zn as f32;
-    });
+    data.par_chunks_mut(channels)
+        .zip(&map.depth)
+        .for_each(|(out, &z)| {
+            let zn = range.normalize(z);
+            for k in 0..order {
+                let (s, c) = (coefficient(k) * zn).sin_cos();
+                out[2 * k] = c as f32;
+                out[2 * k + 1] = s as f32;
+                out[2 * order + 2 * k] = (zn * c) as f32;
+                out[2 * order + 2 * k + 1] = (zn * s) as f32;
+            }
+            out[4 * order] = zn as f32;
+        });
     Ok(data)
 }
 
@@ -216,7 +256,10 @@ fn coefficient(index: usize) -> f64 {
 /// The truncated series of the lit step, `S_M(t) = 1/2 + 2 Σ_{k=1..M} sin(c_k t) / c_k`, at
 /// `t = ẑ − d̂`.
 pub fn step_series(order: usize, t: f64) -> f64 {
-    0.5 + 2.0 * (0..order).map(|k| (coefficient(k) * t).sin() / coefficient(k)).sum::<f64>()
+    0.5 + 2.0
+        * (0..order)
+            .map(|k| (coefficient(k) * t).sin() / coefficient(k))
+            .sum::<f64>()
 }
 
 /// The smallest `t > 0` with `S_M(t) = 1`: the default ringing-suppression shift, at which a
@@ -247,12 +290,17 @@ impl Filtered {
     /// narrower than a texel reads the texel containing `center`, so a point light gives exactly
     /// the (CSM-reconstructed) hard shadow test of that texel.
     fn box_mean(&self, center: Vec2, half: Vec2, out: &mut [f64], scratch: &mut [f32]) {
-        let (mut c, h) = (center.as_dvec2(), half.as_dvec2().max(glam::DVec2::splat(0.5)));
+        let (mut c, h) = (
+            center.as_dvec2(),
+            half.as_dvec2().max(glam::DVec2::splat(0.5)),
+        );
         if half.max_element() < 0.5 {
             c = c.floor() + 0.5;
         }
         match self {
-            Filtered::Sat(sat) => sat.box_mean_into(c.x - h.x, c.y - h.y, c.x + h.x, c.y + h.y, out),
+            Filtered::Sat(sat) => {
+                sat.box_mean_into(c.x - h.x, c.y - h.y, c.x + h.x, c.y + h.y, out)
+            }
             Filtered::Mipmap(mip) => {
                 // Square trilinear lookups of the short side, spread along the long side.
                 let short = h.x.min(h.y);
@@ -260,10 +308,16 @@ impl Filtered {
                 out.iter_mut().for_each(|o| *o = 0.0);
                 for i in 0..steps {
                     let t = (i as f64 + 0.5) / steps as f64 * 2.0 - 1.0;
-                    let along = if h.x >= h.y { glam::DVec2::new(t * (h.x - short), 0.0) } else { glam::DVec2::new(0.0, t * (h.y - short)) };
+                    let along = if h.x >= h.y {
+                        glam::DVec2::new(t * (h.x - short), 0.0)
+                    } else {
+                        glam::DVec2::new(0.0, t * (h.y - short))
+                    };
                     let p = c + along;
                     mip.trilinear_into(p.x, p.y, 2.0 * short, scratch);
-                    out.iter_mut().zip(scratch.iter()).for_each(|(o, s)| *o += f64::from(*s) / steps as f64);
+                    out.iter_mut()
+                        .zip(scratch.iter())
+                        .for_each(|(o, s)| *o += f64::from(*s) / steps as f64);
                 }
             }
         }
@@ -302,7 +356,12 @@ pub struct Shared {
 #[derive(Debug, Clone, Copy)]
 pub enum Start {
     Done(f32),
-    Look { center: Vec2, half: Vec2, depth: f32, d: f64 },
+    Look {
+        center: Vec2,
+        half: Vec2,
+        depth: f32,
+        d: f64,
+    },
 }
 
 /// What every receiver's lookup shares but the filtered maps.
@@ -323,13 +382,20 @@ impl Projection<'_> {
         if n.dot(self.frustum.eye - p) <= 0.0 {
             return Start::Done(0.0);
         }
-        let Some(s) = self.frustum.project(p) else { return Start::Done(1.0) };
+        let Some(s) = self.frustum.project(p) else {
+            return Start::Done(1.0);
+        };
         let map = Vec2::new(self.frustum.width as f32, self.frustum.height as f32);
         if !(s.x >= 0.0 && s.y >= 0.0 && s.x < map.x && s.y < map.y) || s.z <= self.near {
             return Start::Done(1.0);
         }
         let d = (self.range.normalize(s.z) - f64::from(self.offset)).max(0.0);
-        Start::Look { center: Vec2::new(s.x, s.y), half: self.footprint.through(s.z, self.near), depth: s.z, d }
+        Start::Look {
+            center: Vec2::new(s.x, s.y),
+            half: self.footprint.through(s.z, self.near),
+            depth: s.z,
+            d,
+        }
     }
 
     /// `Params` of the GPU lookup.
@@ -357,13 +423,25 @@ impl Lookup<'_> {
     fn receiver(&self, p: Vec3, n: Vec3) -> f32 {
         let (center, half, depth, d) = match self.projection.start(p, n) {
             Start::Done(v) => return v,
-            Start::Look { center, half, depth, d } => (center, half, depth, d),
+            Start::Look {
+                center,
+                half,
+                depth,
+                d,
+            } => (center, half, depth, d),
         };
-        let Projection { range, footprint, near, opts, .. } = &self.projection;
+        let Projection {
+            range,
+            footprint,
+            near,
+            opts,
+            ..
+        } = &self.projection;
         let channels = 4 * opts.order + 1;
         let (mut means, mut scratch) = (vec![0.0f64; channels], vec![0.0f32; channels]);
         // Stage 1: the blockers' average depth over the initial filter (Figure 2a-b).
-        self.filtered.box_mean(center, half, &mut means, &mut scratch);
+        self.filtered
+            .box_mean(center, half, &mut means, &mut scratch);
         let (test, z_part) = reconstruct(&means, opts.order, d);
         let blocked = 1.0 - test;
         if blocked < 1e-4 {
@@ -372,10 +450,17 @@ impl Lookup<'_> {
         let z_avg_n = (z_part / blocked).clamp(0.0, d);
         let z_avg = (range.lo as f64 + z_avg_n * range.span as f64).max(f64::from(*near)) as f32;
         // Stage 2: the filtered shadow test over the penumbra (Figure 2c-d).
-        self.filtered.box_mean(center, footprint.through(depth, z_avg), &mut means, &mut scratch);
+        self.filtered.box_mean(
+            center,
+            footprint.through(depth, z_avg),
+            &mut means,
+            &mut scratch,
+        );
         let (test, _) = reconstruct(&means, opts.order, d);
         let v = (f64::from(opts.scale) * (test - 0.5) + 0.5).clamp(0.0, 1.0);
-        let p = 1.0 + f64::from(opts.sharpen_a) * (-f64::from(opts.sharpen_b) * (d - z_avg_n).max(0.0)).exp();
+        let p = 1.0
+            + f64::from(opts.sharpen_a)
+                * (-f64::from(opts.sharpen_b) * (d - z_avg_n).max(0.0)).exp();
         v.powf(p) as f32
     }
 }
@@ -387,16 +472,29 @@ impl Lookup<'_> {
 /// and the normalization `depth_min`, `depth_span` (`ẑ = (z − depth_min) / depth_span`).
 ///
 /// Errors: invalid options; the light's center inside the receivers' bounds; `TooLarge`.
-pub fn cssm(scene: &Scene, light: &Light, receivers: &Receivers, opts: &CssmOptions) -> Result<(Vec<f32>, Stats)> {
+pub fn cssm(
+    scene: &Scene,
+    light: &Light,
+    receivers: &Receivers,
+    opts: &CssmOptions,
+) -> Result<(Vec<f32>, Stats)> {
     super::refuse_textured(light, "cssm")?;
     opts.validate()?;
     let mut stats = Stats::default();
-    for name in ["shadow_map_seconds", "basis_seconds", "prefilter_seconds", "lookup_seconds", "search_near"] {
+    for name in [
+        "shadow_map_seconds",
+        "basis_seconds",
+        "prefilter_seconds",
+        "lookup_seconds",
+        "search_near",
+    ] {
         stats.set(name, 0.0);
     }
     stats.set("resolution", opts.resolution as f64);
     stats.set("basis_images", (4 * opts.order + 1) as f64);
-    let Some(bounds) = receivers.bounds() else { return Ok((vec![0.0; receivers.len()], stats)) };
+    let Some(bounds) = receivers.bounds() else {
+        return Ok((vec![0.0; receivers.len()], stats));
+    };
     let frustum = LightFrustum::for_light_aligned(light, bounds, opts.resolution)?;
     Peak::default()
         .buffer(&[receivers.len() as u64, 4])
@@ -406,23 +504,48 @@ pub fn cssm(scene: &Scene, light: &Light, receivers: &Receivers, opts: &CssmOpti
     // (a few tens of prefiltered fetches of every channel).
     let channel_count = (4 * opts.order + 1) as u64;
     raster_work(scene, frustum.width, frustum.height)
-        .loop_of(&[frustum.width as u64, frustum.height as u64, channel_count, 4])
+        .loop_of(&[
+            frustum.width as u64,
+            frustum.height as u64,
+            channel_count,
+            4,
+        ])
         .loop_of(&[receivers.len() as u64, channel_count, 32])
         .check("cssm", &mut stats)?;
-    let map = stats.time("shadow_map", || rasterize_depth(scene, &frustum, &RasterOptions::default()))?;
+    let map = stats.time("shadow_map", || {
+        rasterize_depth(scene, &frustum, &RasterOptions::default())
+    })?;
     let range = depth_range(&map, &frustum, receivers);
     let near = opts.near.unwrap_or(range.lo).max(frustum.near);
     stats.set("search_near", f64::from(near));
     stats.set("depth_min", f64::from(range.lo));
     stats.set("depth_span", f64::from(range.span));
-    let projection = Projection { frustum: &frustum, range, footprint: LightFootprint::new(&frustum, light), near, offset: opts.offset(), opts };
+    let projection = Projection {
+        frustum: &frustum,
+        range,
+        footprint: LightFootprint::new(&frustum, light),
+        near,
+        offset: opts.offset(),
+        opts,
+    };
     if opts.backend == Backend::Gpu {
         let starts: Vec<Start> = (0..receivers.len())
             .into_par_iter()
-            .map(|i| if receivers.valid[i] { projection.start(receivers.points[i], receivers.normals[i]) } else { Start::Done(0.0) })
+            .map(|i| {
+                if receivers.valid[i] {
+                    projection.start(receivers.points[i], receivers.normals[i])
+                } else {
+                    Start::Done(0.0)
+                }
+            })
             .collect();
-        let (vis, [basis, prefilter, lookup]) = gpu::cssm::cssm(&map, &projection.shared(), &starts)?;
-        for (name, seconds) in [("basis_seconds", basis), ("prefilter_seconds", prefilter), ("lookup_seconds", lookup)] {
+        let (vis, [basis, prefilter, lookup]) =
+            gpu::cssm::cssm(&map, &projection.shared(), &starts)?;
+        for (name, seconds) in [
+            ("basis_seconds", basis),
+            ("prefilter_seconds", prefilter),
+            ("lookup_seconds", lookup),
+        ] {
             stats.set(name, seconds);
         }
         return Ok((vis, stats));
@@ -431,15 +554,26 @@ pub fn cssm(scene: &Scene, light: &Light, receivers: &Receivers, opts: &CssmOpti
     let channels = 4 * opts.order + 1;
     let filtered = stats.time("prefilter", || -> Result<Filtered> {
         Ok(match opts.prefilter {
-            Prefilter::Sat => Filtered::Sat(SummedAreaTable::new(map.width, map.height, channels, &basis)?),
-            Prefilter::Mipmap => Filtered::Mipmap(MipMap::new(map.width, map.height, channels, &basis)?),
+            Prefilter::Sat => Filtered::Sat(SummedAreaTable::new(
+                map.width, map.height, channels, &basis,
+            )?),
+            Prefilter::Mipmap => {
+                Filtered::Mipmap(MipMap::new(map.width, map.height, channels, &basis)?)
+            }
         })
     })?;
     drop(basis);
-    let lookup = Lookup { filtered: &filtered, projection };
+    let lookup = Lookup {
+        filtered: &filtered,
+        projection,
+    };
     let vis = stats.time("lookup", || {
         interrupt::par_map(receivers.len(), channel_count * 32, |i| {
-            if receivers.valid[i] { lookup.receiver(receivers.points[i], receivers.normals[i]) } else { 0.0 }
+            if receivers.valid[i] {
+                lookup.receiver(receivers.points[i], receivers.normals[i])
+            } else {
+                0.0
+            }
         })
     })?;
     Ok((vis, stats))
@@ -453,17 +587,30 @@ fn cssm_peak(scene: &Scene, width: usize, height: usize, opts: &CssmOptions) -> 
         Prefilter::Sat => SummedAreaTable::peak(width, height, channels),
         Prefilter::Mipmap => MipMap::peak(width, height, channels),
     };
-    raster_peak(scene, width, height).buffer(&[width as u64, height as u64, channels as u64, 4]).and(filtered)
+    raster_peak(scene, width, height)
+        .buffer(&[width as u64, height as u64, channels as u64, 4])
+        .and(filtered)
 }
 
 /// The normalization range: from the nearest stored depth to the farthest of the stored depths
 /// and the receivers' depths (a hair beyond, so receivers stay inside).
 fn depth_range(map: &DepthMap, frustum: &LightFrustum, rx: &Receivers) -> DepthRange {
     let finite = map.depth.iter().copied().filter(|z| z.is_finite());
-    let (lo, hi) = finite.fold((f32::INFINITY, 0.0f32), |(lo, hi), z| (lo.min(z), hi.max(z)));
-    let far = rx.points.iter().zip(&rx.valid).filter(|(_, &v)| v).map(|(p, _)| frustum.to_view(*p).z).fold(hi, f32::max);
+    let (lo, hi) = finite.fold((f32::INFINITY, 0.0f32), |(lo, hi), z| {
+        (lo.min(z), hi.max(z))
+    });
+    let far = rx
+        .points
+        .iter()
+        .zip(&rx.valid)
+        .filter(|(_, &v)| v)
+        .map(|(p, _)| frustum.to_view(*p).z)
+        .fold(hi, f32::max);
     let lo = if lo.is_finite() { lo } else { frustum.near };
-    DepthRange { lo, span: ((far - lo) * 1.001).max(f32::MIN_POSITIVE.sqrt()) }
+    DepthRange {
+        lo,
+        span: ((far - lo) * 1.001).max(f32::MIN_POSITIVE.sqrt()),
+    }
 }
 
 #[cfg(test)]
@@ -478,14 +625,26 @@ mod tests {
         let map = DepthMap {
             width: w,
             height: w,
-            depth: (0..w * w).map(|i| if i % 7 == 0 { f32::INFINITY } else { 1.0 + rng.next_f32() }).collect(),
+            depth: (0..w * w)
+                .map(|i| {
+                    if i % 7 == 0 {
+                        f32::INFINITY
+                    } else {
+                        1.0 + rng.next_f32()
+                    }
+                })
+                .collect(),
             fragments: 0,
         };
         let basis = basis_images(&map, DepthRange { lo: 1.0, span: 1.0 }, order).unwrap();
         let channels = 4 * order + 1;
         let sat = Filtered::Sat(SummedAreaTable::new(w, w, channels, &basis).unwrap());
         let mip = Filtered::Mipmap(MipMap::new(w, w, channels, &basis).unwrap());
-        let (mut a, mut b, mut scratch) = (vec![0.0; channels], vec![0.0; channels], vec![0.0f32; channels]);
+        let (mut a, mut b, mut scratch) = (
+            vec![0.0; channels],
+            vec![0.0; channels],
+            vec![0.0f32; channels],
+        );
         for level in 0..5u32 {
             let size = (1u32 << level) as f32;
             for (i, j) in [(0u32, 0u32), (1, 2), (3, 1)] {
@@ -493,7 +652,10 @@ mod tests {
                 sat.box_mean(center, Vec2::splat(size / 2.0), &mut a, &mut scratch);
                 mip.box_mean(center, Vec2::splat(size / 2.0), &mut b, &mut scratch);
                 for (x, y) in a.iter().zip(&b) {
-                    assert!((x - y).abs() < 1e-5, "level {level} box ({i}, {j}): {x} vs {y}");
+                    assert!(
+                        (x - y).abs() < 1e-5,
+                        "level {level} box ({i}, {j}): {x} vs {y}"
+                    );
                 }
             }
         }
@@ -523,9 +685,20 @@ mod tests {
     fn the_default_shift_is_where_the_series_first_reaches_one() {
         for order in [1, 2, 4, 16, 64] {
             let t1 = first_lit_offset(order);
-            assert!((step_series(order, t1) - 1.0).abs() < 1e-9, "M = {order}: S({t1}) = {}", step_series(order, t1));
-            assert!((1..100).all(|i| step_series(order, t1 * i as f64 / 100.0) < 1.0), "M = {order}: S reaches 1 before {t1}");
-            assert!((0.28..0.31).contains(&(t1 * order as f64)), "M = {order}: t1 M = {}", t1 * order as f64);
+            assert!(
+                (step_series(order, t1) - 1.0).abs() < 1e-9,
+                "M = {order}: S({t1}) = {}",
+                step_series(order, t1)
+            );
+            assert!(
+                (1..100).all(|i| step_series(order, t1 * i as f64 / 100.0) < 1.0),
+                "M = {order}: S reaches 1 before {t1}"
+            );
+            assert!(
+                (0.28..0.31).contains(&(t1 * order as f64)),
+                "M = {order}: t1 M = {}",
+                t1 * order as f64
+            );
         }
         assert_eq!(CssmOptions::default().offset(), first_lit_offset(4) as f32);
     }
@@ -540,32 +713,72 @@ mod tests {
         let (w, d) = (64usize, 0.8f64);
         let mut rng = Rng::new(3);
         let depth: Vec<f32> = (0..w * w)
-            .map(|i| if (i % w / 8 + i / w / 8) % 3 == 0 { 1.25 + 0.4 * rng.next_f32() } else { f32::INFINITY })
+            .map(|i| {
+                if (i % w / 8 + i / w / 8) % 3 == 0 {
+                    1.25 + 0.4 * rng.next_f32()
+                } else {
+                    f32::INFINITY
+                }
+            })
             .collect();
         let range = DepthRange { lo: 1.0, span: 1.0 };
-        let map = DepthMap { width: w, height: w, depth, fragments: 0 };
+        let map = DepthMap {
+            width: w,
+            height: w,
+            depth,
+            fragments: 0,
+        };
         let mut worst = Vec::new();
         for order in [16usize, 64] {
             let channels = 4 * order + 1;
-            let sat = Filtered::Sat(SummedAreaTable::new(w, w, channels, &basis_images(&map, range, order).unwrap()).unwrap());
+            let sat = Filtered::Sat(
+                SummedAreaTable::new(w, w, channels, &basis_images(&map, range, order).unwrap())
+                    .unwrap(),
+            );
             let (mut means, mut scratch) = (vec![0.0; channels], vec![0.0f32; channels]);
             let mut errors = 0.0f64;
-            for (x0, y0, x1, y1) in [(0, 0, 16, 16), (5, 3, 37, 20), (10, 30, 64, 64), (20, 20, 28, 44)] {
+            for (x0, y0, x1, y1) in [
+                (0, 0, 16, 16),
+                (5, 3, 37, 20),
+                (10, 30, 64, 64),
+                (20, 20, 28, 44),
+            ] {
                 let center = Vec2::new((x0 + x1) as f32 / 2.0, (y0 + y1) as f32 / 2.0);
-                sat.box_mean(center, Vec2::new((x1 - x0) as f32 / 2.0, (y1 - y0) as f32 / 2.0), &mut means, &mut scratch);
+                sat.box_mean(
+                    center,
+                    Vec2::new((x1 - x0) as f32 / 2.0, (y1 - y0) as f32 / 2.0),
+                    &mut means,
+                    &mut scratch,
+                );
                 let (test, z_part) = reconstruct(&means, order, d);
-                let depths: Vec<f64> = (y0..y1).flat_map(|y| (x0..x1).map(move |x| y * w + x)).map(|k| range.normalize(map.depth[k])).collect();
+                let depths: Vec<f64> = (y0..y1)
+                    .flat_map(|y| (x0..x1).map(move |x| y * w + x))
+                    .map(|k| range.normalize(map.depth[k]))
+                    .collect();
                 let blockers: Vec<f64> = depths.iter().copied().filter(|&z| z < d).collect();
-                let eps = depths.iter().map(|&z| (step_series(order, z - d) - if z >= d { 1.0 } else { 0.0 }).abs()).fold(0.0, f64::max);
+                let eps = depths
+                    .iter()
+                    .map(|&z| (step_series(order, z - d) - if z >= d { 1.0 } else { 0.0 }).abs())
+                    .fold(0.0, f64::max);
                 let fraction = blockers.len() as f64 / depths.len() as f64;
                 let brute = blockers.iter().sum::<f64>() / blockers.len() as f64;
                 let z_avg = z_part / (1.0 - test);
-                assert!(((1.0 - test) - fraction).abs() <= eps, "M = {order}: blocked {} vs {fraction} (ε = {eps})", 1.0 - test);
-                assert!((z_avg - brute).abs() <= 2.0 * eps / (fraction - eps), "M = {order}: z_avg {z_avg} vs brute force {brute} (ε = {eps})");
+                assert!(
+                    ((1.0 - test) - fraction).abs() <= eps,
+                    "M = {order}: blocked {} vs {fraction} (ε = {eps})",
+                    1.0 - test
+                );
+                assert!(
+                    (z_avg - brute).abs() <= 2.0 * eps / (fraction - eps),
+                    "M = {order}: z_avg {z_avg} vs brute force {brute} (ε = {eps})"
+                );
                 errors = errors.max((z_avg - brute).abs());
             }
             worst.push(errors);
         }
-        assert!(worst[1] < 0.5 * worst[0], "the error does not shrink with the order: {worst:?}");
+        assert!(
+            worst[1] < 0.5 * worst[0],
+            "the error does not shrink with the order: {worst:?}"
+        );
     }
 }

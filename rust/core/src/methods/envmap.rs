@@ -70,8 +70,14 @@ pub struct FitOptions {
 /// `(1 + u² + v²)^(−3/2)` over the texel).
 pub fn texel_solid_angle(n: usize, i: usize, j: usize) -> f64 {
     let corner = |u: f64, v: f64| (u * v).atan2((1.0 + u * u + v * v).sqrt());
-    let (u0, u1) = (2.0 * j as f64 / n as f64 - 1.0, 2.0 * (j + 1) as f64 / n as f64 - 1.0);
-    let (v0, v1) = (2.0 * i as f64 / n as f64 - 1.0, 2.0 * (i + 1) as f64 / n as f64 - 1.0);
+    let (u0, u1) = (
+        2.0 * j as f64 / n as f64 - 1.0,
+        2.0 * (j + 1) as f64 / n as f64 - 1.0,
+    );
+    let (v0, v1) = (
+        2.0 * i as f64 / n as f64 - 1.0,
+        2.0 * (i + 1) as f64 / n as f64 - 1.0,
+    );
     corner(u1, v1) - corner(u0, v1) - corner(u1, v0) + corner(u0, v0)
 }
 
@@ -94,7 +100,10 @@ impl Face {
     }
 
     fn region(&self, (i0, i1, j0, j1): Rect) -> f64 {
-        (i0..i1).flat_map(|i| (j0..j1).map(move |j| (i, j))).map(|(i, j)| self.luminance(i * self.n + j)).sum()
+        (i0..i1)
+            .flat_map(|i| (j0..j1).map(move |j| (i, j)))
+            .map(|(i, j)| self.luminance(i * self.n + j))
+            .sum()
     }
 
     /// Grows a light from `seed` by the threshold rule; returns its rectangle.
@@ -104,7 +113,12 @@ impl Face {
         loop {
             let current = self.region(r);
             let candidates: Vec<Rect> = if opts.square {
-                let grown = (r.0.saturating_sub(1), (r.1 + 1).min(n), r.2.saturating_sub(1), (r.3 + 1).min(n));
+                let grown = (
+                    r.0.saturating_sub(1),
+                    (r.1 + 1).min(n),
+                    r.2.saturating_sub(1),
+                    (r.3 + 1).min(n),
+                );
                 vec![grown]
             } else {
                 vec![
@@ -137,15 +151,30 @@ impl Face {
         let inside = |k: usize| (r.0..r.1).contains(&(k / n)) && (r.2..r.3).contains(&(k % n));
         let (mut sum, mut area) = ([0.0f64; 3], 0.0f64);
         for k in (0..n * n).filter(|&k| !inside(k)) {
-            sum.iter_mut().zip(self.energy[k]).for_each(|(s, e)| *s += e);
+            sum.iter_mut()
+                .zip(self.energy[k])
+                .for_each(|(s, e)| *s += e);
             area += self.solid_angle[k];
         }
-        let background = if area > 0.0 { sum.map(|s| s / area) } else { [0.0; 3] };
-        let keep = |k: usize, c: usize, e: &[[f64; 3]]| (background[c] * self.solid_angle[k]).min(e[k][c]);
-        let leaves_some = (0..n * n).filter(|&k| inside(k)).any(|k| (0..3).any(|c| keep(k, c, &self.energy) < self.energy[k][c]));
+        let background = if area > 0.0 {
+            sum.map(|s| s / area)
+        } else {
+            [0.0; 3]
+        };
+        let keep =
+            |k: usize, c: usize, e: &[[f64; 3]]| (background[c] * self.solid_angle[k]).min(e[k][c]);
+        let leaves_some = (0..n * n)
+            .filter(|&k| inside(k))
+            .any(|k| (0..3).any(|c| keep(k, c, &self.energy) < self.energy[k][c]));
         let mut taken = [0.0f64; 3];
         for k in (0..n * n).filter(|&k| inside(k)) {
-            let kept: [f64; 3] = std::array::from_fn(|c| if leaves_some { keep(k, c, &self.energy) } else { 0.0 });
+            let kept: [f64; 3] = std::array::from_fn(|c| {
+                if leaves_some {
+                    keep(k, c, &self.energy)
+                } else {
+                    0.0
+                }
+            });
             for ((t, e), kept) in taken.iter_mut().zip(self.energy[k].iter_mut()).zip(kept) {
                 *t += *e - kept;
                 *e = kept;
@@ -173,7 +202,9 @@ impl Face {
         let r = self.grow(seed, opts);
         let energy = self.take(r);
         for i in r.0..r.1 {
-            self.covered[i * self.n + r.2..i * self.n + r.3].iter_mut().for_each(|c| *c = true);
+            self.covered[i * self.n + r.2..i * self.n + r.3]
+                .iter_mut()
+                .for_each(|c| *c = true);
         }
         Some((r, energy))
     }
@@ -185,7 +216,12 @@ impl Face {
         for k in 0..n * n {
             let (i, j) = (k / n, k % n);
             let inside = |r: &Rect| (r.0..r.1).contains(&i) && (r.2..r.3).contains(&j);
-            let covering: Vec<usize> = self.lights.iter().filter(|(r, _)| inside(r)).map(|&(_, l)| l).collect();
+            let covering: Vec<usize> = self
+                .lights
+                .iter()
+                .filter(|(r, _)| inside(r))
+                .map(|&(_, l)| l)
+                .collect();
             let gap = |r: &Rect| {
                 let di = r.0.saturating_sub(i) + i.saturating_sub(r.1 - 1);
                 let dj = r.2.saturating_sub(j) + j.saturating_sub(r.3 - 1);
@@ -198,7 +234,11 @@ impl Face {
             };
             let share = self.energy[k].map(|e| e / targets.len() as f64);
             for l in targets {
-                lights[l].energy.iter_mut().zip(share).for_each(|(e, s)| *e += s);
+                lights[l]
+                    .energy
+                    .iter_mut()
+                    .zip(share)
+                    .for_each(|(e, s)| *e += s);
             }
             self.energy[k] = [0.0; 3];
         }
@@ -212,19 +252,37 @@ impl Face {
 /// (0, 1); a cap below 6 (a light per face); `TooLarge`.
 pub fn fit_area_lights(faces: &[f32], n: usize, opts: &FitOptions) -> Result<Vec<FittedLight>> {
     if n == 0 || faces.len() != 6 * n * n * 3 {
-        return Err(Error::invalid("env", format!("expected 6 faces of {n}x{n} RGB texels ({} values), got {}", 6 * n * n * 3, faces.len())));
+        return Err(Error::invalid(
+            "env",
+            format!(
+                "expected 6 faces of {n}x{n} RGB texels ({} values), got {}",
+                6 * n * n * 3,
+                faces.len()
+            ),
+        ));
     }
     if faces.iter().any(|v| !v.is_finite() || *v < 0.0) {
         return Err(Error::invalid("env", "radiance must be finite and >= 0"));
     }
     if !(opts.threshold > 0.0 && opts.threshold < 1.0) {
-        return Err(Error::invalid("threshold", format!("must be in (0, 1), got {}", opts.threshold)));
+        return Err(Error::invalid(
+            "threshold",
+            format!("must be in (0, 1), got {}", opts.threshold),
+        ));
     }
     if let Some(cap) = opts.max_lights.filter(|&cap| cap < 6) {
-        return Err(Error::invalid("max_lights", format!("must be >= 6 (a light for each face with energy), or None, got {cap}")));
+        return Err(Error::invalid(
+            "max_lights",
+            format!("must be >= 6 (a light for each face with energy), or None, got {cap}"),
+        ));
     }
-    limits::check_memory("environment fit", limits::bytes(&[6, n as u64, n as u64, 40]))?;
-    let solid_angle: Vec<f64> = (0..n * n).map(|k| texel_solid_angle(n, k / n, k % n)).collect();
+    limits::check_memory(
+        "environment fit",
+        limits::bytes(&[6, n as u64, n as u64, 40]),
+    )?;
+    let solid_angle: Vec<f64> = (0..n * n)
+        .map(|k| texel_solid_angle(n, k / n, k % n))
+        .collect();
     let mut cube: Vec<Face> = (0..6)
         .map(|f| Face {
             n,
@@ -251,7 +309,14 @@ pub fn fit_area_lights(faces: &[f32], n: usize, opts: &FitOptions) -> Result<Vec
             }
             if let Some((r, energy)) = f.next_light(opts) {
                 f.lights.push((r, lights.len()));
-                lights.push(FittedLight { face, i0: r.0, i1: r.1, j0: r.2, j1: r.3, energy });
+                lights.push(FittedLight {
+                    face,
+                    i0: r.0,
+                    i1: r.1,
+                    j0: r.2,
+                    j1: r.3,
+                    energy,
+                });
             }
         }
     }
@@ -268,12 +333,29 @@ mod tests {
     #[test]
     fn texel_solid_angles_sum_to_the_sphere() {
         let n = 16;
-        let total: f64 = (0..n * n).map(|k| texel_solid_angle(n, k / n, k % n)).sum::<f64>() * 6.0;
+        let total: f64 = (0..n * n)
+            .map(|k| texel_solid_angle(n, k / n, k % n))
+            .sum::<f64>()
+            * 6.0;
         assert!((total - 4.0 * std::f64::consts::PI).abs() < 1e-9, "{total}");
     }
 
-    fn lights(faces: &[f32], n: usize, threshold: f64, max_lights: Option<usize>) -> Vec<FittedLight> {
-        fit_area_lights(faces, n, &FitOptions { threshold, max_lights, square: true }).unwrap()
+    fn lights(
+        faces: &[f32],
+        n: usize,
+        threshold: f64,
+        max_lights: Option<usize>,
+    ) -> Vec<FittedLight> {
+        fit_area_lights(
+            faces,
+            n,
+            &FitOptions {
+                threshold,
+                max_lights,
+                square: true,
+            },
+        )
+        .unwrap()
     }
 
     fn sun_map(n: usize) -> Vec<f32> {
@@ -289,12 +371,23 @@ mod tests {
         let n = 16;
         let lights = lights(&sun_map(n), n, 0.03, None);
         let background = f64::from(0.05f32);
-        let expected = 4.0 * std::f64::consts::PI * background + (500.0 - background) * texel_solid_angle(n, 5, 9);
+        let expected = 4.0 * std::f64::consts::PI * background
+            + (500.0 - background) * texel_solid_angle(n, 5, 9);
         let total: f64 = lights.iter().map(|l| l.energy[1]).sum();
-        assert!((total - expected).abs() < 1e-9 * total, "{total} vs {expected}");
-        let brightest = lights.iter().max_by(|a, b| a.energy[1].total_cmp(&b.energy[1])).unwrap();
+        assert!(
+            (total - expected).abs() < 1e-9 * total,
+            "{total} vs {expected}"
+        );
+        let brightest = lights
+            .iter()
+            .max_by(|a, b| a.energy[1].total_cmp(&b.energy[1]))
+            .unwrap();
         assert_eq!((brightest.face, brightest.i0, brightest.j0), (2, 5, 9));
-        assert!(brightest.energy[1] > 0.5 * total, "the sun's light carries {} of {total}", brightest.energy[1]);
+        assert!(
+            brightest.energy[1] > 0.5 * total,
+            "the sun's light carries {} of {total}",
+            brightest.energy[1]
+        );
     }
 
     #[test]
@@ -304,7 +397,16 @@ mod tests {
         faces[..n * n * 3].iter_mut().for_each(|v| *v = 1.0); // only +x emits, uniformly
         let lights = lights(&faces, n, 0.02, None);
         assert_eq!(lights.len(), 1);
-        assert_eq!((lights[0].face, lights[0].i0, lights[0].i1, lights[0].j0, lights[0].j1), (0, 0, n, 0, n));
+        assert_eq!(
+            (
+                lights[0].face,
+                lights[0].i0,
+                lights[0].i1,
+                lights[0].j0,
+                lights[0].j1
+            ),
+            (0, 0, n, 0, n)
+        );
     }
 
     #[test]
@@ -321,19 +423,28 @@ mod tests {
                 for (a, la) in lights.iter().enumerate() {
                     assert!(la.energy[1] > 0.0, "empty light {la:?}");
                     for lb in &lights[a + 1..] {
-                        assert!((la.face, la.i0, la.i1, la.j0, la.j1) != (lb.face, lb.i0, lb.i1, lb.j0, lb.j1), "repeated {la:?}");
+                        assert!(
+                            (la.face, la.i0, la.i1, la.j0, la.j1)
+                                != (lb.face, lb.i0, lb.i1, lb.j0, lb.j1),
+                            "repeated {la:?}"
+                        );
                     }
                 }
                 lights.len()
             })
             .collect();
-        assert!(counts[0] <= counts[1] && counts[1] <= counts[2] && counts[0] < counts[2], "{counts:?}");
+        assert!(
+            counts[0] <= counts[1] && counts[1] <= counts[2] && counts[0] < counts[2],
+            "{counts:?}"
+        );
     }
 
     #[test]
     fn a_cap_bounds_the_lights_and_keeps_the_energy() {
         let n = 16;
-        let faces: Vec<f32> = (0..6 * n * n * 3).map(|k| 0.1 + ((k * 7919) % 101) as f32 * 0.01).collect();
+        let faces: Vec<f32> = (0..6 * n * n * 3)
+            .map(|k| 0.1 + ((k * 7919) % 101) as f32 * 0.01)
+            .collect();
         let free = lights(&faces, n, 0.2, None);
         let capped = lights(&faces, n, 0.2, Some(8));
         assert!(free.len() > 8, "{}", free.len());

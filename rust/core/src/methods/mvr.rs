@@ -11,12 +11,12 @@
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
-use crate::light::lights::Light;
 use crate::gpu::multiview::Lighting;
 use crate::gpu::mvr::Rasterizer;
 use crate::gpu::Backend;
-use crate::light::sampling::SampleSet;
 use crate::interrupt;
+use crate::light::lights::Light;
+use crate::light::sampling::SampleSet;
 use crate::limits::{Peak, Work};
 use crate::raster::depth::{raster_peak, rasterize_depth, RasterOptions};
 use crate::raster::multiview::{accumulate, resolve, ViewSet};
@@ -39,7 +39,12 @@ pub struct MultiViewOptions {
 
 impl Default for MultiViewOptions {
     fn default() -> Self {
-        Self { resolution: 1024, pcf: 5, bias: None, backend: Backend::Cpu }
+        Self {
+            resolution: 1024,
+            pcf: 5,
+            bias: None,
+            backend: Backend::Cpu,
+        }
     }
 }
 
@@ -48,7 +53,9 @@ impl MultiViewOptions {
     /// PCF taps in each.
     pub fn lighting_work(&self, views: usize, receivers: usize) -> Work {
         let side = self.resolution as u64;
-        Work::default().loop_of(&[views as u64, side, side]).loop_of(&[views as u64, receivers as u64, (self.pcf as u64).pow(2)])
+        Work::default()
+            .loop_of(&[views as u64, side, side])
+            .loop_of(&[views as u64, receivers as u64, (self.pcf as u64).pow(2)])
     }
 
     /// Checks the options and returns the PCF kernel and the depth bias for maps whose texels
@@ -57,10 +64,17 @@ impl MultiViewOptions {
         if !(1..=crate::raster::depth::MAX_RESOLUTION).contains(&self.resolution) {
             return Err(Error::invalid(
                 "resolution",
-                format!("must be in 1..={}, got {}", crate::raster::depth::MAX_RESOLUTION, self.resolution),
+                format!(
+                    "must be in 1..={}, got {}",
+                    crate::raster::depth::MAX_RESOLUTION,
+                    self.resolution
+                ),
             ));
         }
-        Ok((PcfKernel::with_taps(self.pcf)?, DepthBias::new(self.bias, slack)?))
+        Ok((
+            PcfKernel::with_taps(self.pcf)?,
+            DepthBias::new(self.bias, slack)?,
+        ))
     }
 }
 
@@ -98,7 +112,9 @@ pub fn mvr(
     }
     stats.set("views", eyes.len() as f64);
     stats.set("resolution", opts.resolution as f64);
-    let Some(bounds) = receivers.bounds() else { return Ok((vec![0.0; receivers.len()], stats)) };
+    let Some(bounds) = receivers.bounds() else {
+        return Ok((vec![0.0; receivers.len()], stats));
+    };
     let views = ViewSet::fit(light, eyes, bounds, opts.resolution)?;
     // The sums, the visibility and one view's map at a time.
     Peak::default()
@@ -106,12 +122,17 @@ pub fn mvr(
         .and(raster_peak(scene, opts.resolution, opts.resolution))
         .check("mvr", &mut stats)?;
     opts.lighting_work(views.views.len(), receivers.len())
-        .loop_of(&[views.views.len() as u64, scene.num_faces() as u64, Work::TRIANGLE])
+        .loop_of(&[
+            views.views.len() as u64,
+            scene.num_faces() as u64,
+            Work::TRIANGLE,
+        ])
         .check("mvr", &mut stats)?;
     if opts.backend == Backend::Gpu {
         let rasterizer = stats.time_add("depth_maps", || Rasterizer::new(scene))?;
         let lighting = stats.time_add("lighting", || Lighting::new(receivers, &kernel, bias))?;
-        let (draw, light, fragments) = rasterizer.draw_and_light(&views.views, &views.weights, &lighting)?;
+        let (draw, light, fragments) =
+            rasterizer.draw_and_light(&views.views, &views.weights, &lighting)?;
         stats.add("depth_maps_seconds", draw);
         stats.add("lighting_seconds", light);
         stats.set("fragments", fragments as f64);
@@ -121,9 +142,13 @@ pub fn mvr(
     let mut sums = vec![0.0f32; receivers.len()];
     for (s, view) in views.views.iter().enumerate() {
         interrupt::check()?;
-        let map = stats.time_add("depth_maps", || rasterize_depth(scene, view, &RasterOptions::default()))?;
+        let map = stats.time_add("depth_maps", || {
+            rasterize_depth(scene, view, &RasterOptions::default())
+        })?;
         stats.add("fragments", map.fragments as f64);
-        stats.time_add("lighting", || accumulate(&mut sums, &views, &[(s, &map)], receivers, &kernel, bias));
+        stats.time_add("lighting", || {
+            accumulate(&mut sums, &views, &[(s, &map)], receivers, &kernel, bias)
+        });
     }
     Ok((resolve(&sums, &views, receivers), stats))
 }

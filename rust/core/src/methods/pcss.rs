@@ -30,11 +30,14 @@ use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::gpu::{self, Backend};
+use crate::interrupt;
 use crate::light::lights::Light;
 use crate::light::sampling::{unit_disk_pattern, Pattern};
-use crate::interrupt;
 use crate::limits::Peak;
-use crate::raster::depth::{raster_peak, raster_work, rasterize_depth, DepthMap, LightFrustum, RasterOptions, MAX_RESOLUTION};
+use crate::raster::depth::{
+    raster_peak, raster_work, rasterize_depth, DepthMap, LightFrustum, RasterOptions,
+    MAX_RESOLUTION,
+};
 use crate::raster::footprint::LightFootprint;
 use crate::raster::pcf::{DepthBias, ReceiverDepth, RASTERIZED_SLACK};
 use crate::stats::Stats;
@@ -66,24 +69,44 @@ pub struct PcssOptions {
 
 impl Default for PcssOptions {
     fn default() -> Self {
-        Self { resolution: 1024, blocker_samples: 64, filter_samples: 96, bias: None, near: None, seed: 0, backend: Backend::Cpu }
+        Self {
+            resolution: 1024,
+            blocker_samples: 64,
+            filter_samples: 96,
+            bias: None,
+            near: None,
+            seed: 0,
+            backend: Backend::Cpu,
+        }
     }
 }
 
 impl PcssOptions {
     fn validate(&self) -> Result<()> {
         if !(1..=MAX_RESOLUTION).contains(&self.resolution) {
-            return Err(Error::invalid("resolution", format!("must be in 1..={MAX_RESOLUTION}, got {}", self.resolution)));
+            return Err(Error::invalid(
+                "resolution",
+                format!("must be in 1..={MAX_RESOLUTION}, got {}", self.resolution),
+            ));
         }
-        for (arg, n) in [("blocker_samples", self.blocker_samples), ("filter_samples", self.filter_samples)] {
+        for (arg, n) in [
+            ("blocker_samples", self.blocker_samples),
+            ("filter_samples", self.filter_samples),
+        ] {
             if !(1..=MAX_TAPS).contains(&n) {
-                return Err(Error::invalid(arg, format!("must be in 1..={MAX_TAPS}, got {n}")));
+                return Err(Error::invalid(
+                    arg,
+                    format!("must be in 1..={MAX_TAPS}, got {n}"),
+                ));
             }
         }
         DepthBias::new(self.bias, RASTERIZED_SLACK)?;
         if let Some(z) = self.near {
             if !(z.is_finite() && z > 0.0) {
-                return Err(Error::invalid("near", format!("must be finite and > 0 (or None), got {z}")));
+                return Err(Error::invalid(
+                    "near",
+                    format!("must be finite and > 0 (or None), got {z}"),
+                ));
             }
         }
         Ok(())
@@ -123,7 +146,12 @@ enum Outcome {
 impl Lookup<'_> {
     /// Visits the stored depth and the receiver depth to compare it with at every tap of `taps`
     /// scaled by `region` around the receiver.
-    fn taps<'t>(&'t self, taps: &'t [Vec2], region: Vec2, receiver: &'t ReceiverDepth) -> impl Iterator<Item = (f32, f32)> + 't {
+    fn taps<'t>(
+        &'t self,
+        taps: &'t [Vec2],
+        region: Vec2,
+        receiver: &'t ReceiverDepth,
+    ) -> impl Iterator<Item = (f32, f32)> + 't {
         let s = receiver.texel_coords();
         taps.iter().map(move |q| {
             let t = s + *q * region;
@@ -136,8 +164,15 @@ impl Lookup<'_> {
         if n.dot(self.frustum.eye - p) <= 0.0 {
             return Outcome::Filtered(0.0);
         }
-        let Some(s) = self.frustum.project(p) else { return Outcome::NoBlocker };
-        if !(s.x >= 0.0 && s.y >= 0.0 && s.x < self.map.width as f32 && s.y < self.map.height as f32) || s.z <= self.near {
+        let Some(s) = self.frustum.project(p) else {
+            return Outcome::NoBlocker;
+        };
+        if !(s.x >= 0.0
+            && s.y >= 0.0
+            && s.x < self.map.width as f32
+            && s.y < self.map.height as f32)
+            || s.z <= self.near
+        {
             return Outcome::NoBlocker;
         }
         let receiver = ReceiverDepth::new(self.frustum, p, n, s, self.bias);
@@ -145,13 +180,18 @@ impl Lookup<'_> {
         let (sum, count) = self
             .taps(&self.blocker_taps, search, &receiver)
             .filter(|(stored, depth)| stored < depth)
-            .fold((0.0f64, 0u32), |(sum, count), (stored, _)| (sum + f64::from(stored), count + 1));
+            .fold((0.0f64, 0u32), |(sum, count), (stored, _)| {
+                (sum + f64::from(stored), count + 1)
+            });
         if count == 0 {
             return Outcome::NoBlocker;
         }
         let z_avg = ((sum / f64::from(count)) as f32).max(self.near);
         let filter = self.footprint.through(s.z, z_avg);
-        let lit = self.taps(&self.filter_taps, filter, &receiver).filter(|(stored, depth)| depth <= stored).count();
+        let lit = self
+            .taps(&self.filter_taps, filter, &receiver)
+            .filter(|(stored, depth)| depth <= stored)
+            .count();
         Outcome::Filtered(lit as f32 / self.filter_taps.len() as f32)
     }
 }
@@ -163,15 +203,27 @@ impl Lookup<'_> {
 /// of valid receivers whose search found no blocker).
 ///
 /// Errors: invalid options; the light's center inside the receivers' bounds; `TooLarge`.
-pub fn pcss(scene: &Scene, light: &Light, receivers: &Receivers, opts: &PcssOptions) -> Result<(Vec<f32>, Stats)> {
+pub fn pcss(
+    scene: &Scene,
+    light: &Light,
+    receivers: &Receivers,
+    opts: &PcssOptions,
+) -> Result<(Vec<f32>, Stats)> {
     super::refuse_textured(light, "pcss")?;
     opts.validate()?;
     let mut stats = Stats::default();
-    for name in ["depth_map_seconds", "lighting_seconds", "search_near", "no_blocker"] {
+    for name in [
+        "depth_map_seconds",
+        "lighting_seconds",
+        "search_near",
+        "no_blocker",
+    ] {
         stats.set(name, 0.0);
     }
     stats.set("resolution", opts.resolution as f64);
-    let Some(bounds) = receivers.bounds() else { return Ok((vec![0.0; receivers.len()], stats)) };
+    let Some(bounds) = receivers.bounds() else {
+        return Ok((vec![0.0; receivers.len()], stats));
+    };
     let frustum = LightFrustum::for_light_aligned(light, bounds, opts.resolution)?;
     // The visibility and each receiver's outcome.
     Peak::default()
@@ -179,9 +231,14 @@ pub fn pcss(scene: &Scene, light: &Light, receivers: &Receivers, opts: &PcssOpti
         .and(raster_peak(scene, frustum.width, frustum.height))
         .check("pcss", &mut stats)?;
     raster_work(scene, frustum.width, frustum.height)
-        .loop_of(&[receivers.len() as u64, (opts.blocker_samples + opts.filter_samples) as u64])
+        .loop_of(&[
+            receivers.len() as u64,
+            (opts.blocker_samples + opts.filter_samples) as u64,
+        ])
         .check("pcss", &mut stats)?;
-    let map = stats.time("depth_map", || rasterize_depth(scene, &frustum, &RasterOptions::default()))?;
+    let map = stats.time("depth_map", || {
+        rasterize_depth(scene, &frustum, &RasterOptions::default())
+    })?;
     let nearest_stored = map.depth.iter().copied().fold(f32::INFINITY, f32::min);
     let near = opts.near.unwrap_or(nearest_stored).max(frustum.near);
     stats.set("search_near", f64::from(near));
@@ -191,7 +248,11 @@ pub fn pcss(scene: &Scene, light: &Light, receivers: &Receivers, opts: &PcssOpti
         footprint: LightFootprint::new(&frustum, light),
         near,
         blocker_taps: unit_disk_pattern(Pattern::Poisson, opts.blocker_samples, opts.seed),
-        filter_taps: unit_disk_pattern(Pattern::Poisson, opts.filter_samples, opts.seed ^ 0x5EED_F117),
+        filter_taps: unit_disk_pattern(
+            Pattern::Poisson,
+            opts.filter_samples,
+            opts.seed ^ 0x5EED_F117,
+        ),
         bias: DepthBias::new(opts.bias, RASTERIZED_SLACK)?,
     };
     if opts.backend == Backend::Gpu {
@@ -204,7 +265,9 @@ pub fn pcss(scene: &Scene, light: &Light, receivers: &Receivers, opts: &PcssOpti
             filter_taps: &lookup.filter_taps,
             bias: lookup.bias,
         };
-        let (vis, no_blocker) = gpu::timed_stage(&mut stats, "lighting", || gpu::pcss::pcss(&gpu_lookup, receivers))?;
+        let (vis, no_blocker) = gpu::timed_stage(&mut stats, "lighting", || {
+            gpu::pcss::pcss(&gpu_lookup, receivers)
+        })?;
         stats.set("no_blocker", no_blocker);
         return Ok((vis, stats));
     }
@@ -215,8 +278,18 @@ pub fn pcss(scene: &Scene, light: &Light, receivers: &Receivers, opts: &PcssOpti
         })
     })?;
     let valid = outcomes.iter().filter(|o| o.is_some()).count();
-    let free = outcomes.iter().filter(|o| matches!(o, Some(Outcome::NoBlocker))).count();
-    stats.set("no_blocker", if valid > 0 { free as f64 / valid as f64 } else { 0.0 });
+    let free = outcomes
+        .iter()
+        .filter(|o| matches!(o, Some(Outcome::NoBlocker)))
+        .count();
+    stats.set(
+        "no_blocker",
+        if valid > 0 {
+            free as f64 / valid as f64
+        } else {
+            0.0
+        },
+    );
     let vis = outcomes
         .into_iter()
         .map(|o| match o {

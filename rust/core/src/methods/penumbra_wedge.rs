@@ -20,14 +20,14 @@
 
 use crate::error::Result;
 use crate::geometry::bvh::Bvh;
+use crate::geometry::edges::{edges_peak, opaque_silhouettes};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
-use crate::geometry::edges::{edges_peak, opaque_silhouettes};
 use crate::limits::{object_work, Peak};
 use crate::methods::dcs::plus_zero_sum;
-use crate::raster::influence::{ObjectOptions, Origins};
+use crate::raster::influence::{by_light_face, ObjectOptions, Origins};
 use crate::stats::Stats;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -36,19 +36,53 @@ use std::sync::atomic::{AtomicU64, Ordering};
 /// `scene`. Returns the visibility (receivers' order) and stats: `hard_seconds` (the center's
 /// shadow), `silhouettes_seconds`, `wedges_seconds`, `silhouette_edges`, `wedge_tests`,
 /// `receivers`, `light_samples`.
-pub fn penumbra_wedge(scene: &Scene, bvh: &Bvh, light: &Light, receivers: &Receivers, samples: &SampleSet, opts: &ObjectOptions) -> Result<(Vec<f32>, Stats)> {
+pub fn penumbra_wedge(
+    scene: &Scene,
+    bvh: &Bvh,
+    light: &Light,
+    receivers: &Receivers,
+    samples: &SampleSet,
+    opts: &ObjectOptions,
+) -> Result<(Vec<f32>, Stats)> {
+    by_light_face(light, receivers, |part| {
+        wedges_in_one_frustum(scene, bvh, light, part, samples, opts)
+    })
+}
+
+/// [`penumbra_wedge`] on receivers that one light frustum holds.
+fn wedges_in_one_frustum(
+    scene: &Scene,
+    bvh: &Bvh,
+    light: &Light,
+    receivers: &Receivers,
+    samples: &SampleSet,
+    opts: &ObjectOptions,
+) -> Result<(Vec<f32>, Stats)> {
     opts.validate(scene, receivers)?;
     bvh.check_scene(scene)?;
     let mut stats = Stats::default();
-    for name in ["hard_seconds", "silhouettes_seconds", "wedges_seconds", "silhouette_edges", "wedge_tests", "receivers"] {
+    for name in [
+        "hard_seconds",
+        "silhouettes_seconds",
+        "wedges_seconds",
+        "silhouette_edges",
+        "wedge_tests",
+        "receivers",
+    ] {
         stats.set(name, 0.0);
     }
     stats.set("light_samples", samples.count() as f64);
     let n = receivers.len();
-    Peak::default().buffer(&[n as u64, 4]).and(Origins::peak(n, opts)).and(wedge_occlusion_peak(scene, n)).check("penumbra_wedge", &mut stats)?;
+    Peak::default()
+        .buffer(&[n as u64, 4])
+        .and(Origins::peak(n, opts))
+        .and(wedge_occlusion_peak(scene, n))
+        .check("penumbra_wedge", &mut stats)?;
     object_work(scene, n, samples.count()).check("penumbra_wedge", &mut stats)?;
     let mut vis = vec![0.0f32; receivers.len()];
-    let Some(origins) = Origins::new(light, receivers, samples, opts)? else { return Ok((vis, stats)) };
+    let Some(origins) = Origins::new(light, receivers, samples, opts)? else {
+        return Ok((vis, stats));
+    };
     stats.set("receivers", origins.ids.len() as f64);
     let occlusion = wedge_occlusion(scene, bvh, &origins, opts, &mut stats)?;
     for (&k, occ) in origins.lists.entries.iter().zip(occlusion) {
@@ -69,11 +103,22 @@ pub(crate) struct WedgeOcclusion {
 /// The memory of [`wedge_occlusion`] for `receivers` receivers: one [`WedgeOcclusion`] each and
 /// the silhouettes.
 pub(crate) fn wedge_occlusion_peak(scene: &Scene, receivers: usize) -> Peak {
-    Peak::default().buffer(&[receivers as u64, std::mem::size_of::<WedgeOcclusion>() as u64]).and(edges_peak(scene))
+    Peak::default()
+        .buffer(&[
+            receivers as u64,
+            std::mem::size_of::<WedgeOcclusion>() as u64,
+        ])
+        .and(edges_peak(scene))
 }
 
 /// The per list entry [`WedgeOcclusion`] of the receivers (see the module doc).
-pub(crate) fn wedge_occlusion(scene: &Scene, bvh: &Bvh, origins: &Origins, opts: &ObjectOptions, stats: &mut Stats) -> Result<Vec<WedgeOcclusion>> {
+pub(crate) fn wedge_occlusion(
+    scene: &Scene,
+    bvh: &Bvh,
+    origins: &Origins,
+    opts: &ObjectOptions,
+    stats: &mut Stats,
+) -> Result<Vec<WedgeOcclusion>> {
     let (lists, light) = (&origins.lists, origins.light);
     let center = light.center();
     let opaque = |f: u32| !scene.is_perforated_face(f);
@@ -90,36 +135,58 @@ pub(crate) fn wedge_occlusion(scene: &Scene, bvh: &Bvh, origins: &Origins, opts:
                     fill(k, ys, ws);
                     let ((p, n), o) = (origins.receiver(k), origins.origins[k]);
                     let total: f64 = ws.iter().map(|&w| f64::from(w)).sum();
-                    let front: f64 = ys.iter().zip(ws.iter()).filter(|(y, _)| (**y - p).dot(n) > 0.0).map(|(_, &w)| f64::from(w)).fold(0.0, plus_zero_sum);
+                    let front: f64 = ys
+                        .iter()
+                        .zip(ws.iter())
+                        .filter(|(y, _)| (**y - p).dot(n) > 0.0)
+                        .map(|(_, &w)| f64::from(w))
+                        .fold(0.0, plus_zero_sum);
                     let hard = bvh.count_hits(o, center - o, 1.0, opaque) > 0;
-                    WedgeOcclusion { front: if total > 0.0 { front / total } else { 0.0 }, occlusion: f64::from(u8::from(hard)) }
+                    WedgeOcclusion {
+                        front: if total > 0.0 { front / total } else { 0.0 },
+                        occlusion: f64::from(u8::from(hard)),
+                    }
                 },
             )
             .collect()
     });
-    let silhouettes = stats.time("silhouettes", || opaque_silhouettes(scene, center.as_dvec3(), 0.0));
+    let silhouettes = stats.time("silhouettes", || {
+        opaque_silhouettes(scene, center.as_dvec3(), 0.0)
+    });
     stats.set("silhouette_edges", silhouettes.len() as f64);
     let tested = AtomicU64::new(0);
     stats.time("wedges", || {
-        lists.visit_regions(&origins.bounds, opts.hull_degree, &silhouettes, |e| &e.ends, &mut occ, 1, |edge, k, occ| {
-            let Some(sweep) = edge.wedge_sweep(origins.origins[k].as_dvec3(), center.as_dvec3()) else { return };
-            tested.fetch_add(1, Ordering::Relaxed);
-            let (mut ys, mut ws) = (Vec::new(), Vec::new());
-            fill(k, &mut ys, &mut ws);
-            let (p, n) = origins.receiver(k);
-            let (mut covered, mut front) = (0.0f64, 0.0f64);
-            for (y, &w) in ys.iter().zip(&ws) {
-                if (*y - p).dot(n) > 0.0 {
-                    front += f64::from(w);
-                    if sweep.crosses(y.as_dvec3()) {
-                        covered += f64::from(w);
+        lists.visit_regions(
+            &origins.bounds,
+            opts.hull_degree,
+            &silhouettes,
+            |e| &e.ends,
+            &mut occ,
+            1,
+            |edge, k, occ| {
+                let Some(sweep) =
+                    edge.wedge_sweep(origins.origins[k].as_dvec3(), center.as_dvec3())
+                else {
+                    return;
+                };
+                tested.fetch_add(1, Ordering::Relaxed);
+                let (mut ys, mut ws) = (Vec::new(), Vec::new());
+                fill(k, &mut ys, &mut ws);
+                let (p, n) = origins.receiver(k);
+                let (mut covered, mut front) = (0.0f64, 0.0f64);
+                for (y, &w) in ys.iter().zip(&ws) {
+                    if (*y - p).dot(n) > 0.0 {
+                        front += f64::from(w);
+                        if sweep.crosses(y.as_dvec3()) {
+                            covered += f64::from(w);
+                        }
                     }
                 }
-            }
-            if front > 0.0 {
-                occ[0].occlusion += f64::from(sweep.delta) * covered / front;
-            }
-        })
+                if front > 0.0 {
+                    occ[0].occlusion += f64::from(sweep.delta) * covered / front;
+                }
+            },
+        )
     })?;
     stats.set("wedge_tests", tested.into_inner() as f64);
     Ok(occ)

@@ -21,9 +21,9 @@ use crate::error::{Error, Result};
 use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
+use crate::interrupt;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
-use crate::interrupt;
 use crate::limits::{self, Peak, Work};
 use crate::stats::Stats;
 use glam::Vec3;
@@ -43,7 +43,9 @@ pub struct RayTracedOptions {
 impl RayTracedOptions {
     /// The options with `epsilon = auto_epsilon(scene)`.
     pub fn for_scene(scene: &Scene) -> Self {
-        Self { epsilon: auto_epsilon(scene) }
+        Self {
+            epsilon: auto_epsilon(scene),
+        }
     }
 }
 
@@ -68,7 +70,10 @@ pub fn ray_traced(
     opts: &RayTracedOptions,
 ) -> Result<(Vec<f32>, Stats)> {
     if !(opts.epsilon.is_finite() && opts.epsilon >= 0.0) {
-        return Err(Error::invalid("epsilon", format!("must be finite and >= 0, got {}", opts.epsilon)));
+        return Err(Error::invalid(
+            "epsilon",
+            format!("must be finite and >= 0, got {}", opts.epsilon),
+        ));
     }
     bvh.check_scene(scene)?;
     let n = receivers.len();
@@ -77,12 +82,30 @@ pub fn ray_traced(
     let per_thread = limits::bytes(&[samples.count() as u64, 40 + TILE as u64]);
     let threads = rayon::current_num_threads() as u64;
     let mut stats = Stats::default();
-    Peak::default().buffer(&[n as u64, 4]).buffer(&[per_thread, threads]).check("ray_traced", &mut stats)?;
-    Work::default().loop_of(&[n as u64, samples.count() as u64, Work::RAY]).check("ray_traced", &mut stats)?;
+    Peak::default()
+        .buffer(&[n as u64, 4])
+        .buffer(&[per_thread, threads])
+        .check("ray_traced", &mut stats)?;
+    Work::default()
+        .loop_of(&[n as u64, samples.count() as u64, Work::RAY])
+        .check("ray_traced", &mut stats)?;
     let mut out = vec![0f32; n];
-    let rays = stats.time("trace", || trace_all(scene, bvh, light, receivers, samples, opts.epsilon, &mut out))?;
+    let rays = stats.time("trace", || {
+        trace_all(
+            scene,
+            bvh,
+            light,
+            receivers,
+            samples,
+            opts.epsilon,
+            &mut out,
+        )
+    })?;
     stats.set("rays", rays as f64);
-    stats.set("receivers", receivers.valid.iter().filter(|&&v| v).count() as f64);
+    stats.set(
+        "receivers",
+        receivers.valid.iter().filter(|&&v| v).count() as f64,
+    );
     stats.set("samples", samples.count() as f64);
     Ok((out, stats))
 }
@@ -100,34 +123,52 @@ fn trace_all(
     out: &mut [f32],
 ) -> Result<u64> {
     if samples.is_shared() && !light.is_textured() {
-        return trace_shared(scene, bvh, receivers, samples.pattern_for(0, 0), epsilon, out);
+        return trace_shared(
+            scene,
+            bvh,
+            receivers,
+            samples.pattern_for(0, 0),
+            epsilon,
+            out,
+        );
     }
     // Each round's receivers `offset..offset + part.len()` trace their own samples.
     let mut rays = 0;
-    interrupt::rounds(out, interrupt::round_len(CHUNK, samples.count() as u64 * Work::RAY), |offset, part| {
-        rays += part
-            .par_chunks_mut(CHUNK)
-            .enumerate()
-            .map_init(
-                || (Vec::with_capacity(samples.count()), Vec::with_capacity(samples.count()), Traced::default()),
-                |(ys, ws, traced), (c, chunk)| {
-                    let mut rays = 0;
-                    for (k, v) in chunk.iter_mut().enumerate() {
-                        let i = offset + c * CHUNK + k;
-                        if !receivers.valid[i] {
-                            continue;
+    interrupt::rounds(
+        out,
+        interrupt::round_len(CHUNK, samples.count() as u64 * Work::RAY),
+        |offset, part| {
+            rays += part
+                .par_chunks_mut(CHUNK)
+                .enumerate()
+                .map_init(
+                    || {
+                        (
+                            Vec::with_capacity(samples.count()),
+                            Vec::with_capacity(samples.count()),
+                            Traced::default(),
+                        )
+                    },
+                    |(ys, ws, traced), (c, chunk)| {
+                        let mut rays = 0;
+                        for (k, v) in chunk.iter_mut().enumerate() {
+                            let i = offset + c * CHUNK + k;
+                            if !receivers.valid[i] {
+                                continue;
+                            }
+                            let (p, n) = (receivers.points[i], receivers.normals[i]);
+                            samples.fill(light, i, receivers.pixel(i), ys, ws);
+                            let (vis, count) =
+                                receiver_visibility(scene, bvh, p, n, epsilon, ys, ws, traced);
+                            *v = vis;
+                            rays += count;
                         }
-                        let (p, n) = (receivers.points[i], receivers.normals[i]);
-                        samples.fill(light, i, receivers.pixel(i), ys, ws);
-                        let (vis, count) = receiver_visibility(scene, bvh, p, n, epsilon, ys, ws, traced);
-                        *v = vis;
-                        rays += count;
-                    }
-                    rays
-                },
-            )
-            .sum::<u64>();
-    })?;
+                        rays
+                    },
+                )
+                .sum::<u64>();
+        },
+    )?;
     Ok(rays)
 }
 
@@ -140,7 +181,14 @@ const TILE_ROWS: usize = 8;
 /// [`trace_all`] for samples `ys` shared by every receiver, all of weight 1: the grid is cut
 /// into bands of tile rows (the parallel work items, so the output does not depend on the
 /// thread count; rounds hold whole bands) and each band into tiles traced by [`trace_tile`].
-fn trace_shared(scene: &Scene, bvh: &Bvh, receivers: &Receivers, ys: &[Vec3], epsilon: f32, out: &mut [f32]) -> Result<u64> {
+fn trace_shared(
+    scene: &Scene,
+    bvh: &Bvh,
+    receivers: &Receivers,
+    ys: &[Vec3],
+    epsilon: f32,
+    out: &mut [f32],
+) -> Result<u64> {
     let width = receivers.width.max(1);
     let rows = TILE_ROWS.min(receivers.height.max(1));
     let cols = TILE / rows;
@@ -150,27 +198,43 @@ fn trace_shared(scene: &Scene, bvh: &Bvh, receivers: &Receivers, ys: &[Vec3], ep
     // A band of receivers with thousands of samples each takes seconds: its tiles stop early
     // once the call is asked to stop, and the next round's check reports it.
     let watch = interrupt::watch();
-    interrupt::rounds(out, interrupt::round_len(band_len, ys.len() as u64 * Work::RAY), |offset, part| {
-        rays += part
-            .par_chunks_mut(band_len)
-            .enumerate()
-            .map_init(TileBuffers::default, |buf, (b, band)| {
-                let (first, len) = (offset + b * band_len, band.len());
-                buf.to_packets.clear();
-                buf.to_packets.resize(len, false);
-                (0..width)
-                    .step_by(cols)
-                    .take_while(|_| !watch.requested())
-                    .map(|x0| {
-                        let tile = (0..rows)
-                            .flat_map(|r| (x0..(x0 + cols).min(width)).map(move |x| r * width + x))
-                            .filter(move |&k| k < len);
-                        trace_tile(scene, bvh, receivers, &shared, epsilon, (first, width), tile, band, buf)
-                    })
-                    .sum::<u64>()
-            })
-            .sum::<u64>();
-    })?;
+    interrupt::rounds(
+        out,
+        interrupt::round_len(band_len, ys.len() as u64 * Work::RAY),
+        |offset, part| {
+            rays += part
+                .par_chunks_mut(band_len)
+                .enumerate()
+                .map_init(TileBuffers::default, |buf, (b, band)| {
+                    let (first, len) = (offset + b * band_len, band.len());
+                    buf.to_packets.clear();
+                    buf.to_packets.resize(len, false);
+                    (0..width)
+                        .step_by(cols)
+                        .take_while(|_| !watch.requested())
+                        .map(|x0| {
+                            let tile = (0..rows)
+                                .flat_map(|r| {
+                                    (x0..(x0 + cols).min(width)).map(move |x| r * width + x)
+                                })
+                                .filter(move |&k| k < len);
+                            trace_tile(
+                                scene,
+                                bvh,
+                                receivers,
+                                &shared,
+                                epsilon,
+                                (first, width),
+                                tile,
+                                band,
+                                buf,
+                            )
+                        })
+                        .sum::<u64>()
+                })
+                .sum::<u64>();
+        },
+    )?;
     // The last round's tiles may have stopped early.
     interrupt::check()?;
     Ok(rays)
@@ -190,7 +254,9 @@ impl<'a> SharedSamples<'a> {
         Self {
             points,
             axes: [0, 1, 2].map(|a| points.iter().map(|y| y[a]).collect()),
-            bounds: points.iter().fold([y0, y0], |[lo, hi], &y| [lo.min(y), hi.max(y)]),
+            bounds: points
+                .iter()
+                .fold([y0, y0], |[lo, hi], &y| [lo.min(y), hi.max(y)]),
         }
     }
 
@@ -216,8 +282,10 @@ impl<'a> SharedSamples<'a> {
 /// The indices of the set bits of `bits` (see [`SharedSamples::front`]), in increasing order.
 fn set_bits(bits: &[u64]) -> impl Iterator<Item = usize> + '_ {
     bits.iter().enumerate().flat_map(|(w, &word)| {
-        std::iter::successors((word != 0).then_some(word), |&m| Some(m & (m - 1)).filter(|&m| m != 0))
-            .map(move |m| 64 * w + m.trailing_zeros() as usize)
+        std::iter::successors((word != 0).then_some(word), |&m| {
+            Some(m & (m - 1)).filter(|&m| m != 0)
+        })
+        .map(move |m| 64 * w + m.trailing_zeros() as usize)
     })
 }
 
@@ -279,7 +347,9 @@ fn trace_tile(
     b.tile.extend(tile.filter(|&k| receivers.valid[first + k]));
     let origin = |k: usize| receivers.points[first + k] + receivers.normals[first + k] * epsilon;
     let Some(&k0) = b.tile.first() else { return 0 };
-    let origins = b.tile.iter().fold([origin(k0); 2], |[lo, hi], &k| [lo.min(origin(k)), hi.max(origin(k))]);
+    let origins = b.tile.iter().fold([origin(k0); 2], |[lo, hi], &k| {
+        [lo.min(origin(k)), hi.max(origin(k))]
+    });
     let lit_tile = bvh.shaft_is_empty(origins, ys.bounds);
     let mut rays = 0u64;
     for &k in &b.tile {
@@ -295,11 +365,15 @@ fn trace_tile(
         let left = k % width > 0 && b.to_packets[k - 1];
         let up = k >= width && b.to_packets[k - width];
         let frustum = count as usize >= Bvh::FRUSTUM_MIN_RAYS && !(left && up);
-        match frustum.then(|| bvh.frustum_candidates(origin, ys.bounds)).flatten() {
+        match frustum
+            .then(|| bvh.frustum_candidates(origin, ys.bounds))
+            .flatten()
+        {
             Some(cand) if cand.is_empty() => band[k] = visibility(count),
             Some(cand) => {
                 b.targets.clear();
-                b.targets.extend(set_bits(&b.front_bits).map(|s| ys.points[s]));
+                b.targets
+                    .extend(set_bits(&b.front_bits).map(|s| ys.points[s]));
                 bvh.occluded_by_candidates(scene, origin, &b.targets, &cand, &mut b.blocked);
                 band[k] = visibility(b.blocked.iter().filter(|&&x| !x).count() as u32);
             }
@@ -366,7 +440,12 @@ fn receiver_visibility(
         }
     }
     bvh.occluded_many(scene, origin, &s.targets, &mut s.blocked);
-    let lit = s.weights.iter().zip(&s.blocked).filter(|(_, &b)| !b).fold(0.0, |acc, (&w, _)| acc + f64::from(w));
+    let lit = s
+        .weights
+        .iter()
+        .zip(&s.blocked)
+        .filter(|(_, &b)| !b)
+        .fold(0.0, |acc, (&w, _)| acc + f64::from(w));
     (fraction(lit, total), s.targets.len() as u64)
 }
 
@@ -390,7 +469,8 @@ mod tests {
     /// A ground quad, a sphere (umbra and penumbra below it) and a perforated checker quad.
     fn scene() -> Scene {
         let quad = |y: f32, s: f32, c: Vec2| {
-            let p = [(-s, -s), (s, -s), (s, s), (-s, s)].map(|(x, z)| Vec3::new(c.x + x, y, c.y + z));
+            let p =
+                [(-s, -s), (s, -s), (s, s), (-s, s)].map(|(x, z)| Vec3::new(c.x + x, y, c.y + z));
             (p.to_vec(), vec![[0, 1, 2], [0, 2, 3]])
         };
         let (g, gf) = quad(0.0, 4.0, Vec2::ZERO);
@@ -403,7 +483,12 @@ mod tests {
                 let phi = 2.0 * std::f32::consts::PI * (j % n) as f32 / n as f32;
                 pos.push(
                     Vec3::new(-0.8, 1.0, 0.0)
-                        + 0.5 * Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()),
+                        + 0.5
+                            * Vec3::new(
+                                theta.sin() * phi.cos(),
+                                theta.cos(),
+                                theta.sin() * phi.sin(),
+                            ),
                 );
             }
         }
@@ -415,15 +500,30 @@ mod tests {
         // The checker: a 16 x 16 grid of quads (many leaves, so its penumbra goes to packets).
         let k = 17u32;
         let c: Vec<Vec3> = (0..k * k)
-            .map(|i| Vec3::new(0.4 + 1.2 * (i % k) as f32 / 16.0, 0.8, -0.6 + 1.2 * (i / k) as f32 / 16.0))
+            .map(|i| {
+                Vec3::new(
+                    0.4 + 1.2 * (i % k) as f32 / 16.0,
+                    0.8,
+                    -0.6 + 1.2 * (i / k) as f32 / 16.0,
+                )
+            })
             .collect();
         let cf = (0..16 * 16)
             .map(|q| q % 16 + k * (q / 16))
             .flat_map(|a| [[a, a + 1, a + k + 1], [a, a + k + 1, a + k]])
             .collect();
         let uvs = c.iter().map(|p| Vec2::new(p.x, p.z)).collect();
-        let alpha: Vec<f32> = (0..64).map(|k| ((k / 8 + k % 8) % 2 == 0) as u8 as f32).collect();
-        let checker = Mesh::new(c, cf, Some(uvs), Some(AlphaTexture::new(8, 8, &alpha).unwrap()), false).unwrap();
+        let alpha: Vec<f32> = (0..64)
+            .map(|k| ((k / 8 + k % 8) % 2 == 0) as u8 as f32)
+            .collect();
+        let checker = Mesh::new(
+            c,
+            cf,
+            Some(uvs),
+            Some(AlphaTexture::new(8, 8, &alpha).unwrap()),
+            false,
+        )
+        .unwrap();
         Scene::new(vec![ground, sphere, checker]).unwrap()
     }
 
@@ -432,9 +532,17 @@ mod tests {
     fn grid() -> Receivers {
         let (w, h) = (37, 21);
         let points = (0..w * h)
-            .map(|i| Vec3::new(-2.0 + 4.0 * (i % w) as f32 / w as f32, 0.0, -1.0 + 2.0 * (i / w) as f32 / h as f32))
+            .map(|i| {
+                Vec3::new(
+                    -2.0 + 4.0 * (i % w) as f32 / w as f32,
+                    0.0,
+                    -1.0 + 2.0 * (i / w) as f32 / h as f32,
+                )
+            })
             .collect();
-        let normals = (0..w * h).map(|i| Vec3::new(0.4 * ((i % 7) as f32 - 3.0) / 3.0, 1.0, 0.0)).collect();
+        let normals = (0..w * h)
+            .map(|i| Vec3::new(0.4 * ((i % 7) as f32 - 3.0) / 3.0, 1.0, 0.0))
+            .collect();
         let valid = (0..w * h).map(|i| i % 11 != 3).collect();
         Receivers::new(points, normals, valid, w, h).unwrap()
     }
@@ -455,7 +563,17 @@ mod tests {
                     return 0.0;
                 }
                 samples.fill(light, i, rx.pixel(i), &mut ys, &mut ws);
-                receiver_visibility(scene, bvh, rx.points[i], rx.normals[i], eps, &ys, &ws, &mut traced).0
+                receiver_visibility(
+                    scene,
+                    bvh,
+                    rx.points[i],
+                    rx.normals[i],
+                    eps,
+                    &ys,
+                    &ws,
+                    &mut traced,
+                )
+                .0
             })
             .collect()
     }
@@ -473,18 +591,34 @@ mod tests {
         let opts = RayTracedOptions { epsilon: 1e-4 };
         let variants = [(1, false), (1, true), (3, false)];
         for (interleave, rotate) in variants {
-            let samples = SampleSet::generate(&light, 48, Pattern::Poisson, 5, interleave, rotate, 0).unwrap();
+            let samples =
+                SampleSet::generate(&light, 48, Pattern::Poisson, 5, interleave, rotate, 0)
+                    .unwrap();
             let expected = per_receiver(&scene, &bvh, &light, &rx, &samples, opts.epsilon);
             if interleave == 1 && !rotate {
-                let (lit, umbra) =
-                    (expected.iter().filter(|&&v| v == 1.0).count(), expected.iter().filter(|&&v| v == 0.0).count());
+                let (lit, umbra) = (
+                    expected.iter().filter(|&&v| v == 1.0).count(),
+                    expected.iter().filter(|&&v| v == 0.0).count(),
+                );
                 let penumbra = expected.len() - lit - umbra;
-                assert!(lit > 50 && umbra > 20 && penumbra > 100, "lit {lit} umbra {umbra} penumbra {penumbra}");
+                assert!(
+                    lit > 50 && umbra > 20 && penumbra > 100,
+                    "lit {lit} umbra {umbra} penumbra {penumbra}"
+                );
             }
             for threads in [1, 4] {
-                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-                let (v, _) = pool.install(|| ray_traced(&scene, &bvh, &light, &rx, &samples, &opts)).unwrap();
-                assert_eq!(bits(&v), bits(&expected), "interleave {interleave}, rotate {rotate}, {threads} threads");
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let (v, _) = pool
+                    .install(|| ray_traced(&scene, &bvh, &light, &rx, &samples, &opts))
+                    .unwrap();
+                assert_eq!(
+                    bits(&v),
+                    bits(&expected),
+                    "interleave {interleave}, rotate {rotate}, {threads} threads"
+                );
             }
         }
     }

@@ -25,12 +25,14 @@
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
-use crate::light::lights::Light;
 use crate::gpu::multiview::Lighting;
 use crate::gpu::{self, Backend};
 use crate::interrupt;
+use crate::light::lights::Light;
 use crate::limits::Peak;
-use crate::raster::depth::{raster_peak, raster_work, rasterize_depth, DepthMap, LightFrustum, RasterOptions};
+use crate::raster::depth::{
+    raster_peak, raster_work, rasterize_depth, DepthMap, LightFrustum, RasterOptions,
+};
 use crate::raster::pcf::{DepthBias, PcfKernel, RASTERIZED_SLACK};
 use crate::stats::Stats;
 
@@ -52,7 +54,13 @@ pub struct ShadowMapOptions {
 
 impl Default for ShadowMapOptions {
     fn default() -> Self {
-        Self { resolution: 1024, bias: None, pcf: 1, frustum: None, backend: Backend::Cpu }
+        Self {
+            resolution: 1024,
+            bias: None,
+            pcf: 1,
+            frustum: None,
+            backend: Backend::Cpu,
+        }
     }
 }
 
@@ -62,7 +70,11 @@ impl ShadowMapOptions {
         if !(1..=crate::raster::depth::MAX_RESOLUTION).contains(&self.resolution) {
             return Err(Error::invalid(
                 "resolution",
-                format!("must be in 1..={}, got {}", crate::raster::depth::MAX_RESOLUTION, self.resolution),
+                format!(
+                    "must be in 1..={}, got {}",
+                    crate::raster::depth::MAX_RESOLUTION,
+                    self.resolution
+                ),
             ));
         }
         DepthBias::new(self.bias, RASTERIZED_SLACK)?;
@@ -82,7 +94,12 @@ impl ShadowMapOptions {
 ///
 /// Errors: invalid options; no fitting frustum (light inside the receivers' bounds: pass
 /// `frustum`); `TooLarge` past the memory limit.
-pub fn shadow_map(scene: &Scene, light: &Light, receivers: &Receivers, opts: &ShadowMapOptions) -> Result<(Vec<f32>, Stats)> {
+pub fn shadow_map(
+    scene: &Scene,
+    light: &Light,
+    receivers: &Receivers,
+    opts: &ShadowMapOptions,
+) -> Result<(Vec<f32>, Stats)> {
     super::refuse_textured(light, "shadow_map")?;
     opts.validate()?;
     let mut stats = Stats::default();
@@ -90,7 +107,13 @@ pub fn shadow_map(scene: &Scene, light: &Light, receivers: &Receivers, opts: &Sh
         (Some(f), _) => f,
         (None, Some(bounds)) => LightFrustum::for_light(light, bounds, opts.resolution)?,
         (None, None) => {
-            for name in ["render_seconds", "lookup_seconds", "resolution", "texels_drawn", "fragments"] {
+            for name in [
+                "render_seconds",
+                "lookup_seconds",
+                "resolution",
+                "texels_drawn",
+                "fragments",
+            ] {
                 stats.set(name, 0.0);
             }
             return Ok((vec![0.0; receivers.len()], stats));
@@ -103,9 +126,13 @@ pub fn shadow_map(scene: &Scene, light: &Light, receivers: &Receivers, opts: &Sh
     raster_work(scene, frustum.width, frustum.height)
         .loop_of(&[receivers.len() as u64, (opts.pcf as u64).pow(2)])
         .check("shadow_map", &mut stats)?;
-    let map = stats.time("render", || rasterize_depth(scene, &frustum, &RasterOptions::default()))?;
+    let map = stats.time("render", || {
+        rasterize_depth(scene, &frustum, &RasterOptions::default())
+    })?;
     let vis = match opts.backend {
-        Backend::Gpu => gpu::timed_stage(&mut stats, "lookup", || lookup_all(&map, &frustum, receivers, opts))?,
+        Backend::Gpu => gpu::timed_stage(&mut stats, "lookup", || {
+            lookup_all(&map, &frustum, receivers, opts)
+        })?,
         Backend::Cpu => stats.time("lookup", || lookup_all(&map, &frustum, receivers, opts))?,
     };
     stats.set("resolution", frustum.width as f64);
@@ -114,7 +141,12 @@ pub fn shadow_map(scene: &Scene, light: &Light, receivers: &Receivers, opts: &Sh
     Ok((vis, stats))
 }
 
-fn lookup_all(map: &DepthMap, frustum: &LightFrustum, rx: &Receivers, opts: &ShadowMapOptions) -> Result<Vec<f32>> {
+fn lookup_all(
+    map: &DepthMap,
+    frustum: &LightFrustum,
+    rx: &Receivers,
+    opts: &ShadowMapOptions,
+) -> Result<Vec<f32>> {
     let kernel = PcfKernel::square(opts.pcf)?;
     let bias = DepthBias::new(opts.bias, RASTERIZED_SLACK)?;
     if opts.backend == Backend::Gpu {
@@ -124,5 +156,11 @@ fn lookup_all(map: &DepthMap, frustum: &LightFrustum, rx: &Receivers, opts: &Sha
         return lighting.sums();
     }
     let taps = (opts.pcf as u64).pow(2);
-    interrupt::par_map(rx.len(), taps, |i| if rx.valid[i] { kernel.visibility(map, frustum, rx.points[i], rx.normals[i], bias) } else { 0.0 })
+    interrupt::par_map(rx.len(), taps, |i| {
+        if rx.valid[i] {
+            kernel.visibility(map, frustum, rx.points[i], rx.normals[i], bias)
+        } else {
+            0.0
+        }
+    })
 }

@@ -45,7 +45,9 @@ use crate::limits::{self, object_work, Peak};
 use crate::methods::alias_free::{masks_peak, sample_masks, AliasFreeOptions, Casters};
 use crate::methods::dcs::{depth_complexity, depth_complexity_peak, visible_fraction};
 use crate::methods::penumbra_wedge::{wedge_occlusion, wedge_occlusion_peak};
-use crate::raster::influence::{check_hull_degree, LightBounds, ObjectOptions, Origins};
+use crate::raster::influence::{
+    by_light_face, check_hull_degree, LightBounds, ObjectOptions, Origins,
+};
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -90,7 +92,12 @@ struct Volume {
 /// and on it: the points on that side and the plane's crossings of every pair of points.
 fn clip_to_side(points: &[DVec3], n: DVec3, v0: DVec3, sigma: f64) -> Vec<DVec3> {
     let d: Vec<f64> = points.iter().map(|q| sigma * n.dot(*q - v0)).collect();
-    let mut out: Vec<DVec3> = points.iter().zip(&d).filter(|(_, &d)| d > 0.0).map(|(q, _)| *q).collect();
+    let mut out: Vec<DVec3> = points
+        .iter()
+        .zip(&d)
+        .filter(|(_, &d)| d > 0.0)
+        .map(|(q, _)| *q)
+        .collect();
     if out.is_empty() {
         return out;
     }
@@ -107,12 +114,25 @@ fn clip_to_side(points: &[DVec3], n: DVec3, v0: DVec3, sigma: f64) -> Vec<DVec3>
 /// The plane through the line `a b` that touches `light` with every light point outside and `c`
 /// inside, as `(m, k)` with inside `m · x >= k`; `None` when no plane through the line separates
 /// them (the line passes through the light's hull).
-fn outer_plane(a: DVec3, b: DVec3, c: DVec3, light: &[DVec3], toward_light: DVec3) -> Option<(DVec3, f64)> {
+fn outer_plane(
+    a: DVec3,
+    b: DVec3,
+    c: DVec3,
+    light: &[DVec3],
+    toward_light: DVec3,
+) -> Option<(DVec3, f64)> {
     let d = (b - a).normalize();
     let u = ((c - a) - d * (c - a).dot(d)).normalize();
     let w = d.cross(u) * d.cross(u).dot(toward_light).signum();
-    let angles: Vec<f64> = light.iter().map(|q| (*q - a).dot(w).atan2((*q - a).dot(u))).collect();
-    let (lo, hi) = angles.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| (lo.min(x), hi.max(x)));
+    let angles: Vec<f64> = light
+        .iter()
+        .map(|q| (*q - a).dot(w).atan2((*q - a).dot(u)))
+        .collect();
+    let (lo, hi) = angles
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
+            (lo.min(x), hi.max(x))
+        });
     // Every light point at an angle in [lo, lo + pi) about the line, measured from c's direction
     // towards the light's side: then c, at angle 0, is inside.
     if !(lo >= 0.0 && hi - lo < std::f64::consts::PI) {
@@ -134,7 +154,14 @@ fn exit_distance(o: DVec3, dir: DVec3, (lo, hi): (DVec3, DVec3)) -> f64 {
 impl Volume {
     /// The volume of triangle `tri` (face `face`, texture coordinates `uv`) for the part `light` of
     /// the light's polytope on one side of it, seen from `center`; `None` for a degenerate triangle.
-    fn build(face: u32, tri: [Vec3; 3], uv: [DVec2; 3], light: &[DVec3], center: DVec3, bounds: (DVec3, DVec3)) -> Option<Volume> {
+    fn build(
+        face: u32,
+        tri: [Vec3; 3],
+        uv: [DVec2; 3],
+        light: &[DVec3],
+        center: DVec3,
+        bounds: (DVec3, DVec3),
+    ) -> Option<Volume> {
         let v = tri.map(|p| p.as_dvec3());
         let normal = (v[1] - v[0]).cross(v[2] - v[0]);
         let dist = v.map(|p| (p - center).length());
@@ -154,29 +181,55 @@ impl Volume {
         if light.iter().all(|q| toward_light.dot(*q - front[0]) > 0.0) {
             planes.push((-toward_light, -toward_light.dot(front[0])));
         }
-        let outer: Vec<Option<(DVec3, f64)>> = (0..3).map(|k| outer_plane(front[k], front[(k + 1) % 3], front[(k + 2) % 3], light, toward_light)).collect();
+        let outer: Vec<Option<(DVec3, f64)>> = (0..3)
+            .map(|k| {
+                outer_plane(
+                    front[k],
+                    front[(k + 1) % 3],
+                    front[(k + 2) % 3],
+                    light,
+                    toward_light,
+                )
+            })
+            .collect();
         planes.extend(outer.iter().flatten());
         // The closing lines through each vertex of t', extruded to the bounds: the back cap.
         let back = [0, 1, 2].map(|k| {
-                let dir = match (outer[(k + 2) % 3], outer[k]) {
-                    (Some((m1, _)), Some((m2, _))) if m1.cross(m2).length_squared() > 0.0 => m1.cross(m2),
-                    _ => front[k] - center,
-                };
-                let dir = (dir * dir.dot(front[k] - center).signum()).normalize();
-                front[k] + dir * exit_distance(front[k], dir, bounds)
-            });
+            let dir = match (outer[(k + 2) % 3], outer[k]) {
+                (Some((m1, _)), Some((m2, _))) if m1.cross(m2).length_squared() > 0.0 => {
+                    m1.cross(m2)
+                }
+                _ => front[k] - center,
+            };
+            let dir = (dir * dir.dot(front[k] - center).signum()).normalize();
+            front[k] + dir * exit_distance(front[k], dir, bounds)
+        });
         let n = normal.normalize();
         let to_triangle = DMat3::from_cols(v[1] - v[0], v[2] - v[0], -n).inverse();
         let (t01, t02) = (uv[1] - uv[0], uv[2] - uv[0]);
-        let to_texture = DMat3::from_cols(DVec3::new(t01.x, t01.y, 0.0), DVec3::new(t02.x, t02.y, 0.0), DVec3::new(uv[0].x, uv[0].y, 1.0));
+        let to_texture = DMat3::from_cols(
+            DVec3::new(t01.x, t01.y, 0.0),
+            DVec3::new(t02.x, t02.y, 0.0),
+            DVec3::new(uv[0].x, uv[0].y, 1.0),
+        );
         let corners = [front[0], front[1], front[2], back[0], back[1], back[2]];
-        Some(Volume { face, triangle: tri, planes, corners, to_triangle, to_texture, v0: v[0] })
+        Some(Volume {
+            face,
+            triangle: tri,
+            planes,
+            corners,
+            to_triangle,
+            to_texture,
+            v0: v[0],
+        })
     }
 
     /// Whether `p` lies inside (section 2.3), with a relative tolerance that keeps the test
     /// conservative against round-off.
     fn contains(&self, p: DVec3) -> bool {
-        self.planes.iter().all(|(m, k)| m.dot(p) - k >= -1e-9 * m.length() * (1.0 + p.abs().max_element()))
+        self.planes
+            .iter()
+            .all(|(m, k)| m.dot(p) - k >= -1e-9 * m.length() * (1.0 + p.abs().max_element()))
     }
 
     /// Sets in `blocked` the samples `ys` that the triangle's opaque texels hide from `p`
@@ -189,7 +242,11 @@ impl Volume {
         }
         // W of equation 3: p as the projective center; the third row scales by the distance so
         // that s_h.z = 1 / t for the segment parameter t of the plane's crossing.
-        let w = DMat3::from_cols(DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0), DVec3::new(-r.x / e, -r.y / e, 1.0 / e));
+        let w = DMat3::from_cols(
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(0.0, 1.0, 0.0),
+            DVec3::new(-r.x / e, -r.y / e, 1.0 / e),
+        );
         let j = w * self.to_triangle;
         for (k, y) in ys.iter().enumerate().take(blocked.len() * 64) {
             let s = j * (y.as_dvec3() - p);
@@ -208,26 +265,42 @@ impl Volume {
 /// The volumes of every perforated triangle of `scene` (two per triangle with `two_sided` when
 /// the light or its samples reach both sides) for the light and samples of `light`, within
 /// `bounds`.
-fn volumes(scene: &Scene, light: &LightBounds<'_>, degree: usize, two_sided: bool, bounds: (DVec3, DVec3)) -> Vec<Volume> {
+fn volumes(
+    scene: &Scene,
+    light: &LightBounds<'_>,
+    degree: usize,
+    two_sided: bool,
+    bounds: (DVec3, DVec3),
+) -> Vec<Volume> {
     let polytope = light.polytope(degree);
     let center = light.light.center().as_dvec3();
     let mut out = Vec::new();
     for (id, tri) in scene.triangles() {
         let r = scene.face_ref(id);
         let mesh = &scene.meshes[r.mesh as usize];
-        let (Some(uvs), Some(_)) = (&mesh.uvs, &mesh.alpha) else { continue };
+        let (Some(uvs), Some(_)) = (&mesh.uvs, &mesh.alpha) else {
+            continue;
+        };
         let f = mesh.faces[r.face as usize];
         let uv = f.map(|i| uvs[i as usize].as_dvec2());
         let v = tri.map(|p| p.as_dvec3());
         let n = (v[1] - v[0]).cross(v[2] - v[0]);
-        let own = if n.dot(center - v[0]) < 0.0 { -1.0 } else { 1.0 };
+        let own = if n.dot(center - v[0]) < 0.0 {
+            -1.0
+        } else {
+            1.0
+        };
         let sides: &[f64] = if two_sided { &[own, -own] } else { &[own] };
         for &sigma in sides {
             let part = clip_to_side(&polytope, n, v[0], sigma);
             if part.is_empty() {
                 continue;
             }
-            let part_center = if sigma == own { center } else { part.iter().sum::<DVec3>() / part.len() as f64 };
+            let part_center = if sigma == own {
+                center
+            } else {
+                part.iter().sum::<DVec3>() / part.len() as f64
+            };
             out.extend(Volume::build(id, tri, uv, &part, part_center, bounds));
         }
     }
@@ -236,7 +309,9 @@ fn volumes(scene: &Scene, light: &LightBounds<'_>, degree: usize, two_sided: boo
 
 /// The bounds of the scene and of `points`, padded by 1% of their diagonal.
 fn padded_bounds(scene: &Scene, points: &[Vec3]) -> (DVec3, DVec3) {
-    let (lo, hi) = points.iter().fold(scene.bounds(), |(l, h), &o| (l.min(o), h.max(o)));
+    let (lo, hi) = points
+        .iter()
+        .fold(scene.bounds(), |(l, h), &o| (l.min(o), h.max(o)));
     let pad = (hi - lo).length() * 0.01 + 1e-6;
     ((lo - pad).as_dvec3(), (hi + pad).as_dvec3())
 }
@@ -248,45 +323,93 @@ fn padded_bounds(scene: &Scene, points: &[Vec3]) -> (DVec3, DVec3) {
 ///
 /// Errors: `hull_degree` outside 3..=64; corners beyond f32's range (receivers so far from the
 /// light that the back caps overflow).
-pub fn stsv_volumes(scene: &Scene, light: &Light, hull_degree: usize, two_sided: bool, points: &[Vec3]) -> Result<Vec<(u32, [Vec3; 6])>> {
+pub fn stsv_volumes(
+    scene: &Scene,
+    light: &Light,
+    hull_degree: usize,
+    two_sided: bool,
+    points: &[Vec3],
+) -> Result<Vec<(u32, [Vec3; 6])>> {
     check_hull_degree(hull_degree)?;
-    let volumes: Vec<(u32, [Vec3; 6])> =
-        volumes(scene, &LightBounds::of_light(light), hull_degree, two_sided, padded_bounds(scene, points)).iter().map(|v| (v.face, v.corners.map(|c| c.as_vec3()))).collect();
-    if volumes.iter().any(|(_, corners)| !corners.iter().all(|c| c.is_finite())) {
-        return Err(Error::invalid("receivers", "the volumes' back caps reach beyond float32's range: receivers too far from the light"));
+    let volumes: Vec<(u32, [Vec3; 6])> = volumes(
+        scene,
+        &LightBounds::of_light(light),
+        hull_degree,
+        two_sided,
+        padded_bounds(scene, points),
+    )
+    .iter()
+    .map(|v| (v.face, v.corners.map(|c| c.as_vec3())))
+    .collect();
+    if volumes
+        .iter()
+        .any(|(_, corners)| !corners.iter().all(|c| c.is_finite()))
+    {
+        return Err(Error::invalid(
+            "receivers",
+            "the volumes' back caps reach beyond float32's range: receivers too far from the light",
+        ));
     }
     Ok(volumes)
 }
 
 /// Per list entry of `origins`, the bitmask of the samples that the perforated triangles block
 /// (`words` per entry); stats `volumes`, `receivers_tested`, `receivers_inside`.
-fn perforated_masks(scene: &Scene, origins: &Origins, opts: &StsvOptions, words: usize, stats: &mut Stats) -> Result<Vec<u64>> {
+fn perforated_masks(
+    scene: &Scene,
+    origins: &Origins,
+    opts: &StsvOptions,
+    words: usize,
+    stats: &mut Stats,
+) -> Result<Vec<u64>> {
     let lists = &origins.lists;
-    limits::check_memory("stsv bitmasks", limits::bytes(&[lists.entries.len() as u64, words as u64, 8]))?;
+    limits::check_memory(
+        "stsv bitmasks",
+        limits::bytes(&[lists.entries.len() as u64, words as u64, 8]),
+    )?;
     let bounds = padded_bounds(scene, &origins.origins);
-    let volumes = volumes(scene, &origins.bounds, opts.object.hull_degree, opts.two_sided, bounds);
+    let volumes = volumes(
+        scene,
+        &origins.bounds,
+        opts.object.hull_degree,
+        opts.two_sided,
+        bounds,
+    );
     stats.set("volumes", volumes.len() as f64);
     let (tested, inside) = (AtomicU64::new(0), AtomicU64::new(0));
     let mut masks = vec![0u64; lists.entries.len() * words];
-    let shared = origins.samples.is_shared().then(|| origins.samples.pattern_for(0, 0));
-    lists.visit_regions(&origins.bounds, opts.object.hull_degree, &volumes, |v| &v.triangle, &mut masks, words, |volume, k, mask| {
-        tested.fetch_add(1, Ordering::Relaxed);
-        let p = origins.origins[k].as_dvec3();
-        if !volume.contains(p) {
-            return;
-        }
-        inside.fetch_add(1, Ordering::Relaxed);
-        let r = scene.face_ref(volume.face);
-        let Some(texture) = &scene.meshes[r.mesh as usize].alpha else { return };
-        match shared {
-            Some(ys) => volume.block(p, ys, texture, mask),
-            None => {
-                let (mut ys, mut ws) = (Vec::new(), Vec::new());
-                origins.fill(k, &mut ys, &mut ws);
-                volume.block(p, &ys, texture, mask);
+    let shared = origins
+        .samples
+        .is_shared()
+        .then(|| origins.samples.pattern_for(0, 0));
+    lists.visit_regions(
+        &origins.bounds,
+        opts.object.hull_degree,
+        &volumes,
+        |v| &v.triangle,
+        &mut masks,
+        words,
+        |volume, k, mask| {
+            tested.fetch_add(1, Ordering::Relaxed);
+            let p = origins.origins[k].as_dvec3();
+            if !volume.contains(p) {
+                return;
             }
-        }
-    })?;
+            inside.fetch_add(1, Ordering::Relaxed);
+            let r = scene.face_ref(volume.face);
+            let Some(texture) = &scene.meshes[r.mesh as usize].alpha else {
+                return;
+            };
+            match shared {
+                Some(ys) => volume.block(p, ys, texture, mask),
+                None => {
+                    let (mut ys, mut ws) = (Vec::new(), Vec::new());
+                    origins.fill(k, &mut ys, &mut ws);
+                    volume.block(p, &ys, texture, mask);
+                }
+            }
+        },
+    )?;
     stats.set("receivers_tested", tested.into_inner() as f64);
     stats.set("receivers_inside", inside.into_inner() as f64);
     Ok(masks)
@@ -297,15 +420,48 @@ fn perforated_masks(scene: &Scene, origins: &Origins, opts: &StsvOptions, words:
 /// (receivers' order) and stats: `opaque_seconds`, `perforated_seconds`, `volumes`,
 /// `receivers_tested` and `receivers_inside` (receiver and volume pairs), `light_samples`, and
 /// the opaque method's own.
-pub fn stsv(scene: &Scene, bvh: &Bvh, light: &Light, receivers: &Receivers, samples: &SampleSet, opts: &StsvOptions) -> Result<(Vec<f32>, Stats)> {
+pub fn stsv(
+    scene: &Scene,
+    bvh: &Bvh,
+    light: &Light,
+    receivers: &Receivers,
+    samples: &SampleSet,
+    opts: &StsvOptions,
+) -> Result<(Vec<f32>, Stats)> {
+    by_light_face(light, receivers, |part| {
+        stsv_in_one_frustum(scene, bvh, light, part, samples, opts)
+    })
+}
+
+/// [`stsv`] on receivers that one light frustum holds.
+fn stsv_in_one_frustum(
+    scene: &Scene,
+    bvh: &Bvh,
+    light: &Light,
+    receivers: &Receivers,
+    samples: &SampleSet,
+    opts: &StsvOptions,
+) -> Result<(Vec<f32>, Stats)> {
     opts.object.validate(scene, receivers)?;
     bvh.check_scene(scene)?;
     let s = samples.count();
     if s > crate::methods::alias_free::MAX_SAMPLES {
-        return Err(Error::invalid("samples", format!("stsv keeps one bit per light sample: at most {}, got {s}", crate::methods::alias_free::MAX_SAMPLES)));
+        return Err(Error::invalid(
+            "samples",
+            format!(
+                "stsv keeps one bit per light sample: at most {}, got {s}",
+                crate::methods::alias_free::MAX_SAMPLES
+            ),
+        ));
     }
     let mut stats = Stats::default();
-    for name in ["opaque_seconds", "perforated_seconds", "volumes", "receivers_tested", "receivers_inside"] {
+    for name in [
+        "opaque_seconds",
+        "perforated_seconds",
+        "volumes",
+        "receivers_tested",
+        "receivers_inside",
+    ] {
         stats.set(name, 0.0);
     }
     stats.set("light_samples", s as f64);
@@ -330,12 +486,17 @@ pub fn stsv(scene: &Scene, bvh: &Bvh, light: &Light, receivers: &Receivers, samp
         .buffer(&[n as u64, 4])
         .and(Origins::peak(n, &opts.object))
         .buffer(&[n as u64, words as u64, 8])
-        .buffer(&[scene.num_faces() as u64, 2 * std::mem::size_of::<Volume>() as u64 + 16 * 8])
+        .buffer(&[
+            scene.num_faces() as u64,
+            2 * std::mem::size_of::<Volume>() as u64 + 16 * 8,
+        ])
         .and(opaque_peak)
         .check("stsv", &mut stats)?;
     object_work(scene, n, samples.count()).check("stsv", &mut stats)?;
     let mut vis = vec![0.0f32; n];
-    let Some(origins) = Origins::new(light, receivers, samples, &opts.object)? else { return Ok((vis, stats)) };
+    let Some(origins) = Origins::new(light, receivers, samples, &opts.object)? else {
+        return Ok((vis, stats));
+    };
     let perforated = {
         let start = std::time::Instant::now();
         let masks = perforated_masks(scene, &origins, opts, words, &mut stats)?;
@@ -349,11 +510,16 @@ pub fn stsv(scene: &Scene, bvh: &Bvh, light: &Light, receivers: &Receivers, samp
             for (e, &k) in origins.lists.entries.iter().enumerate() {
                 let i = origins.ids[k as usize] as usize;
                 let words = opaque.words.min(words);
-                for (a, b) in opaque.masks[i * opaque.words..i * opaque.words + words].iter_mut().zip(&perforated[e * words..]) {
+                for (a, b) in opaque.masks[i * opaque.words..i * opaque.words + words]
+                    .iter_mut()
+                    .zip(&perforated[e * words..])
+                {
                     *a |= b;
                 }
             }
-            vis.iter_mut().enumerate().for_each(|(i, v)| *v = opaque.visibility(i));
+            vis.iter_mut()
+                .enumerate()
+                .for_each(|(i, v)| *v = opaque.visibility(i));
         }
         Opaque::Dcs => {
             let mut counts = depth_complexity(scene, bvh, &origins, &opts.object, &mut stats)?;
@@ -380,7 +546,8 @@ pub fn stsv(scene: &Scene, bvh: &Bvh, light: &Light, receivers: &Receivers, samp
                     }
                 }
                 let stsv_coef = if front > 0.0 { hidden / front } else { 0.0 };
-                vis[origins.ids[k as usize] as usize] = (occ.front * (1.0 - (occ.occlusion + stsv_coef).clamp(0.0, 1.0))) as f32;
+                vis[origins.ids[k as usize] as usize] =
+                    (occ.front * (1.0 - (occ.occlusion + stsv_coef).clamp(0.0, 1.0))) as f32;
             }
         }
     }

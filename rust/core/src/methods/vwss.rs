@@ -49,17 +49,17 @@
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
-use crate::light::lights::Light;
-use crate::light::sampling::SampleSet;
-use crate::interrupt;
-use crate::limits::{self, Peak};
 use crate::gpu::multiview::Lighting;
 use crate::gpu::vwss::Warper;
 use crate::gpu::Backend;
+use crate::interrupt;
+use crate::light::lights::Light;
+use crate::light::sampling::SampleSet;
+use crate::limits::{self, Peak};
 use crate::methods::mvr::{shared_eyes, MultiViewOptions};
 use crate::raster::depth::{
-    casters, raster_peak, raster_work, rasterize_depth, Caster, DepthMap, FaceFilter, LightFrustum, RasterMode, RasterOptions, Rasterizer,
-    TexelRect, MAX_RESOLUTION, NEAR_FRACTION,
+    casters, raster_peak, raster_work, rasterize_depth, Caster, DepthMap, FaceFilter, LightFrustum,
+    RasterMode, RasterOptions, Rasterizer, TexelRect, MAX_RESOLUTION, NEAR_FRACTION,
 };
 use crate::raster::multiview::{accumulate, resolve, ViewSet};
 use crate::raster::pcf::WARPED_SLACK;
@@ -143,21 +143,36 @@ impl VwssOptions {
             return Err(Error::invalid("views_per_pass", "must be >= 1"));
         }
         if !(self.point_density.is_finite() && self.point_density > 0.0) {
-            return Err(Error::invalid("point_density", format!("must be finite and > 0, got {}", self.point_density)));
+            return Err(Error::invalid(
+                "point_density",
+                format!("must be finite and > 0, got {}", self.point_density),
+            ));
         }
         if let Some(r) = self.source_resolution {
             if !(1..=MAX_RESOLUTION).contains(&r) {
-                return Err(Error::invalid("source_resolution", format!("must be in 1..={MAX_RESOLUTION}, got {r}")));
+                return Err(Error::invalid(
+                    "source_resolution",
+                    format!("must be in 1..={MAX_RESOLUTION}, got {r}"),
+                ));
             }
         }
         if self.mode == Mode::Unbuffered && !self.layered {
-            return Err(Error::invalid("layered", "single-layer warping needs the source depth test: use mode='buffered'"));
+            return Err(Error::invalid(
+                "layered",
+                "single-layer warping needs the source depth test: use mode='buffered'",
+            ));
         }
         if self.mode == Mode::Unbuffered && self.multiview.backend == Backend::Gpu {
-            return Err(Error::invalid("mode", "the GPU warps a point buffer: use mode='buffered' with backend='gpu'"));
+            return Err(Error::invalid(
+                "mode",
+                "the GPU warps a point buffer: use mode='buffered' with backend='gpu'",
+            ));
         }
         if self.mode == Mode::Unbuffered && self.precision == Precision::Float16 {
-            return Err(Error::invalid("precision", "unbuffered mode stores no points: float16 applies to mode='buffered'"));
+            return Err(Error::invalid(
+                "precision",
+                "unbuffered mode stores no points: float16 applies to mode='buffered'",
+            ));
         }
         Ok(())
     }
@@ -172,8 +187,16 @@ impl VwssOptions {
     }
 
     fn raster_options(&self) -> RasterOptions {
-        let faces = if self.cull_backfaces { FaceFilter::FrontFacingIfClosed } else { FaceFilter::All };
-        RasterOptions { mode: RasterMode::Standard, faces, alpha_test: true }
+        let faces = if self.cull_backfaces {
+            FaceFilter::FrontFacingIfClosed
+        } else {
+            FaceFilter::All
+        };
+        RasterOptions {
+            mode: RasterMode::Standard,
+            faces,
+            alpha_test: true,
+        }
     }
 }
 
@@ -185,15 +208,30 @@ const MIN_OCCLUDER_FRACTION: f32 = 0.05;
 /// The source view of section 3.1: the light-sample views' shape with the eye pulled back so its
 /// frustum contains all of them (eq. 1–2) and the resolution of eq. 3 with `opts.point_density`
 /// (or `opts.source_resolution`).
-pub fn source_view(scene: &Scene, light: &Light, views: &ViewSet, opts: &VwssOptions) -> Result<LightFrustum> {
+pub fn source_view(
+    scene: &Scene,
+    light: &Light,
+    views: &ViewSet,
+    opts: &VwssOptions,
+) -> Result<LightFrustum> {
     let v0 = views.views[0];
     let center = light.center();
-    let offsets: Vec<Vec3> = views.views.iter().map(|v| v0.to_view(v.eye) - v0.to_view(center)).collect();
+    let offsets: Vec<Vec3> = views
+        .views
+        .iter()
+        .map(|v| v0.to_view(v.eye) - v0.to_view(center))
+        .collect();
     let tan = v0.tan_half_x;
-    let pull_back = offsets.iter().map(|o| o.x.abs().max(o.y.abs()) / tan - o.z).fold(0.0f32, f32::max);
+    let pull_back = offsets
+        .iter()
+        .map(|o| o.x.abs().max(o.y.abs()) / tan - o.z)
+        .fold(0.0f32, f32::max);
     let eye = center - v0.forward * pull_back;
     let nearest_sample = offsets.iter().map(|o| o.z).fold(f32::INFINITY, f32::min);
-    let farthest_sample = offsets.iter().map(|o| o.z).fold(f32::NEG_INFINITY, f32::max);
+    let farthest_sample = offsets
+        .iter()
+        .map(|o| o.z)
+        .fold(f32::NEG_INFINITY, f32::max);
     let near = (pull_back + nearest_sample).max(0.0) + v0.near;
     let far = v0.far + pull_back + farthest_sample.max(0.0);
     let resolution = match opts.source_resolution {
@@ -207,12 +245,30 @@ pub fn source_view(scene: &Scene, light: &Light, views: &ViewSet, opts: &VwssOpt
             ((v0.width as f32 * scale).ceil() as usize).min(MAX_RESOLUTION)
         }
     };
-    LightFrustum::from_axes(eye, v0.forward, v0.up, tan, tan, near, far.max(near * 2.0), resolution, resolution)
+    LightFrustum::from_axes(
+        eye,
+        v0.forward,
+        v0.up,
+        tan,
+        tan,
+        near,
+        far.max(near * 2.0),
+        resolution,
+        resolution,
+    )
 }
 
 /// The depth beyond the light's center (along `forward`) of the nearest scene vertex inside the
 /// source pyramid and in front of the light, if any: `z_n` of eq. 3.
-fn nearest_occluder(scene: &Scene, eye: Vec3, forward: Vec3, right: Vec3, up: Vec3, tan: f32, pull_back: f32) -> Option<f32> {
+fn nearest_occluder(
+    scene: &Scene,
+    eye: Vec3,
+    forward: Vec3,
+    right: Vec3,
+    up: Vec3,
+    tan: f32,
+    pull_back: f32,
+) -> Option<f32> {
     scene
         .meshes
         .par_iter()
@@ -220,7 +276,8 @@ fn nearest_occluder(scene: &Scene, eye: Vec3, forward: Vec3, right: Vec3, up: Ve
         .filter_map(|&p| {
             let d = p - eye;
             let z = d.dot(forward);
-            let inside = z > pull_back && d.dot(right).abs() <= tan * z && d.dot(up).abs() <= tan * z;
+            let inside =
+                z > pull_back && d.dot(right).abs() <= tan * z && d.dot(up).abs() <= tan * z;
             inside.then_some(z - pull_back)
         })
         .reduce_with(f32::min)
@@ -251,7 +308,10 @@ impl Points {
     pub fn iter(&self) -> Box<dyn ExactSizeIterator<Item = Vec3> + '_> {
         match self {
             Points::Float32(p) => Box::new(p.iter().copied()),
-            Points::Float16(p) => Box::new(p.iter().map(|q| Vec3::new(q[0].to_f32(), q[1].to_f32(), q[2].to_f32()))),
+            Points::Float16(p) => Box::new(
+                p.iter()
+                    .map(|q| Vec3::new(q[0].to_f32(), q[1].to_f32(), q[2].to_f32())),
+            ),
         }
     }
 
@@ -259,9 +319,12 @@ impl Points {
     fn par_for_each(&self, visit: impl Fn(Vec3) + Sync) {
         const CHUNK: usize = 4096;
         match self {
-            Points::Float32(p) => p.par_chunks(CHUNK).for_each(|c| c.iter().for_each(|&q| visit(q))),
+            Points::Float32(p) => p
+                .par_chunks(CHUNK)
+                .for_each(|c| c.iter().for_each(|&q| visit(q))),
             Points::Float16(p) => p.par_chunks(CHUNK).for_each(|c| {
-                c.iter().for_each(|q| visit(Vec3::new(q[0].to_f32(), q[1].to_f32(), q[2].to_f32())))
+                c.iter()
+                    .for_each(|q| visit(Vec3::new(q[0].to_f32(), q[1].to_f32(), q[2].to_f32())))
             }),
         }
     }
@@ -280,7 +343,11 @@ pub fn points_peak(scene: &Scene, source: &LightFrustum, opts: &VwssOptions) -> 
         Precision::Float16 => 6,
     };
     if !opts.layered {
-        return Ok(raster_peak(scene, source.width, source.height).buffer(&[source.width as u64, source.height as u64, 12 + f16_copy]));
+        return Ok(raster_peak(scene, source.width, source.height).buffer(&[
+            source.width as u64,
+            source.height as u64,
+            12 + f16_copy,
+        ]));
     }
     let raster = Rasterizer::new(source, RasterMode::Standard)?;
     let bound: u64 = casters(scene, &opts.raster_options(), source.eye)
@@ -288,7 +355,9 @@ pub fn points_peak(scene: &Scene, source: &LightFrustum, opts: &VwssOptions) -> 
         .filter_map(|(_, t, _)| raster.bounds(t))
         .map(|r| ((r.x1 - r.x0) * (r.y1 - r.y0)) as u64)
         .sum();
-    Ok(Peak::default().buffer(&[bound, 2 * 12 + f16_copy]).buffer(&[scene.num_faces() as u64, 96]))
+    Ok(Peak::default()
+        .buffer(&[bound, 2 * 12 + f16_copy])
+        .buffer(&[scene.num_faces() as u64, 96]))
 }
 
 /// Rasterizes `source` and returns the points of section 3.1 (see the module documentation).
@@ -296,7 +365,10 @@ pub fn points_peak(scene: &Scene, source: &LightFrustum, opts: &VwssOptions) -> 
 /// Errors: `TooLarge` when the points could exceed the memory limit ([`points_peak`], estimated
 /// before rasterizing).
 pub fn generate_points(scene: &Scene, source: &LightFrustum, opts: &VwssOptions) -> Result<Points> {
-    limits::check_memory("vwss point buffer", points_peak(scene, source, opts)?.bytes())?;
+    limits::check_memory(
+        "vwss point buffer",
+        points_peak(scene, source, opts)?.bytes(),
+    )?;
     let world: Vec<Vec3> = if opts.layered {
         let raster = Rasterizer::new(source, RasterMode::Standard)?;
         let casters = casters(scene, &opts.raster_options(), source.eye);
@@ -306,7 +378,9 @@ pub fn generate_points(scene: &Scene, source: &LightFrustum, opts: &VwssOptions)
             .map(|chunk| {
                 let mut out = Vec::new();
                 for caster in chunk {
-                    raster.opaque_fragments(scene, caster, full, |f| out.push(source.texel_center(f.x, f.y, f.depth)));
+                    raster.opaque_fragments(scene, caster, full, |f| {
+                        out.push(source.texel_center(f.x, f.y, f.depth))
+                    });
                 }
                 out
             })
@@ -321,7 +395,12 @@ pub fn generate_points(scene: &Scene, source: &LightFrustum, opts: &VwssOptions)
     };
     Ok(match opts.precision {
         Precision::Float32 => Points::Float32(world),
-        Precision::Float16 => Points::Float16(world.iter().map(|p| p.to_array().map(f16::from_f32)).collect()),
+        Precision::Float16 => Points::Float16(
+            world
+                .iter()
+                .map(|p| p.to_array().map(f16::from_f32))
+                .collect(),
+        ),
     })
 }
 
@@ -335,15 +414,26 @@ impl AtomicMaps {
     /// `count` maps of `texels` texels each, after checking their memory (and that of the plain
     /// maps they are copied into) against the limit.
     fn new(count: usize, texels: usize) -> Result<Self> {
-        limits::check_memory("vwss depth maps", limits::bytes(&[count as u64, texels as u64, 8]))?;
-        let texels = (0..count).map(|_| (0..texels).map(|_| AtomicU32::new(f32::INFINITY.to_bits())).collect()).collect();
+        limits::check_memory(
+            "vwss depth maps",
+            limits::bytes(&[count as u64, texels as u64, 8]),
+        )?;
+        let texels = (0..count)
+            .map(|_| {
+                (0..texels)
+                    .map(|_| AtomicU32::new(f32::INFINITY.to_bits()))
+                    .collect()
+            })
+            .collect();
         Ok(Self { texels })
     }
 
     /// Empties the first `count` maps.
     fn clear(&self, count: usize) {
         let empty = f32::INFINITY.to_bits();
-        self.texels[..count].par_iter().for_each(|t| t.iter().for_each(|a| a.store(empty, Ordering::Relaxed)));
+        self.texels[..count]
+            .par_iter()
+            .for_each(|t| t.iter().for_each(|a| a.store(empty, Ordering::Relaxed)));
     }
 
     /// Projects world point `p` into every view, snaps it to the texel containing it and keeps
@@ -359,16 +449,25 @@ impl AtomicMaps {
 
     /// Copies the first `out.len()` maps into `out`.
     fn copy_into(&self, out: &mut [DepthMap]) {
-        out.par_iter_mut().zip(&self.texels).for_each(|(map, texels)| {
-            map.depth.iter_mut().zip(texels).for_each(|(d, a)| *d = f32::from_bits(a.load(Ordering::Relaxed)));
-        });
+        out.par_iter_mut()
+            .zip(&self.texels)
+            .for_each(|(map, texels)| {
+                map.depth
+                    .iter_mut()
+                    .zip(texels)
+                    .for_each(|(d, a)| *d = f32::from_bits(a.load(Ordering::Relaxed)));
+            });
     }
 }
 
 /// One traversal's source of world points: the buffer, or the source rasterizer (unbuffered).
 enum PointSource<'a> {
     Buffer(&'a Points),
-    Raster { scene: &'a Scene, source: &'a LightFrustum, opts: &'a VwssOptions },
+    Raster {
+        scene: &'a Scene,
+        source: &'a LightFrustum,
+        opts: &'a VwssOptions,
+    },
 }
 
 impl PointSource<'_> {
@@ -379,7 +478,11 @@ impl PointSource<'_> {
                 points.par_for_each(|p| maps.splat(views, p));
                 Ok(points.len())
             }
-            PointSource::Raster { scene, source, opts } => {
+            PointSource::Raster {
+                scene,
+                source,
+                opts,
+            } => {
                 let raster = Rasterizer::new(source, RasterMode::Standard)?;
                 let casters: Vec<Caster> = casters(scene, &opts.raster_options(), source.eye);
                 let full = TexelRect::full(source.width, source.height);
@@ -405,7 +508,10 @@ fn warp_once(source: PointSource<'_>, views: &[LightFrustum]) -> Result<(Vec<Dep
     let texels = views.first().map_or(0, |v| v.width * v.height);
     let maps = AtomicMaps::new(views.len(), texels)?;
     let count = source.warp(&maps, views)?;
-    let mut out: Vec<DepthMap> = views.iter().map(|v| DepthMap::empty(v.width, v.height)).collect::<Result<_>>()?;
+    let mut out: Vec<DepthMap> = views
+        .iter()
+        .map(|v| DepthMap::empty(v.width, v.height))
+        .collect::<Result<_>>()?;
     maps.copy_into(&mut out);
     Ok((out, count))
 }
@@ -423,7 +529,14 @@ pub fn warp_fragments(
     opts: &VwssOptions,
     views: &[LightFrustum],
 ) -> Result<(Vec<DepthMap>, usize)> {
-    warp_once(PointSource::Raster { scene, source, opts }, views)
+    warp_once(
+        PointSource::Raster {
+            scene,
+            source,
+            opts,
+        },
+        views,
+    )
 }
 
 /// Soft-shadow visibility of every receiver by view-warped multi-view soft shadows.
@@ -436,23 +549,40 @@ pub fn warp_fragments(
 ///
 /// Errors: invalid options; rotated or interleaved samples; a sample inside the receivers'
 /// bounds; `TooLarge` past the memory limit.
-pub fn vwss(scene: &Scene, light: &Light, receivers: &Receivers, samples: &SampleSet, opts: &VwssOptions) -> Result<(Vec<f32>, Stats)> {
+pub fn vwss(
+    scene: &Scene,
+    light: &Light,
+    receivers: &Receivers,
+    samples: &SampleSet,
+    opts: &VwssOptions,
+) -> Result<(Vec<f32>, Stats)> {
     let (kernel, bias) = opts.multiview.shadow_test(WARPED_SLACK)?;
     opts.validate()?;
     let eyes = shared_eyes(samples)?;
     let mut stats = Stats::default();
-    for name in ["point_generation_seconds", "depth_maps_seconds", "lighting_seconds", "points", "traversals"] {
+    for name in [
+        "point_generation_seconds",
+        "depth_maps_seconds",
+        "lighting_seconds",
+        "points",
+        "traversals",
+    ] {
         stats.set(name, 0.0);
     }
     let per_pass = opts.maps_per_traversal(eyes.len());
     stats.set("maps_per_traversal", per_pass as f64);
     stats.set("views", eyes.len() as f64);
     stats.set("resolution", opts.multiview.resolution as f64);
-    let Some(bounds) = receivers.bounds() else { return Ok((vec![0.0; receivers.len()], stats)) };
+    let Some(bounds) = receivers.bounds() else {
+        return Ok((vec![0.0; receivers.len()], stats));
+    };
     let views = ViewSet::fit(light, eyes, bounds, opts.multiview.resolution)?;
     let source = source_view(scene, light, &views, opts)?;
     stats.set("source_resolution", source.width as f64);
-    stats.set("pull_back", f64::from((light.center() - source.eye).dot(source.forward)));
+    stats.set(
+        "pull_back",
+        f64::from((light.center() - source.eye).dot(source.forward)),
+    );
     let side = opts.multiview.resolution;
     // The sums and the visibility, the atomic and plain maps of one traversal, and the points
     // (streamed when unbuffered: only the triangles' set-up).
@@ -468,22 +598,37 @@ pub fn vwss(scene: &Scene, light: &Light, receivers: &Receivers, samples: &Sampl
     // Every source point warped into every view's map, after the source view is rasterized.
     opts.multiview
         .lighting_work(views.views.len(), receivers.len())
-        .loop_of(&[views.views.len() as u64, source.width as u64, source.height as u64])
+        .loop_of(&[
+            views.views.len() as u64,
+            source.width as u64,
+            source.height as u64,
+        ])
         .and(raster_work(scene, source.width, source.height))
         .check("vwss", &mut stats)?;
     let points = match opts.mode {
-        Mode::Buffered => Some(stats.time("point_generation", || generate_points(scene, &source, opts))?),
+        Mode::Buffered => {
+            Some(stats.time("point_generation", || generate_points(scene, &source, opts))?)
+        }
         Mode::Unbuffered => None,
     };
     let point_source = match &points {
         Some(p) => PointSource::Buffer(p),
-        None => PointSource::Raster { scene, source: &source, opts },
+        None => PointSource::Raster {
+            scene,
+            source: &source,
+            opts,
+        },
     };
     let sums = match (opts.multiview.backend, &points) {
         (Backend::Gpu, Some(points)) => {
             let warper = stats.time_add("depth_maps", || Warper::new(points.iter()))?;
-            let lighting = stats.time_add("lighting", || Lighting::new(receivers, &kernel, bias))?;
-            for (targets, weights) in views.views.chunks(per_pass).zip(views.weights.chunks(per_pass)) {
+            let lighting =
+                stats.time_add("lighting", || Lighting::new(receivers, &kernel, bias))?;
+            for (targets, weights) in views
+                .views
+                .chunks(per_pass)
+                .zip(views.weights.chunks(per_pass))
+            {
                 interrupt::check()?;
                 let (warp, light) = warper.warp_and_light(targets, weights, &lighting)?;
                 stats.add("depth_maps_seconds", warp);
@@ -495,7 +640,9 @@ pub fn vwss(scene: &Scene, light: &Light, receivers: &Receivers, samples: &Sampl
         }
         _ => {
             let atomic = AtomicMaps::new(per_pass, side * side)?;
-            let mut maps: Vec<DepthMap> = (0..per_pass).map(|_| DepthMap::empty(side, side)).collect::<Result<_>>()?;
+            let mut maps: Vec<DepthMap> = (0..per_pass)
+                .map(|_| DepthMap::empty(side, side))
+                .collect::<Result<_>>()?;
             let mut sums = vec![0.0f32; receivers.len()];
             for (pass, targets) in views.views.chunks(per_pass).enumerate() {
                 interrupt::check()?;
@@ -507,8 +654,14 @@ pub fn vwss(scene: &Scene, light: &Light, receivers: &Receivers, samples: &Sampl
                 })?;
                 stats.set("points", count as f64);
                 stats.add("traversals", 1.0);
-                let indexed: Vec<(usize, &DepthMap)> = maps[..targets.len()].iter().enumerate().map(|(k, m)| (pass * per_pass + k, m)).collect();
-                stats.time_add("lighting", || accumulate(&mut sums, &views, &indexed, receivers, &kernel, bias));
+                let indexed: Vec<(usize, &DepthMap)> = maps[..targets.len()]
+                    .iter()
+                    .enumerate()
+                    .map(|(k, m)| (pass * per_pass + k, m))
+                    .collect();
+                stats.time_add("lighting", || {
+                    accumulate(&mut sums, &views, &indexed, receivers, &kernel, bias)
+                });
             }
             sums
         }

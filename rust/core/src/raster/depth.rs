@@ -112,7 +112,10 @@ fn check_resolution(arg: &str, n: usize) -> Result<()> {
     if (1..=MAX_RESOLUTION).contains(&n) {
         Ok(())
     } else {
-        Err(Error::invalid(arg, format!("must be in 1..={MAX_RESOLUTION} texels, got {n}")))
+        Err(Error::invalid(
+            arg,
+            format!("must be in 1..={MAX_RESOLUTION} texels, got {n}"),
+        ))
     }
 }
 
@@ -154,14 +157,31 @@ impl LightFrustum {
         finite3("up", up)?;
         let forward = forward.normalize_or_zero();
         if forward == Vec3::ZERO {
-            return Err(Error::invalid("forward", "the view direction has zero length (target == eye?)"));
+            return Err(Error::invalid(
+                "forward",
+                "the view direction has zero length (target == eye?)",
+            ));
         }
         let right = forward.cross(up).normalize_or_zero();
         if right == Vec3::ZERO {
-            return Err(Error::invalid("up", format!("must not be parallel to the view direction {forward}")));
+            return Err(Error::invalid(
+                "up",
+                format!("must not be parallel to the view direction {forward}"),
+            ));
         }
         let up = right.cross(forward);
-        let f = Self { eye, forward, right, up, tan_half_x, tan_half_y, near, far, width, height };
+        let f = Self {
+            eye,
+            forward,
+            right,
+            up,
+            tan_half_x,
+            tan_half_y,
+            near,
+            far,
+            width,
+            height,
+        };
         f.validate()?;
         Ok(f)
     }
@@ -186,14 +206,30 @@ impl LightFrustum {
         height: usize,
     ) -> Result<Self> {
         if fov_y_degrees.is_nan() || fov_y_degrees <= 0.0 || fov_y_degrees >= 180.0 {
-            return Err(Error::invalid("fov_y", format!("must be in (0, 180) degrees, got {fov_y_degrees}")));
+            return Err(Error::invalid(
+                "fov_y",
+                format!("must be in (0, 180) degrees, got {fov_y_degrees}"),
+            ));
         }
         if !(aspect.is_finite() && aspect > 0.0) {
-            return Err(Error::invalid("aspect", format!("must be finite and > 0, got {aspect}")));
+            return Err(Error::invalid(
+                "aspect",
+                format!("must be finite and > 0, got {aspect}"),
+            ));
         }
         finite3("target", target)?;
         let tan_y = (0.5 * fov_y_degrees).to_radians().tan();
-        Self::from_axes(eye, target - eye, up, tan_y * aspect, tan_y, near, far, width, height)
+        Self::from_axes(
+            eye,
+            target - eye,
+            up,
+            tan_y * aspect,
+            tan_y,
+            near,
+            far,
+            width,
+            height,
+        )
     }
 
     /// Fits a square frustum from `eye` to the box `[points_min, points_max]` (the receivers'
@@ -209,8 +245,8 @@ impl LightFrustum {
     ///
     /// Errors
     /// ------
-    /// `InvalidInput("light")` when `eye` lies inside (or on, or within ~0.06° of) the box, so no
-    /// single perspective frustum can contain it: pass an explicit frustum
+    /// `InvalidInput("light")` when no frustum of the candidates narrower than 179.9° holds the box
+    /// (`eye` inside it, on it, or within ~0.06° of its plane): pass an explicit frustum
     /// ([`LightFrustum::new`]) that covers the receivers of interest instead.
     pub fn fit(eye: Vec3, points_min: Vec3, points_max: Vec3, resolution: usize) -> Result<Self> {
         Self::fit_with_up(eye, points_min, points_max, resolution, None)
@@ -218,16 +254,29 @@ impl LightFrustum {
 
     /// [`LightFrustum::fit`] with the map's `up` axis as close as possible to `up` (when it is
     /// not parallel to the chosen view direction) instead of world +Y.
-    pub fn fit_with_up(eye: Vec3, points_min: Vec3, points_max: Vec3, resolution: usize, up: Option<Vec3>) -> Result<Self> {
+    pub fn fit_with_up(
+        eye: Vec3,
+        points_min: Vec3,
+        points_max: Vec3,
+        resolution: usize,
+        up: Option<Vec3>,
+    ) -> Result<Self> {
         finite3("eye", eye)?;
         finite3("points_min", points_min)?;
         finite3("points_max", points_max)?;
         if points_min.cmpgt(points_max).any() {
-            return Err(Error::invalid("points_min", format!("{points_min} exceeds points_max {points_max}")));
+            return Err(Error::invalid(
+                "points_min",
+                format!("{points_min} exceeds points_max {points_max}"),
+            ));
         }
         check_resolution("resolution", resolution)?;
         let corners: [Vec3; 8] = std::array::from_fn(|i| {
-            Vec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), points_max, points_min)
+            Vec3::select(
+                glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0),
+                points_max,
+                points_min,
+            )
         });
         let best = fit_candidates(eye, points_min, points_max, &corners)
             .into_iter()
@@ -239,9 +288,11 @@ impl LightFrustum {
                 return Err(Error::invalid(
                     "light",
                     format!(
-                        "the light position {eye} lies inside or on the receivers' bounds {points_min}..{points_max}, \
-                         so no single perspective frustum contains them; pass only receivers on one side of the \
-                         light (or, from Rust, an explicit frustum made with LightFrustum::new)"
+                        "no light frustum from {eye} (under 179.9 degrees wide) holds the receivers' bounding \
+                         box {points_min}..{points_max}: the light lies among the receivers. alias_free, stsv, dcs, \
+                         penumbra_wedge and ray_traced handle a light among the receivers; for this method pass \
+                         receivers whose bounding box (not only the points) lies clear of the light on one side \
+                         (or, from Rust, an explicit frustum made with LightFrustum::new)"
                     ),
                 ))
             }
@@ -249,7 +300,17 @@ impl LightFrustum {
         let tan = (fit.tan * FOV_MARGIN).max(1e-4);
         let near = NEAR_FRACTION * fit.z_min;
         let far = (fit.z_max * 1.001).max(near * 2.0);
-        Self::from_axes(eye, fit.forward, fit.up, tan, tan, near, far, resolution, resolution)
+        Self::from_axes(
+            eye,
+            fit.forward,
+            fit.up,
+            tan,
+            tan,
+            near,
+            far,
+            resolution,
+            resolution,
+        )
     }
 
     /// [`LightFrustum::fit`] from the light's center (a point light's position; the center of an
@@ -261,7 +322,11 @@ impl LightFrustum {
     /// [`LightFrustum::for_light`] with the map's axes turned towards a rectangular light's edges
     /// (`up` along its `v`), so that its footprint in the map is nearly an axis-aligned rectangle:
     /// for methods that filter over the light's footprint with boxes (`cssm`, `pcss`).
-    pub fn for_light_aligned(light: &Light, bounds: (Vec3, Vec3), resolution: usize) -> Result<Self> {
+    pub fn for_light_aligned(
+        light: &Light,
+        bounds: (Vec3, Vec3),
+        resolution: usize,
+    ) -> Result<Self> {
         let up = match light.shape {
             crate::light::lights::Shape::Rect { v, .. } => Some(v),
             _ => None,
@@ -274,20 +339,41 @@ impl LightFrustum {
     pub fn validate(&self) -> Result<()> {
         finite3("eye", self.eye)?;
         let axes = [self.forward, self.right, self.up];
-        let ortho = axes.iter().all(|a| a.is_finite() && (a.length() - 1.0).abs() < 1e-4)
+        let ortho = axes
+            .iter()
+            .all(|a| a.is_finite() && (a.length() - 1.0).abs() < 1e-4)
             && self.forward.dot(self.right).abs() < 1e-4
             && self.forward.dot(self.up).abs() < 1e-4
             && self.right.dot(self.up).abs() < 1e-4;
         if !ortho {
-            return Err(Error::invalid("frustum", "forward, right and up must be orthonormal"));
+            return Err(Error::invalid(
+                "frustum",
+                "forward, right and up must be orthonormal",
+            ));
         }
-        for (arg, t) in [("tan_half_x", self.tan_half_x), ("tan_half_y", self.tan_half_y)] {
+        for (arg, t) in [
+            ("tan_half_x", self.tan_half_x),
+            ("tan_half_y", self.tan_half_y),
+        ] {
             if !(t.is_finite() && t > 0.0) {
-                return Err(Error::invalid(arg, format!("must be finite and > 0, got {t}")));
+                return Err(Error::invalid(
+                    arg,
+                    format!("must be finite and > 0, got {t}"),
+                ));
             }
         }
-        if !(self.near.is_finite() && self.far.is_finite() && self.near > 0.0 && self.far > self.near) {
-            return Err(Error::invalid("near", format!("need 0 < near < far, got near={} far={}", self.near, self.far)));
+        if !(self.near.is_finite()
+            && self.far.is_finite()
+            && self.near > 0.0
+            && self.far > self.near)
+        {
+            return Err(Error::invalid(
+                "near",
+                format!(
+                    "need 0 < near < far, got near={} far={}",
+                    self.near, self.far
+                ),
+            ));
         }
         check_resolution("width", self.width)?;
         check_resolution("height", self.height)
@@ -316,8 +402,15 @@ impl LightFrustum {
     /// `near` or projects outside the map.
     pub fn texel_of(&self, p: Vec3) -> Option<(usize, usize, f32)> {
         let s = self.project(p)?;
-        let inside = s.x >= 0.0 && s.y >= 0.0 && s.x < self.width as f32 && s.y < self.height as f32;
-        inside.then(|| ((s.x as usize).min(self.width - 1), (s.y as usize).min(self.height - 1), s.z))
+        let inside =
+            s.x >= 0.0 && s.y >= 0.0 && s.x < self.width as f32 && s.y < self.height as f32;
+        inside.then(|| {
+            (
+                (s.x as usize).min(self.width - 1),
+                (s.y as usize).min(self.height - 1),
+                s.z,
+            )
+        })
     }
 
     /// World direction through texel coordinates `(sx, sy)`, scaled so that its `forward`
@@ -342,7 +435,8 @@ impl LightFrustum {
     /// The larger side of a texel's footprint on the plane at linear depth `depth` (world units):
     /// `2 · depth · max(tan_half_x / width, tan_half_y / height)`.
     pub fn texel_world_size(&self, depth: f32) -> f32 {
-        2.0 * depth * (self.tan_half_x / self.width as f32).max(self.tan_half_y / self.height as f32)
+        2.0 * depth
+            * (self.tan_half_x / self.width as f32).max(self.tan_half_y / self.height as f32)
     }
 }
 
@@ -356,7 +450,10 @@ struct SquareFit {
 }
 
 fn fit_candidates(eye: Vec3, lo: Vec3, hi: Vec3, corners: &[Vec3; 8]) -> Vec<Vec3> {
-    let mut dirs = vec![(lo + hi) * 0.5 - eye, corners.iter().map(|c| (*c - eye).normalize_or_zero()).sum()];
+    let mut dirs = vec![
+        (lo + hi) * 0.5 - eye,
+        corners.iter().map(|c| (*c - eye).normalize_or_zero()).sum(),
+    ];
     for axis in 0..3 {
         let mut d = Vec3::ZERO;
         if eye[axis] > hi[axis] {
@@ -368,15 +465,28 @@ fn fit_candidates(eye: Vec3, lo: Vec3, hi: Vec3, corners: &[Vec3; 8]) -> Vec<Vec
             dirs.push(d);
         }
     }
-    dirs.into_iter().map(|d| d.normalize_or_zero()).filter(|d| *d != Vec3::ZERO).collect()
+    dirs.into_iter()
+        .map(|d| d.normalize_or_zero())
+        .filter(|d| *d != Vec3::ZERO)
+        .collect()
 }
 
-fn square_fit(eye: Vec3, forward: Vec3, up: Option<Vec3>, corners: &[Vec3; 8]) -> Option<SquareFit> {
-    let hint = up.filter(|u| u.normalize_or_zero().cross(forward).length() > 0.1).unwrap_or_else(|| default_up(forward));
+fn square_fit(
+    eye: Vec3,
+    forward: Vec3,
+    up: Option<Vec3>,
+    corners: &[Vec3; 8],
+) -> Option<SquareFit> {
+    let hint = up
+        .filter(|u| u.normalize_or_zero().cross(forward).length() > 0.1)
+        .unwrap_or_else(|| default_up(forward));
     let right = forward.cross(hint).normalize_or_zero();
     let up = right.cross(forward);
     let (mut tan, mut z_min, mut z_max) = (0.0f32, f32::INFINITY, 0.0f32);
-    let scale = corners.iter().map(|c| (*c - eye).length()).fold(0.0f32, f32::max);
+    let scale = corners
+        .iter()
+        .map(|c| (*c - eye).length())
+        .fold(0.0f32, f32::max);
     for c in corners {
         let d = *c - eye;
         let z = d.dot(forward);
@@ -387,7 +497,13 @@ fn square_fit(eye: Vec3, forward: Vec3, up: Option<Vec3>, corners: &[Vec3; 8]) -
         z_min = z_min.min(z);
         z_max = z_max.max(z);
     }
-    Some(SquareFit { forward, up, tan, z_min, z_max })
+    Some(SquareFit {
+        forward,
+        up,
+        tan,
+        z_min,
+        z_max,
+    })
 }
 
 /// A half-open rectangle of texels `[x0, x1) × [y0, y1)`.
@@ -402,7 +518,12 @@ pub struct TexelRect {
 impl TexelRect {
     /// The whole `width × height` map.
     pub fn full(width: usize, height: usize) -> Self {
-        Self { x0: 0, y0: 0, x1: width, y1: height }
+        Self {
+            x0: 0,
+            y0: 0,
+            x1: width,
+            y1: height,
+        }
     }
 
     /// Whether the rectangle holds no texel.
@@ -412,7 +533,12 @@ impl TexelRect {
 
     /// The intersection of two rectangles (possibly empty).
     pub fn intersect(&self, o: &TexelRect) -> TexelRect {
-        TexelRect { x0: self.x0.max(o.x0), y0: self.y0.max(o.y0), x1: self.x1.min(o.x1), y1: self.y1.min(o.y1) }
+        TexelRect {
+            x0: self.x0.max(o.x0),
+            y0: self.y0.max(o.y0),
+            x1: self.x1.min(o.x1),
+            y1: self.y1.min(o.y1),
+        }
     }
 }
 
@@ -476,7 +602,11 @@ pub struct RasterOptions {
 
 impl Default for RasterOptions {
     fn default() -> Self {
-        Self { mode: RasterMode::Standard, faces: FaceFilter::All, alpha_test: true }
+        Self {
+            mode: RasterMode::Standard,
+            faces: FaceFilter::All,
+            alpha_test: true,
+        }
     }
 }
 
@@ -495,8 +625,16 @@ pub struct DepthMap {
 impl DepthMap {
     /// An empty (`+inf`) map, after checking its memory against the limit.
     pub fn empty(width: usize, height: usize) -> Result<Self> {
-        limits::check_memory("depth map", limits::bytes(&[width as u64, height as u64, 4]))?;
-        Ok(Self { width, height, depth: vec![f32::INFINITY; width * height], fragments: 0 })
+        limits::check_memory(
+            "depth map",
+            limits::bytes(&[width as u64, height as u64, 4]),
+        )?;
+        Ok(Self {
+            width,
+            height,
+            depth: vec![f32::INFINITY; width * height],
+            fragments: 0,
+        })
     }
 
     /// The depth at texel `(x, y)`; `+inf` outside the map.
@@ -541,18 +679,30 @@ struct Screen {
 impl Screen {
     fn new(f: &LightFrustum) -> Self {
         let (w, h) = (f.width as f64, f.height as f64);
-        Self { kx: w / (2.0 * f.tan_half_x as f64), ky: h / (2.0 * f.tan_half_y as f64), cx: 0.5 * w, cy: 0.5 * h }
+        Self {
+            kx: w / (2.0 * f.tan_half_x as f64),
+            ky: h / (2.0 * f.tan_half_y as f64),
+            cx: 0.5 * w,
+            cy: 0.5 * h,
+        }
     }
 
     #[inline]
     fn project(&self, v: DVec3) -> DVec2 {
-        DVec2::new(self.cx + self.kx * (v.x / v.z), self.cy - self.ky * (v.y / v.z))
+        DVec2::new(
+            self.cx + self.kx * (v.x / v.z),
+            self.cy - self.ky * (v.y / v.z),
+        )
     }
 
     /// `r(sx, sy)`: the view-space ray with z = 1 through texel coordinates `(sx, sy)`; `g · r` as
     /// an affine function of `(sx, sy)`.
     fn dot_ray(&self, g: DVec3) -> Affine {
-        Affine { a: g.x / self.kx, b: -g.y / self.ky, c: g.z - g.x * self.cx / self.kx + g.y * self.cy / self.ky }
+        Affine {
+            a: g.x / self.kx,
+            b: -g.y / self.ky,
+            c: g.z - g.x * self.cx / self.kx + g.y * self.cy / self.ky,
+        }
     }
 }
 
@@ -579,7 +729,10 @@ struct Poly {
 
 impl Poly {
     fn clip(&self, pl: &Plane) -> Poly {
-        let mut out = Poly { v: [DVec3::ZERO; MAX_POLY], n: 0 };
+        let mut out = Poly {
+            v: [DVec3::ZERO; MAX_POLY],
+            n: 0,
+        };
         for i in 0..self.n {
             let (a, b) = (self.v[i], self.v[(i + 1) % self.n]);
             let (da, db) = (pl.dist(a), pl.dist(b));
@@ -590,7 +743,11 @@ impl Poly {
             }
             if (da >= 0.0) != (db >= 0.0) {
                 // From the inside vertex to the outside one: identical for both triangles of an edge.
-                let (i_v, o_v, di, dout) = if da >= 0.0 { (a, b, da, db) } else { (b, a, db, da) };
+                let (i_v, o_v, di, dout) = if da >= 0.0 {
+                    (a, b, da, db)
+                } else {
+                    (b, a, db, da)
+                };
                 out.push(i_v + (o_v - i_v) * (di / (di - dout)));
             }
         }
@@ -641,14 +798,32 @@ impl Setup {
         let (cx, cy) = (x as f64 + 0.5, y as f64 + 0.5);
         let center = self.inv_z.eval(cx, cy);
         let corner_gain = 0.5 * (self.inv_z.a.abs() + self.inv_z.b.abs());
-        let inv = if conservative { center + corner_gain } else { center };
-        let depth = if inv > 0.0 { (1.0 / inv).clamp(self.z_min, self.z_max) } else { self.z_min };
+        let inv = if conservative {
+            center + corner_gain
+        } else {
+            center
+        };
+        let depth = if inv > 0.0 {
+            (1.0 / inv).clamp(self.z_min, self.z_max)
+        } else {
+            self.z_min
+        };
         let (px, py) = if conservative && center <= 0.0 {
-            (cx + 0.5f64.copysign(self.inv_z.a), cy + 0.5f64.copysign(self.inv_z.b))
+            (
+                cx + 0.5f64.copysign(self.inv_z.a),
+                cy + 0.5f64.copysign(self.inv_z.b),
+            )
         } else {
             (cx, cy)
         };
-        Fragment { x: x as usize, y: y as usize, depth: depth as f32, px, py, setup: self }
+        Fragment {
+            x: x as usize,
+            y: y as usize,
+            depth: depth as f32,
+            px,
+            py,
+            setup: self,
+        }
     }
 }
 
@@ -719,7 +894,13 @@ impl SnappedTriangle {
         // With rows growing downwards and a positive orientation, the interior lies to the right
         // of a left edge (dy < 0) and below a top edge (dy == 0, dx > 0).
         let bias = std::array::from_fn(|i| i64::from(!(dy[i] < 0 || (dy[i] == 0 && dx[i] > 0))));
-        Some(Self { ax: x, ay: y, dx, dy, bias })
+        Some(Self {
+            ax: x,
+            ay: y,
+            dx,
+            dy,
+            bias,
+        })
     }
 }
 
@@ -742,7 +923,9 @@ impl Coverage for SnappedTriangle {
     #[inline]
     fn covers(&self, x: i64, y: i64) -> bool {
         let (px, py) = (x * SUBPIXEL + SUBPIXEL / 2, y * SUBPIXEL + SUBPIXEL / 2);
-        (0..3).all(|i| self.dx[i] * (py - self.ay[i]) - self.dy[i] * (px - self.ax[i]) >= self.bias[i])
+        (0..3).all(|i| {
+            self.dx[i] * (py - self.ay[i]) - self.dy[i] * (px - self.ax[i]) >= self.bias[i]
+        })
     }
 }
 
@@ -829,17 +1012,34 @@ impl Rasterizer {
         let (tx, ty) = (frustum.tan_half_x as f64, frustum.tan_half_y as f64);
         let gx = tx * (1.0 + 2.0 * GUARD_TEXELS / frustum.width as f64);
         let gy = ty * (1.0 + 2.0 * GUARD_TEXELS / frustum.height as f64);
-        let side = |kx: f64, ky: f64, t: f64| Plane { n: DVec3::new(kx, ky, t), off: 0.0 };
+        let side = |kx: f64, ky: f64, t: f64| Plane {
+            n: DVec3::new(kx, ky, t),
+            off: 0.0,
+        };
         let clip = [
-            Plane { n: DVec3::Z, off: frustum.near as f64 },
+            Plane {
+                n: DVec3::Z,
+                off: frustum.near as f64,
+            },
             side(1.0, 0.0, gx),
             side(-1.0, 0.0, gx),
             side(0.0, 1.0, gy),
             side(0.0, -1.0, gy),
         ];
         let m = 1.0 + 1e-6;
-        let sides = [side(1.0, 0.0, tx * m), side(-1.0, 0.0, tx * m), side(0.0, 1.0, ty * m), side(0.0, -1.0, ty * m)];
-        Ok(Self { frustum: *frustum, mode, screen: Screen::new(frustum), clip, sides })
+        let sides = [
+            side(1.0, 0.0, tx * m),
+            side(-1.0, 0.0, tx * m),
+            side(0.0, 1.0, ty * m),
+            side(0.0, -1.0, ty * m),
+        ];
+        Ok(Self {
+            frustum: *frustum,
+            mode,
+            screen: Screen::new(frustum),
+            clip,
+            sides,
+        })
     }
 
     /// The frustum this rasterizer draws into.
@@ -855,14 +1055,23 @@ impl Rasterizer {
     fn view(&self, p: Vec3) -> DVec3 {
         let f = &self.frustum;
         let d = p.as_dvec3() - f.eye.as_dvec3();
-        DVec3::new(d.dot(f.right.as_dvec3()), d.dot(f.up.as_dvec3()), d.dot(f.forward.as_dvec3()))
+        DVec3::new(
+            d.dot(f.right.as_dvec3()),
+            d.dot(f.up.as_dvec3()),
+            d.dot(f.forward.as_dvec3()),
+        )
     }
 
     /// Culls, clips and sets up a triangle; `None` when it cannot draw anything.
     fn setup(&self, tri: &[Vec3; 3]) -> Option<Setup> {
         let v = tri.map(|p| self.view(p));
         let far = self.frustum.far as f64;
-        if v.iter().all(|p| p.z > far) || self.sides.iter().any(|pl| v.iter().all(|p| pl.dist(*p) < 0.0)) {
+        if v.iter().all(|p| p.z > far)
+            || self
+                .sides
+                .iter()
+                .any(|pl| v.iter().all(|p| pl.dist(*p) < 0.0))
+        {
             return None;
         }
         let (e1, e2) = (v[1] - v[0], v[2] - v[0]);
@@ -871,7 +1080,10 @@ impl Rasterizer {
         if d == 0.0 || nn == 0.0 || !d.is_finite() {
             return None;
         }
-        let mut poly = Poly { v: [DVec3::ZERO; MAX_POLY], n: 3 };
+        let mut poly = Poly {
+            v: [DVec3::ZERO; MAX_POLY],
+            n: 3,
+        };
         poly.v[..3].copy_from_slice(&v);
         for pl in &self.clip {
             if poly.v[..poly.n].iter().any(|p| pl.dist(*p) < 0.0) {
@@ -897,7 +1109,9 @@ impl Rasterizer {
         }
         let band = DVec2::splat(GUARD_TEXELS + 1.0);
         let size = DVec2::new(self.frustum.width as f64, self.frustum.height as f64);
-        pts[..poly.n].iter_mut().for_each(|q| *q = q.clamp(-band, size + band));
+        pts[..poly.n]
+            .iter_mut()
+            .for_each(|q| *q = q.clamp(-band, size + band));
         let (g1, g2) = (e2.cross(n) / nn, n.cross(e1) / nn);
         Some(Setup {
             inv_z: self.screen.dot_ray(n / d),
@@ -916,14 +1130,22 @@ impl Rasterizer {
     /// when it draws nothing (culled, clipped away, edge-on). Cheap: for binning.
     pub fn bounds(&self, tri: &[Vec3; 3]) -> Option<TexelRect> {
         let s = self.setup(tri)?;
-        let r = clamp_bounds(s.bounds(), &TexelRect::full(self.frustum.width, self.frustum.height));
+        let r = clamp_bounds(
+            s.bounds(),
+            &TexelRect::full(self.frustum.width, self.frustum.height),
+        );
         (!r.is_empty()).then_some(r)
     }
 
     /// Calls `visit` once per texel of `region ∩ map` that the triangle draws (texels within the
     /// region in row-major order; in standard mode a triangle clipped into a polygon is drawn as
     /// a fan, still once per texel).
-    pub fn triangle(&self, tri: &[Vec3; 3], region: TexelRect, mut visit: impl FnMut(Fragment<'_>)) {
+    pub fn triangle(
+        &self,
+        tri: &[Vec3; 3],
+        region: TexelRect,
+        mut visit: impl FnMut(Fragment<'_>),
+    ) {
         let Some(s) = self.setup(tri) else { return };
         let region = region.intersect(&TexelRect::full(self.frustum.width, self.frustum.height));
         if region.is_empty() {
@@ -958,7 +1180,13 @@ fn clamp_bounds((x0, y0, x1, y1): (i64, i64, i64, i64), r: &TexelRect) -> TexelR
 }
 
 /// The one traversal both modes share: every texel of the clipped bounds that `cov` covers.
-fn traverse<C: Coverage>(cov: &C, s: &Setup, region: &TexelRect, conservative: bool, visit: &mut impl FnMut(Fragment<'_>)) {
+fn traverse<C: Coverage>(
+    cov: &C,
+    s: &Setup,
+    region: &TexelRect,
+    conservative: bool,
+    visit: &mut impl FnMut(Fragment<'_>),
+) {
     let r = clamp_bounds(cov.bounds(), region);
     for y in r.y0..r.y1 {
         for x in r.x0..r.x1 {
@@ -998,7 +1226,13 @@ pub fn casters(scene: &Scene, opts: &RasterOptions, eye: Vec3) -> Vec<Caster> {
 impl Rasterizer {
     /// [`Rasterizer::triangle`] for a caster, dropping the fragments where its perforated mesh is
     /// transparent (when the caster is alpha-tested).
-    pub fn opaque_fragments(&self, scene: &Scene, caster: &Caster, region: TexelRect, mut visit: impl FnMut(Fragment<'_>)) {
+    pub fn opaque_fragments(
+        &self,
+        scene: &Scene,
+        caster: &Caster,
+        region: TexelRect,
+        mut visit: impl FnMut(Fragment<'_>),
+    ) {
         let (id, tri, alpha) = caster;
         self.triangle(tri, region, |f| {
             if *alpha {
@@ -1015,13 +1249,17 @@ impl Rasterizer {
 /// The memory of [`rasterize_depth`] into a `width × height` map: the map and the triangles'
 /// set-up and row bins (96 bytes per face).
 pub fn raster_peak(scene: &Scene, width: usize, height: usize) -> Peak {
-    Peak::default().buffer(&[width as u64, height as u64, 4]).buffer(&[scene.num_faces() as u64, 96])
+    Peak::default()
+        .buffer(&[width as u64, height as u64, 4])
+        .buffer(&[scene.num_faces() as u64, 96])
 }
 
 /// The work of [`rasterize_depth`] into a `width × height` map: each triangle set up, each
 /// texel cleared and filled at least once.
 pub fn raster_work(scene: &Scene, width: usize, height: usize) -> Work {
-    Work::default().loop_of(&[scene.num_faces() as u64, Work::TRIANGLE]).loop_of(&[width as u64, height as u64])
+    Work::default()
+        .loop_of(&[scene.num_faces() as u64, Work::TRIANGLE])
+        .loop_of(&[width as u64, height as u64])
 }
 
 /// Rasterizes the linear depth of every triangle of `scene` that passes `opts.faces` into a
@@ -1029,7 +1267,11 @@ pub fn raster_work(scene: &Scene, width: usize, height: usize) -> Work {
 /// alpha-testing perforated meshes when `opts.alpha_test`.
 ///
 /// Errors: an invalid frustum; `TooLarge` when the map and triangle lists exceed the memory limit.
-pub fn rasterize_depth(scene: &Scene, frustum: &LightFrustum, opts: &RasterOptions) -> Result<DepthMap> {
+pub fn rasterize_depth(
+    scene: &Scene,
+    frustum: &LightFrustum,
+    opts: &RasterOptions,
+) -> Result<DepthMap> {
     let raster = Rasterizer::new(frustum, opts.mode)?;
     let (w, h) = (frustum.width, frustum.height);
     limits::check_memory("depth-map rasterization", raster_peak(scene, w, h).bytes())?;
@@ -1053,15 +1295,26 @@ pub(crate) fn band_rows(height: usize) -> usize {
 }
 
 /// For each band of `band` rows, the indices of the casters whose texel bounds reach it.
-pub(crate) fn bin_rows(raster: &Rasterizer, casters: &[Caster], band: usize, bands: usize) -> Vec<Vec<u32>> {
-    let rows: Vec<Option<(usize, usize)>> =
-        casters.par_iter().map(|(_, t, _)| raster.bounds(t).map(|r| (r.y0, r.y1))).collect();
+pub(crate) fn bin_rows(
+    raster: &Rasterizer,
+    casters: &[Caster],
+    band: usize,
+    bands: usize,
+) -> Vec<Vec<u32>> {
+    let rows: Vec<Option<(usize, usize)>> = casters
+        .par_iter()
+        .map(|(_, t, _)| raster.bounds(t).map(|r| (r.y0, r.y1)))
+        .collect();
     bin_row_ranges(&rows, band, bands)
 }
 
 /// For each band of `band` rows, the indices of the items whose row range `[y0, y1)` (non-empty,
 /// inside the map; `None`: no rows) reaches it.
-pub(crate) fn bin_row_ranges(rows: &[Option<(usize, usize)>], band: usize, bands: usize) -> Vec<Vec<u32>> {
+pub(crate) fn bin_row_ranges(
+    rows: &[Option<(usize, usize)>],
+    band: usize,
+    bands: usize,
+) -> Vec<Vec<u32>> {
     let mut bins = vec![Vec::new(); bands];
     for (i, r) in rows.iter().enumerate() {
         if let Some((y0, y1)) = *r {
@@ -1074,9 +1327,21 @@ pub(crate) fn bin_row_ranges(rows: &[Option<(usize, usize)>], band: usize, bands
 }
 
 /// Draws the casters of one band into its rows (`rows` starts at map row `y0`); returns fragments.
-fn draw_band(scene: &Scene, raster: &Rasterizer, casters: &[Caster], bin: &[u32], y0: usize, rows: &mut [f32]) -> u64 {
+fn draw_band(
+    scene: &Scene,
+    raster: &Rasterizer,
+    casters: &[Caster],
+    bin: &[u32],
+    y0: usize,
+    rows: &mut [f32],
+) -> u64 {
     let w = raster.frustum.width;
-    let region = TexelRect { x0: 0, y0, x1: w, y1: y0 + rows.len() / w };
+    let region = TexelRect {
+        x0: 0,
+        y0,
+        x1: w,
+        y1: y0 + rows.len() / w,
+    };
     let mut fragments = 0u64;
     for &i in bin {
         raster.opaque_fragments(scene, &casters[i as usize], region, |f| {
@@ -1107,7 +1372,10 @@ mod tests {
         for mode in [RasterMode::Standard, RasterMode::Conservative] {
             for q in quads {
                 let tri = q.map(corner);
-                rasterize_triangle(&f, &tri, mode, TexelRect::full(59, 59), |frag| assert!(frag.x < 59 && frag.y < 59)).unwrap();
+                rasterize_triangle(&f, &tri, mode, TexelRect::full(59, 59), |frag| {
+                    assert!(frag.x < 59 && frag.y < 59)
+                })
+                .unwrap();
             }
         }
     }

@@ -25,9 +25,18 @@ impl LightFootprint {
     /// The footprint of `light` in a map rendered through `frustum` (whose eye is the light's
     /// center); anisotropic for lights longer along one map axis than the other.
     pub fn new(frustum: &LightFrustum, light: &Light) -> Self {
-        let k = Vec2::new(frustum.width as f32 / (2.0 * frustum.tan_half_x), frustum.height as f32 / (2.0 * frustum.tan_half_y));
-        let h = Vec2::new(light.half_extent_along(frustum.right), light.half_extent_along(frustum.up));
-        Self { texels: k * h, map: Vec2::new(frustum.width as f32, frustum.height as f32) }
+        let k = Vec2::new(
+            frustum.width as f32 / (2.0 * frustum.tan_half_x),
+            frustum.height as f32 / (2.0 * frustum.tan_half_y),
+        );
+        let h = Vec2::new(
+            light.half_extent_along(frustum.right),
+            light.half_extent_along(frustum.up),
+        );
+        Self {
+            texels: k * h,
+            map: Vec2::new(frustum.width as f32, frustum.height as f32),
+        }
     }
 
     /// Half extents in texels per unit `(z_r − z) / (z_r z)`, before capping.

@@ -49,10 +49,15 @@ impl ObjectOptions {
     /// frustum, whose error would blame the light).
     pub fn validate(&self, scene: &Scene, receivers: &Receivers) -> Result<()> {
         if !(self.epsilon.is_finite() && self.epsilon >= 0.0) {
-            return Err(Error::invalid("epsilon", format!("must be finite and >= 0, got {}", self.epsilon)));
+            return Err(Error::invalid(
+                "epsilon",
+                format!("must be finite and >= 0, got {}", self.epsilon),
+            ));
         }
         let (lo, hi) = scene.bounds();
-        let (lo, hi) = receivers.bounds().map_or((lo, hi), |(a, b)| (lo.min(a), hi.max(b)));
+        let (lo, hi) = receivers
+            .bounds()
+            .map_or((lo, hi), |(a, b)| (lo.min(a), hi.max(b)));
         let diagonal = (hi - lo).length();
         if diagonal.is_finite() && self.epsilon > diagonal.max(f32::MIN_POSITIVE) {
             return Err(Error::invalid(
@@ -61,7 +66,10 @@ impl ObjectOptions {
             ));
         }
         if !(1..=crate::raster::depth::MAX_RESOLUTION).contains(&self.resolution) {
-            return Err(Error::invalid("resolution", format!("must be in 1..=65536, got {}", self.resolution)));
+            return Err(Error::invalid(
+                "resolution",
+                format!("must be in 1..=65536, got {}", self.resolution),
+            ));
         }
         check_hull_degree(self.hull_degree)
     }
@@ -70,7 +78,10 @@ impl ObjectOptions {
 /// Refuses bounding polygons of fewer than 3 or more than 64 sides.
 pub fn check_hull_degree(degree: usize) -> Result<()> {
     if !(3..=64).contains(&degree) {
-        return Err(Error::invalid("hull_degree", format!("must be in 3..=64, got {degree}")));
+        return Err(Error::invalid(
+            "hull_degree",
+            format!("must be in 3..=64, got {degree}"),
+        ));
     }
     Ok(())
 }
@@ -92,12 +103,19 @@ pub(crate) struct Origins<'a> {
 impl<'a> Origins<'a> {
     /// The memory of the origins of `receivers` receivers (ids and points) and their lists.
     pub fn peak(receivers: usize, opts: &ObjectOptions) -> Peak {
-        Peak::default().buffer(&[receivers as u64, 4 + 12]).and(ReceiverLists::peak(receivers, opts.resolution))
+        Peak::default()
+            .buffer(&[receivers as u64, 4 + 12])
+            .and(ReceiverLists::peak(receivers, opts.resolution))
     }
 
     /// `None` when no receiver faces the light or a sample. Errors: samples whose bounds
     /// overflow f32 ([`LightBounds::new`]), the lists' frustum's.
-    pub fn new(light: &'a Light, receivers: &'a Receivers, samples: &'a SampleSet, opts: &ObjectOptions) -> Result<Option<Self>> {
+    pub fn new(
+        light: &'a Light,
+        receivers: &'a Receivers,
+        samples: &'a SampleSet,
+        opts: &ObjectOptions,
+    ) -> Result<Option<Self>> {
         let bounds = LightBounds::new(light, samples, opts.hull_degree)?;
         let (c, reach) = (light.center(), bounds.reach());
         let ids: Vec<u32> = (0..receivers.len() as u32)
@@ -109,15 +127,27 @@ impl<'a> Origins<'a> {
         if ids.is_empty() {
             return Ok(None);
         }
-        let origins: Vec<Vec3> = ids.iter().map(|&i| receivers.points[i as usize] + receivers.normals[i as usize] * opts.epsilon).collect();
+        let origins: Vec<Vec3> = ids
+            .iter()
+            .map(|&i| receivers.points[i as usize] + receivers.normals[i as usize] * opts.epsilon)
+            .collect();
         let lists = ReceiverLists::build(light, &origins, opts.resolution)?;
-        Ok(Some(Origins { light, receivers, samples, bounds, ids, origins, lists }))
+        Ok(Some(Origins {
+            light,
+            receivers,
+            samples,
+            bounds,
+            ids,
+            origins,
+            lists,
+        }))
     }
 
     /// The samples and weights of origin `k` (its receiver's samples) into the buffers.
     pub fn fill(&self, k: usize, ys: &mut Vec<Vec3>, ws: &mut Vec<f32>) {
         let i = self.ids[k] as usize;
-        self.samples.fill(self.light, i, self.receivers.pixel(i), ys, ws);
+        self.samples
+            .fill(self.light, i, self.receivers.pixel(i), ys, ws);
     }
 
     /// The receiver point and normal of origin `k`.
@@ -140,14 +170,19 @@ impl ReceiverLists {
     /// The memory of the lists of `points` receivers at `resolution`: per receiver its texel,
     /// entry and depth; per texel two list starts (the starts and the fill cursors).
     pub fn peak(points: usize, resolution: usize) -> Peak {
-        Peak::default().buffer(&[points as u64, 8 + 4 + 8]).buffer(&[resolution as u64, resolution as u64, 2 * 8])
+        Peak::default()
+            .buffer(&[points as u64, 8 + 4 + 8])
+            .buffer(&[resolution as u64, resolution as u64, 2 * 8])
     }
 
     /// Bins `points` (at least one, none at the light's center) into the texels of the frustum
     /// from the light's center fitted to them (section 4.3): the square fit of
     /// [`LightFrustum::fit`] for its axes, then the tightest fields of view and depth range.
     pub fn build(light: &Light, points: &[Vec3], resolution: usize) -> Result<Self> {
-        Ok(Self::with_frustum(Self::fit(light, points, resolution)?, points))
+        Ok(Self::with_frustum(
+            Self::fit(light, points, resolution)?,
+            points,
+        ))
     }
 
     /// The frustum from the light's center that [`ReceiverLists::build`] fits to `points`.
@@ -160,14 +195,20 @@ impl ReceiverLists {
     pub fn texel(frustum: &LightFrustum, p: Vec3) -> usize {
         let (w, h) = (frustum.width, frustum.height);
         let p = frustum.project(p).unwrap_or(Vec3::ZERO);
-        let (x, y) = ((p.x.max(0.0) as usize).min(w - 1), (p.y.max(0.0) as usize).min(h - 1));
+        let (x, y) = (
+            (p.x.max(0.0) as usize).min(w - 1),
+            (p.y.max(0.0) as usize).min(h - 1),
+        );
         y * w + x
     }
 
     /// Bins `points` into the texels of `frustum` (fitted to them).
     pub fn with_frustum(frustum: LightFrustum, points: &[Vec3]) -> Self {
         let (w, h) = (frustum.width, frustum.height);
-        let texel: Vec<usize> = points.par_iter().map(|&p| Self::texel(&frustum, p)).collect();
+        let texel: Vec<usize> = points
+            .par_iter()
+            .map(|&p| Self::texel(&frustum, p))
+            .collect();
         let mut start = vec![0usize; w * h + 1];
         for &t in &texel {
             start[t + 1] += 1;
@@ -181,8 +222,16 @@ impl ReceiverLists {
             entries[fill[t]] = i as u32;
             fill[t] += 1;
         }
-        let depths = points.iter().map(|&p| f64::from(frustum.to_view(p).z)).collect();
-        Self { frustum, start, entries, depths }
+        let depths = points
+            .iter()
+            .map(|&p| f64::from(frustum.to_view(p).z))
+            .collect();
+        Self {
+            frustum,
+            start,
+            entries,
+            depths,
+        }
     }
 
     /// Rows per band of the parallel passes.
@@ -218,7 +267,10 @@ impl ReceiverLists {
         let (w, h) = (self.frustum.width, self.frustum.height);
         match hull {
             None => rows.clone().map(|y| (y, 0, w)).collect(),
-            Some(hull) => conservative_rows(hull, w, h).into_iter().filter(|r| rows.contains(&r.0)).collect(),
+            Some(hull) => conservative_rows(hull, w, h)
+                .into_iter()
+                .filter(|r| rows.contains(&r.0))
+                .collect(),
         }
     }
 
@@ -230,7 +282,11 @@ impl ReceiverLists {
 
     /// Splits `data` (`per_entry` values per list entry, in list order) into the parts of each
     /// band: `(band, rows, first entry, part)`, for passes that process the bands in parallel.
-    pub fn split_by_band<'a, T>(&self, data: &'a mut [T], per_entry: usize) -> Vec<(usize, Range<usize>, usize, &'a mut [T])> {
+    pub fn split_by_band<'a, T>(
+        &self,
+        data: &'a mut [T],
+        per_entry: usize,
+    ) -> Vec<(usize, Range<usize>, usize, &'a mut [T])> {
         let mut rest = data;
         let mut out = Vec::with_capacity(self.bands());
         for b in 0..self.bands() {
@@ -247,7 +303,10 @@ impl ReceiverLists {
     /// depth (regions shrink towards the light, so projecting them there stays conservative
     /// for those receivers); `None` when the rows hold none.
     pub fn band_frustum(&self, rows: &Range<usize>) -> Option<LightFrustum> {
-        let far = self.entries[self.entries_of(rows)].iter().map(|&e| self.depths[e as usize] as f32).fold(0.0f32, f32::max);
+        let far = self.entries[self.entries_of(rows)]
+            .iter()
+            .map(|&e| self.depths[e as usize] as f32)
+            .fold(0.0f32, f32::max);
         band_frustum(&self.frustum, far)
     }
 
@@ -276,26 +335,37 @@ impl ReceiverLists {
         per_entry: usize,
         visit: impl Fn(&I, usize, &mut [T]) + Sync,
     ) -> Result<()> {
-        let hulls: Vec<Option<Vec<DVec2>>> = items.par_iter().map(|it| influence_hull(&self.frustum, bounds, vertices(it), degree)).collect();
+        let hulls: Vec<Option<Vec<DVec2>>> = items
+            .par_iter()
+            .map(|it| influence_hull(&self.frustum, bounds, vertices(it), degree))
+            .collect();
         let bins = self.bin(&hulls);
         // A band visits every item of its bin, seconds of work for a large scene: each band
         // stops at the next item once the call is asked to stop.
         let watch = crate::interrupt::watch();
-        self.split_by_band(data, per_entry).into_par_iter().for_each(|(b, rows, base, part)| {
-            let Some(band_frustum) = self.band_frustum(&rows) else { return };
-            for &k in bins[b].iter().take_while(|_| !watch.requested()) {
-                let item = &items[k as usize];
-                let region = match &hulls[k as usize] {
-                    Some(_) => influence_hull(&band_frustum, bounds, vertices(item), degree),
-                    None => None,
+        self.split_by_band(data, per_entry)
+            .into_par_iter()
+            .for_each(|(b, rows, base, part)| {
+                let Some(band_frustum) = self.band_frustum(&rows) else {
+                    return;
                 };
-                for span in self.spans(region.as_deref(), &rows) {
-                    for e in self.span_entries(span) {
-                        visit(item, self.entries[e] as usize, &mut part[(e - base) * per_entry..(e - base + 1) * per_entry]);
+                for &k in bins[b].iter().take_while(|_| !watch.requested()) {
+                    let item = &items[k as usize];
+                    let region = match &hulls[k as usize] {
+                        Some(_) => influence_hull(&band_frustum, bounds, vertices(item), degree),
+                        None => None,
+                    };
+                    for span in self.spans(region.as_deref(), &rows) {
+                        for e in self.span_entries(span) {
+                            visit(
+                                item,
+                                self.entries[e] as usize,
+                                &mut part[(e - base) * per_entry..(e - base + 1) * per_entry],
+                            );
+                        }
                     }
                 }
-            }
-        });
+            });
         crate::interrupt::check()
     }
 }
@@ -320,22 +390,60 @@ pub fn bin_regions(frustum: &LightFrustum, hulls: &[Option<Vec<DVec2>>]) -> Vec<
 /// [`ReceiverLists::band_frustum`] for receivers whose farthest linear depth is `far` (`None`
 /// for none, `far <= 0`).
 pub fn band_frustum(frustum: &LightFrustum, far: f32) -> Option<LightFrustum> {
-    (far > 0.0).then(|| LightFrustum { far: (far * 1.001).max(frustum.near * 2.0), ..*frustum })
+    (far > 0.0).then(|| LightFrustum {
+        far: (far * 1.001).max(frustum.near * 2.0),
+        ..*frustum
+    })
 }
 
 /// [`ReceiverLists::record_stats`] from the length of every texel's list.
 pub fn record_list_stats(lengths: impl ExactSizeIterator<Item = usize>, stats: &mut Stats) {
     let texels = lengths.len().max(1);
-    let (occupied, max, total) = lengths.fold((0usize, 0usize, 0usize), |(o, m, t), l| (o + usize::from(l > 0), m.max(l), t + l));
-    stats.set("average_list_length", if occupied > 0 { total as f64 / occupied as f64 } else { 0.0 });
+    let (occupied, max, total) = lengths.fold((0usize, 0usize, 0usize), |(o, m, t), l| {
+        (o + usize::from(l > 0), m.max(l), t + l)
+    });
+    stats.set(
+        "average_list_length",
+        if occupied > 0 {
+            total as f64 / occupied as f64
+        } else {
+            0.0
+        },
+    );
     stats.set("max_list_length", max as f64);
-    stats.set("occupied_texels_percent", 100.0 * occupied as f64 / texels as f64);
+    stats.set(
+        "occupied_texels_percent",
+        100.0 * occupied as f64 / texels as f64,
+    );
 }
 
-/// The frustum of [`ReceiverLists::build`].
+/// The frustum of [`ReceiverLists::build`]: the square fit to the points' bounding box
+/// ([`LightFrustum::fit`]), or where none holds the box, the frustum of the cube face around
+/// the light that holds every point ([`face_frustum`]); fitted to the points ([`fit_to_points`]).
+/// Errors: neither holds the points (some lie on every side of the light, or at it).
 fn fit_frustum(light: &Light, points: &[Vec3], resolution: usize) -> Result<LightFrustum> {
-    let (lo, hi) = points.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
-    let base = LightFrustum::fit(light.center(), lo, hi, resolution)?;
+    let (lo, hi) = points
+        .iter()
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| {
+            (lo.min(p), hi.max(p))
+        });
+    let eye = light.center();
+    let base = LightFrustum::fit(eye, lo, hi, resolution).ok().or_else(|| face_frustum(eye, points, resolution)).ok_or_else(|| {
+        Error::invalid(
+            "light",
+            format!(
+                "no frustum from the light's center {eye} holds the receivers' shadow-ray origins {lo}..{hi}: \
+                 some lie at the center or on every side of it; move the light off the receivers, or lower \
+                 epsilon if origins within it of the center caused this"
+            ),
+        )
+    })?;
+    Ok(fit_to_points(base, points))
+}
+
+/// `base`'s axes with the tightest fields of view and depth range holding `points` (all in
+/// front of its eye).
+fn fit_to_points(base: LightFrustum, points: &[Vec3]) -> LightFrustum {
     let (mut tx, mut ty, mut z0, mut z1) = (0.0f32, 0.0f32, f32::INFINITY, 0.0f32);
     for &p in points {
         let v = base.to_view(p);
@@ -345,13 +453,140 @@ fn fit_frustum(light: &Light, points: &[Vec3], resolution: usize) -> Result<Ligh
         z1 = z1.max(v.z);
     }
     let margin = 1.0 + 1e-3;
-    Ok(LightFrustum {
+    LightFrustum {
         tan_half_x: (tx * margin).max(1e-4),
         tan_half_y: (ty * margin).max(1e-4),
         near: NEAR_FRACTION * z0,
         far: (z1 * 1.001).max(NEAR_FRACTION * z0 * 2.0),
         ..base
+    }
+}
+
+/// The view directions of the faces of a cube around the light (world axes, each with an up
+/// axis across it).
+const CUBE_FACES: [(Vec3, Vec3); 6] = [
+    (Vec3::X, Vec3::Y),
+    (Vec3::NEG_X, Vec3::Y),
+    (Vec3::Y, Vec3::Z),
+    (Vec3::NEG_Y, Vec3::Z),
+    (Vec3::Z, Vec3::Y),
+    (Vec3::NEG_Z, Vec3::Y),
+];
+
+/// The cube face whose direction is nearest that from `eye` to `p` (the first of equals).
+fn cube_face(eye: Vec3, p: Vec3) -> usize {
+    let d = p - eye;
+    (0..6).fold(0, |best, k| {
+        if d.dot(CUBE_FACES[k].0) > d.dot(CUBE_FACES[best].0) {
+            k
+        } else {
+            best
+        }
     })
+}
+
+/// A frustum from `eye` along the cube face direction that keeps every point of `points` at the
+/// largest angle from its sides (a placeholder field of view and depth range, for
+/// [`fit_to_points`]); `None` when that leaves some point within 0.06° of its side plane or
+/// behind it, the limit of [`LightFrustum::fit`].
+fn face_frustum(eye: Vec3, points: &[Vec3], resolution: usize) -> Option<LightFrustum> {
+    let least_cosine = |axis: Vec3| {
+        points
+            .iter()
+            .map(|&p| (p - eye).normalize_or_zero().dot(axis))
+            .fold(f32::INFINITY, f32::min)
+    };
+    let (cosine, (forward, up)) = CUBE_FACES
+        .iter()
+        .map(|&f| (least_cosine(f.0), f))
+        .max_by(|a, b| a.0.total_cmp(&b.0))?;
+    let min_cosine =
+        1.0 / (1.0 + crate::raster::depth::MAX_FIT_TAN * crate::raster::depth::MAX_FIT_TAN).sqrt();
+    (cosine > min_cosine)
+        .then(|| {
+            LightFrustum::from_axes(eye, forward, up, 1.0, 1.0, 1.0, 2.0, resolution, resolution)
+                .ok()
+        })
+        .flatten()
+}
+
+/// For each receiver, the cube face around the light its direction falls in, when no single
+/// light frustum holds the valid receivers' bounding box ([`LightFrustum::fit`]); `None` when
+/// one does.
+pub fn light_faces(light: &Light, receivers: &Receivers) -> Option<Vec<u8>> {
+    let c = light.center();
+    let (lo, hi) = receivers.bounds()?;
+    LightFrustum::fit(c, lo, hi, 1).is_err().then(|| {
+        receivers
+            .points
+            .iter()
+            .map(|&p| cube_face(c, p) as u8)
+            .collect()
+    })
+}
+
+/// Runs an object-based method (`run`, on the receivers it is given) once per light frustum:
+/// once when one frustum holds the receivers, else once per face of a cube around the light,
+/// on the receivers whose direction falls in it, as Sintorn et al. 2008 (section 5) cover an
+/// omni-directional light with six maps. A receiver's result is exact whatever frustum serves
+/// it (the lists and regions only choose which receivers a caster tests), so the faces' results
+/// merge receiver by receiver. Stats: the faces' seconds and per-receiver counts added, other
+/// values the largest face's, and `light_faces`, the number of frusta.
+pub(crate) fn by_light_face(
+    light: &Light,
+    receivers: &Receivers,
+    mut run: impl FnMut(&Receivers) -> Result<(Vec<f32>, Stats)>,
+) -> Result<(Vec<f32>, Stats)> {
+    let Some(faces) = light_faces(light, receivers) else {
+        let (vis, mut stats) = run(receivers)?;
+        stats.set("light_faces", 1.0);
+        return Ok((vis, stats));
+    };
+    let mut vis = vec![0.0f32; receivers.len()];
+    let mut stats = Stats::default();
+    let mut part = receivers.clone();
+    let mut used = 0;
+    for face in 0..CUBE_FACES.len() as u8 {
+        part.valid = receivers
+            .valid
+            .iter()
+            .zip(&faces)
+            .map(|(&v, &f)| v && f == face)
+            .collect();
+        if !part.valid.contains(&true) {
+            continue;
+        }
+        let (face_vis, face_stats) = run(&part)?;
+        for (i, _) in part.valid.iter().enumerate().filter(|(_, &v)| v) {
+            vis[i] = face_vis[i];
+        }
+        merge_face_stats(&mut stats, &face_stats);
+        used += 1;
+    }
+    stats.set("light_faces", f64::from(used));
+    Ok((vis, stats))
+}
+
+/// The stats of the object-based methods that count work per receiver: added over the faces.
+const PER_RECEIVER_STATS: [&str; 7] = [
+    "receivers",
+    "view_samples",
+    "exact_view_samples",
+    "inside_view_samples",
+    "wedge_tests",
+    "receivers_tested",
+    "receivers_inside",
+];
+
+/// Merges a face's stats into `total` (see [`by_light_face`]).
+fn merge_face_stats(total: &mut Stats, face: &Stats) {
+    for (name, value) in &face.entries {
+        if name.ends_with("_seconds") || PER_RECEIVER_STATS.contains(&name.as_str()) {
+            total.add(name, *value);
+        } else {
+            total.set(name, total.get(name).map_or(*value, |t| t.max(*value)));
+        }
+    }
 }
 
 /// The light's bounding points seen from world point `v` (see the module documentation).
@@ -362,8 +597,19 @@ pub fn light_points(light: &Light, v: DVec3, degree: usize) -> Vec<DVec3> {
             let (c, u, w) = (center.as_dvec3(), u.as_dvec3(), w.as_dvec3());
             vec![c + u + w, c + u - w, c - u - w, c - u + w]
         }
-        Shape::Disk { center, normal, radius } => polygon(center.as_dvec3(), normal.as_dvec3(), f64::from(radius), degree),
-        Shape::Sphere { center, radius } => sphere_silhouette(center.as_dvec3(), f64::from(radius), v, degree),
+        Shape::Disk {
+            center,
+            normal,
+            radius,
+        } => polygon(
+            center.as_dvec3(),
+            normal.as_dvec3(),
+            f64::from(radius),
+            degree,
+        ),
+        Shape::Sphere { center, radius } => {
+            sphere_silhouette(center.as_dvec3(), f64::from(radius), v, degree)
+        }
         Shape::Ellipsoid { center, axes } => {
             // Virtual scaling (section 4.1): in the frame where the ellipsoid is the unit ball, its
             // silhouette from v is a circle; the axes map the circle's bounding polygon back onto
@@ -397,14 +643,27 @@ fn sphere_silhouette(c: DVec3, r: f64, v: DVec3, degree: usize) -> Vec<DVec3> {
         return Vec::new();
     }
     // The silhouette circle seen from v: center c + d r²/|d|², radius r sqrt(1 − r²/|d|²).
-    polygon(c + d * (r * r / dist2), d / dist2.sqrt(), r * (1.0 - r * r / dist2).sqrt(), degree)
+    polygon(
+        c + d * (r * r / dist2),
+        d / dist2.sqrt(),
+        r * (1.0 - r * r / dist2).sqrt(),
+        degree,
+    )
 }
 
 /// Points whose convex hull holds the light: a rectangle's corners, the circumscribed
 /// `degree`-gon of a disk, the circumscribed box of a sphere or an ellipsoid, a point light itself.
 pub fn light_polytope(light: &Light, degree: usize) -> Vec<DVec3> {
     let corners = |c: DVec3, a: DMat3| -> Vec<DVec3> {
-        (0..8).map(|k| c + a * DVec3::new(if k & 1 == 0 { -1.0 } else { 1.0 }, if k & 2 == 0 { -1.0 } else { 1.0 }, if k & 4 == 0 { -1.0 } else { 1.0 })).collect()
+        (0..8)
+            .map(|k| {
+                c + a * DVec3::new(
+                    if k & 1 == 0 { -1.0 } else { 1.0 },
+                    if k & 2 == 0 { -1.0 } else { 1.0 },
+                    if k & 4 == 0 { -1.0 } else { 1.0 },
+                )
+            })
+            .collect()
     };
     match light.shape {
         Shape::Point { position } => vec![position.as_dvec3()],
@@ -412,8 +671,20 @@ pub fn light_polytope(light: &Light, degree: usize) -> Vec<DVec3> {
             let (c, u, v) = (center.as_dvec3(), u.as_dvec3(), v.as_dvec3());
             vec![c + u + v, c + u - v, c - u - v, c - u + v]
         }
-        Shape::Disk { center, normal, radius } => polygon(center.as_dvec3(), normal.as_dvec3(), f64::from(radius), degree),
-        Shape::Sphere { center, radius } => corners(center.as_dvec3(), DMat3::from_diagonal(DVec3::splat(f64::from(radius)))),
+        Shape::Disk {
+            center,
+            normal,
+            radius,
+        } => polygon(
+            center.as_dvec3(),
+            normal.as_dvec3(),
+            f64::from(radius),
+            degree,
+        ),
+        Shape::Sphere { center, radius } => corners(
+            center.as_dvec3(),
+            DMat3::from_diagonal(DVec3::splat(f64::from(radius))),
+        ),
         Shape::Ellipsoid { center, axes } => corners(center.as_dvec3(), axes.as_dmat3()),
     }
 }
@@ -424,8 +695,16 @@ pub fn light_polytope(light: &Light, degree: usize) -> Vec<DVec3> {
 /// some bounding point along the view direction). Every receiver whose segment to a light point
 /// or a sample meets the convex hull of `points` projects inside it (Sintorn et al. 2008,
 /// section 4.1), since the light's center, the frustum's eye, lies inside the bounds.
-pub fn influence_hull(frustum: &LightFrustum, bounds: &LightBounds<'_>, points: &[Vec3], degree: usize) -> Option<Vec<DVec2>> {
+pub fn influence_hull(
+    frustum: &LightFrustum,
+    bounds: &LightBounds<'_>,
+    points: &[Vec3],
+    degree: usize,
+) -> Option<Vec<DVec2>> {
     let (eye, f) = (frustum.eye.as_dvec3(), frustum.forward.as_dvec3());
+    if wholly_behind(frustum, bounds, points) {
+        return Some(Vec::new());
+    }
     let far = f64::from(frustum.far);
     let mut pts = Vec::with_capacity(points.len() * degree.max(4));
     for v in points.iter().map(|v| v.as_dvec3()) {
@@ -444,6 +723,22 @@ pub fn influence_hull(frustum: &LightFrustum, bounds: &LightBounds<'_>, points: 
         }
     }
     Some(convex_hull(&pts))
+}
+
+/// Whether the world points `points` lie wholly behind the light and its samples along the view
+/// direction: a segment from a receiver in front of the eye to a light point or sample stays in
+/// front of the nearer of its two ends, so nothing there can cut it (a cube face's frustum drops
+/// the casters behind the face this way).
+fn wholly_behind(frustum: &LightFrustum, bounds: &LightBounds<'_>, points: &[Vec3]) -> bool {
+    let (eye, f) = (frustum.eye.as_dvec3(), frustum.forward.as_dvec3());
+    let behind = if bounds.is_light() {
+        bounds.light.half_extent_along(frustum.forward)
+    } else {
+        bounds.reach()
+    };
+    let slack = 1e-5 * (f64::from(behind) + eye.abs().max_element()) + 1e-30;
+    let limit = -f64::from(behind) - slack;
+    !points.is_empty() && points.iter().all(|v| (v.as_dvec3() - eye).dot(f) < limit)
 }
 
 /// Slack, in units in the last place of the light's coordinates, of the test that a sample lies
@@ -486,7 +781,10 @@ enum Beyond {
 impl<'a> LightBounds<'a> {
     /// The bounds of `light` alone.
     pub fn of_light(light: &'a Light) -> Self {
-        Self { light, beyond: None }
+        Self {
+            light,
+            beyond: None,
+        }
     }
 
     /// The bounds of `light` and every sample of `samples` (a disk's by `degree`-gons).
@@ -494,14 +792,23 @@ impl<'a> LightBounds<'a> {
     /// Errors: samples so far from the light that their bounds overflow f32.
     pub fn new(light: &'a Light, samples: &SampleSet, degree: usize) -> Result<Self> {
         let c = light.center().as_dvec3();
-        let tol = ON_LIGHT_ULPS * f64::from(f32::EPSILON) * (c.abs().max_element() + f64::from(light.extent()));
+        let tol = ON_LIGHT_ULPS
+            * f64::from(f32::EPSILON)
+            * (c.abs().max_element() + f64::from(light.extent()));
         let offsets: Vec<DVec3> = samples.points().map(|y| y.as_dvec3() - c).collect();
         let beyond = match light.shape {
             Shape::Point { .. } => ball_beyond(c, 0.0, &offsets, tol)?,
             Shape::Sphere { radius, .. } => ball_beyond(c, f64::from(radius), &offsets, tol)?,
             Shape::Ellipsoid { axes, .. } => ellipsoid_beyond(c, axes.as_dmat3(), &offsets, tol)?,
             Shape::Rect { u, v, .. } => rect_beyond(c, u.as_dvec3(), v.as_dvec3(), &offsets, tol),
-            Shape::Disk { normal, radius, .. } => disk_beyond(c, normal.as_dvec3(), f64::from(radius), &offsets, tol, degree),
+            Shape::Disk { normal, radius, .. } => disk_beyond(
+                c,
+                normal.as_dvec3(),
+                f64::from(radius),
+                &offsets,
+                tol,
+                degree,
+            ),
         };
         let bounds = Self { light, beyond };
         if !bounds.reach().is_finite() {
@@ -523,7 +830,10 @@ impl<'a> LightBounds<'a> {
             Some(Beyond::Volume(volume)) => volume.extent(),
             Some(Beyond::Corners(corners)) => {
                 let c = self.light.center().as_dvec3();
-                let far = corners.iter().map(|q| (*q - c).length()).fold(0.0f64, f64::max);
+                let far = corners
+                    .iter()
+                    .map(|q| (*q - c).length())
+                    .fold(0.0f64, f64::max);
                 (far * (1.0 + MARGIN)) as f32
             }
         }
@@ -589,8 +899,15 @@ fn ball_beyond(c: DVec3, r: f64, offsets: &[DVec3], tol: f64) -> Result<Option<B
 /// (give or take `tol`), else the ellipsoid scaled about `c` until it holds them.
 fn ellipsoid_beyond(c: DVec3, a: DMat3, offsets: &[DVec3], tol: f64) -> Result<Option<Beyond>> {
     let inverse = a.inverse();
-    let scale = offsets.iter().map(|d| (inverse * *d).length()).fold(0.0f64, f64::max);
-    let thinnest = a.x_axis.length().min(a.y_axis.length()).min(a.z_axis.length());
+    let scale = offsets
+        .iter()
+        .map(|d| (inverse * *d).length())
+        .fold(0.0f64, f64::max);
+    let thinnest = a
+        .x_axis
+        .length()
+        .min(a.y_axis.length())
+        .min(a.z_axis.length());
     if scale <= 1.0 + tol / thinnest {
         return Ok(None);
     }
@@ -612,12 +929,18 @@ fn rect_beyond(c: DVec3, u: DVec3, v: DVec3, offsets: &[DVec3], tol: f64) -> Opt
     if params.iter().all(|q| q.abs().cmple(slack).all()) {
         return None;
     }
-    let (lo, hi) = params.iter().fold((DVec3::new(-1.0, -1.0, 0.0), DVec3::new(1.0, 1.0, 0.0)), |(lo, hi), q| (lo.min(*q), hi.max(*q)));
+    let (lo, hi) = params.iter().fold(
+        (DVec3::new(-1.0, -1.0, 0.0), DVec3::new(1.0, 1.0, 0.0)),
+        |(lo, hi), q| (lo.min(*q), hi.max(*q)),
+    );
     let (lo, hi) = (lo - (hi - lo) * MARGIN, hi + (hi - lo) * MARGIN);
     let heights: &[f64] = if lo.z == hi.z { &[lo.z] } else { &[lo.z, hi.z] };
     let corners = heights
         .iter()
-        .flat_map(|&h| [(lo.x, lo.y), (hi.x, lo.y), (hi.x, hi.y), (lo.x, hi.y)].map(|(a, b)| c + u * a + v * b + n * h))
+        .flat_map(|&h| {
+            [(lo.x, lo.y), (hi.x, lo.y), (hi.x, hi.y), (lo.x, hi.y)]
+                .map(|(a, b)| c + u * a + v * b + n * h)
+        })
         .collect();
     Some(Beyond::Corners(corners))
 }
@@ -626,7 +949,14 @@ fn rect_beyond(c: DVec3, u: DVec3, v: DVec3, offsets: &[DVec3], tol: f64) -> Opt
 /// take `tol`), else the prism of `degree`-gons circumscribing the circle through the farthest
 /// sample from the axis (or the rim) at the lowest and highest heights along `n` of the disk and
 /// the samples; one polygon when every sample lies in the disk's plane.
-fn disk_beyond(c: DVec3, n: DVec3, r: f64, offsets: &[DVec3], tol: f64, degree: usize) -> Option<Beyond> {
+fn disk_beyond(
+    c: DVec3,
+    n: DVec3,
+    r: f64,
+    offsets: &[DVec3],
+    tol: f64,
+    degree: usize,
+) -> Option<Beyond> {
     let (mut radial, mut lo, mut hi) = (0.0f64, 0.0f64, 0.0f64);
     for d in offsets {
         let h = d.dot(n);
@@ -639,7 +969,12 @@ fn disk_beyond(c: DVec3, n: DVec3, r: f64, offsets: &[DVec3], tol: f64, degree: 
     let (lo, hi) = (lo - (hi - lo) * MARGIN, hi + (hi - lo) * MARGIN);
     let heights: &[f64] = if lo == hi { &[lo] } else { &[lo, hi] };
     let radius = radial.max(r) * (1.0 + MARGIN);
-    Some(Beyond::Corners(heights.iter().flat_map(|&h| polygon(c + n * h, n, radius, degree)).collect()))
+    Some(Beyond::Corners(
+        heights
+            .iter()
+            .flat_map(|&h| polygon(c + n * h, n, radius, degree))
+            .collect(),
+    ))
 }
 
 #[cfg(test)]
@@ -653,7 +988,11 @@ mod tests {
         if orient(t[0], t[1], t[2], p) * orient(t[0], t[1], t[2], y) >= 0.0 {
             return false;
         }
-        let s = [orient(p, y, t[0], t[1]), orient(p, y, t[1], t[2]), orient(p, y, t[2], t[0])];
+        let s = [
+            orient(p, y, t[0], t[1]),
+            orient(p, y, t[1], t[2]),
+            orient(p, y, t[2], t[0]),
+        ];
         s.iter().all(|&v| v > 0.0) || s.iter().all(|&v| v < 0.0)
     }
 
@@ -664,7 +1003,14 @@ mod tests {
             Light::rect(c, Vec3::new(0.5, 0.1, 0.0), Vec3::new(0.1, 0.0, -0.4))?,
             Light::disk(c, Vec3::new(0.2, -1.0, 0.1), 0.5)?,
             Light::sphere(c, 0.4)?,
-            Light::ellipsoid(c, [Vec3::new(0.6, 0.0, 0.0), Vec3::new(0.0, 0.2, 0.0), Vec3::new(0.0, 0.0, 0.35)])?,
+            Light::ellipsoid(
+                c,
+                [
+                    Vec3::new(0.6, 0.0, 0.0),
+                    Vec3::new(0.0, 0.2, 0.0),
+                    Vec3::new(0.0, 0.0, 0.35),
+                ],
+            )?,
         ])
     }
 
@@ -672,7 +1018,9 @@ mod tests {
     /// sideways, pushed back, pulled among the occluders.
     fn off_light_samples(light: &Light, rng: &mut Rng) -> Vec<Vec<Vec3>> {
         let c = light.center();
-        let on: Vec<Vec3> = (0..12).map(|_| light.map([rng.next_f32(), rng.next_f32(), rng.next_f32()])).collect();
+        let on: Vec<Vec3> = (0..12)
+            .map(|_| light.map([rng.next_f32(), rng.next_f32(), rng.next_f32()]))
+            .collect();
         let mut shell = Vec::new();
         while shell.len() < 12 {
             let d = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - 1.0;
@@ -681,7 +1029,13 @@ mod tests {
             }
         }
         let moved = |by: Vec3| on.iter().map(|&y| y + by).collect::<Vec<_>>();
-        vec![on.iter().map(|&y| c + (y - c) * 2.0).collect(), shell, moved(Vec3::new(1.2, 0.0, -0.7)), moved(Vec3::Y * 2.0), moved(Vec3::Y * -2.6)]
+        vec![
+            on.iter().map(|&y| c + (y - c) * 2.0).collect(),
+            shell,
+            moved(Vec3::new(1.2, 0.0, -0.7)),
+            moved(Vec3::Y * 2.0),
+            moved(Vec3::Y * -2.6),
+        ]
     }
 
     #[test]
@@ -690,12 +1044,32 @@ mod tests {
         // sample meets a triangle projects into the triangle's region, rotated samples included.
         let mut rng = Rng::new(11);
         let (w, h) = (20, 20);
-        let points: Vec<Vec3> = (0..w * h).map(|i| Vec3::new(-3.0 + 6.0 * (i % w) as f32 / w as f32, 0.1 * (i / w) as f32 / h as f32, -3.0 + 6.0 * (i / w) as f32 / h as f32)).collect();
-        let receivers = Receivers::new(points.clone(), vec![Vec3::Y; w * h], vec![true; w * h], w, h)?;
+        let points: Vec<Vec3> = (0..w * h)
+            .map(|i| {
+                Vec3::new(
+                    -3.0 + 6.0 * (i % w) as f32 / w as f32,
+                    0.1 * (i / w) as f32 / h as f32,
+                    -3.0 + 6.0 * (i / w) as f32 / h as f32,
+                )
+            })
+            .collect();
+        let receivers = Receivers::new(
+            points.clone(),
+            vec![Vec3::Y; w * h],
+            vec![true; w * h],
+            w,
+            h,
+        )?;
         let triangles: Vec<[Vec3; 3]> = (0..40)
             .map(|_| {
-                let c = Vec3::new(4.0 * rng.next_f32() - 2.0, 0.8 + 1.6 * rng.next_f32(), 4.0 * rng.next_f32() - 2.0);
-                [0, 1, 2].map(|_| c + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 1.2)
+                let c = Vec3::new(
+                    4.0 * rng.next_f32() - 2.0,
+                    0.8 + 1.6 * rng.next_f32(),
+                    4.0 * rng.next_f32() - 2.0,
+                );
+                [0, 1, 2].map(|_| {
+                    c + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 1.2
+                })
             })
             .collect();
         let (mut shadowed, mut beyond) = (0usize, 0usize);
@@ -709,13 +1083,30 @@ mod tests {
                 beyond += usize::from(!bounds.is_light());
                 let (mut own, mut weights) = (Vec::new(), Vec::new());
                 for t in &triangles {
-                    let region = influence_hull(&lists.frustum, &bounds, t, 6).map(|hull| conservative_rows(&hull, fw, fh));
-                    let covered = |texel: usize| region.as_ref().is_none_or(|rows| rows.iter().any(|&(y, x0, x1)| y == texel / fw && (x0..x1).contains(&(texel % fw))));
+                    let region = influence_hull(&lists.frustum, &bounds, t, 6)
+                        .map(|hull| conservative_rows(&hull, fw, fh));
+                    let covered = |texel: usize| {
+                        region.as_ref().is_none_or(|rows| {
+                            rows.iter().any(|&(y, x0, x1)| {
+                                y == texel / fw && (x0..x1).contains(&(texel % fw))
+                            })
+                        })
+                    };
                     for (i, &p) in points.iter().enumerate() {
                         samples.fill(&light, i, receivers.pixel(i), &mut own, &mut weights);
-                        if own.iter().any(|y| segment_meets_triangle(p.as_dvec3(), y.as_dvec3(), t.map(|v| v.as_dvec3()))) {
+                        if own.iter().any(|y| {
+                            segment_meets_triangle(
+                                p.as_dvec3(),
+                                y.as_dvec3(),
+                                t.map(|v| v.as_dvec3()),
+                            )
+                        }) {
                             shadowed += 1;
-                            assert!(covered(ReceiverLists::texel(&lists.frustum, p)), "{:?}, samples {k}: receiver {i} outside the region of {t:?}", light.shape);
+                            assert!(
+                                covered(ReceiverLists::texel(&lists.frustum, p)),
+                                "{:?}, samples {k}: receiver {i} outside the region of {t:?}",
+                                light.shape
+                            );
                         }
                     }
                 }
@@ -723,7 +1114,10 @@ mod tests {
         }
         // Every set lies off its light but one: a point light's samples scaled about it stay on it.
         assert_eq!(beyond, 24, "the sample sets must lie off their lights");
-        assert!(shadowed > 5_000, "the triangles must shadow receivers: {shadowed}");
+        assert!(
+            shadowed > 5_000,
+            "the triangles must shadow receivers: {shadowed}"
+        );
         Ok(())
     }
 
@@ -731,16 +1125,36 @@ mod tests {
     fn generated_samples_lie_on_their_light() -> Result<()> {
         // Their bounds are the light's own, so their regions and results stay as they were.
         for light in lights()? {
-            for pattern in [Pattern::Uniform, Pattern::Stratified, Pattern::Poisson, Pattern::Sobol, Pattern::Halton] {
-                for (interleave, rotate, frame) in [(1, false, 0), (2, true, 0), (1, true, 3), (3, false, 7)] {
-                    let samples = SampleSet::generate(&light, 64, pattern, 9, interleave, rotate, frame)?;
-                    assert!(LightBounds::new(&light, &samples, 6)?.is_light(), "{:?} {pattern:?} {interleave} {rotate} {frame}", light.shape);
+            for pattern in [
+                Pattern::Uniform,
+                Pattern::Stratified,
+                Pattern::Poisson,
+                Pattern::Sobol,
+                Pattern::Halton,
+            ] {
+                for (interleave, rotate, frame) in
+                    [(1, false, 0), (2, true, 0), (1, true, 3), (3, false, 7)]
+                {
+                    let samples =
+                        SampleSet::generate(&light, 64, pattern, 9, interleave, rotate, frame)?;
+                    assert!(
+                        LightBounds::new(&light, &samples, 6)?.is_light(),
+                        "{:?} {pattern:?} {interleave} {rotate} {frame}",
+                        light.shape
+                    );
                 }
             }
             let c = light.center();
-            let off = SampleSet::explicit(vec![c + Vec3::new(0.0, 0.0, 2.0 * light.extent() + 0.1)], None)?;
+            let off = SampleSet::explicit(
+                vec![c + Vec3::new(0.0, 0.0, 2.0 * light.extent() + 0.1)],
+                None,
+            )?;
             let bounds = LightBounds::new(&light, &off, 6)?;
-            assert!(!bounds.is_light() && bounds.reach() >= 2.0 * light.extent() + 0.1, "{:?}", light.shape);
+            assert!(
+                !bounds.is_light() && bounds.reach() >= 2.0 * light.extent() + 0.1,
+                "{:?}",
+                light.shape
+            );
         }
         Ok(())
     }
@@ -750,7 +1164,11 @@ mod tests {
         let light = Light::sphere(Vec3::splat(-3e38), 1.0)?;
         let samples = SampleSet::explicit(vec![Vec3::splat(3e38)], None)?;
         let refused = LightBounds::new(&light, &samples, 6);
-        assert!(matches!(&refused, Err(Error::InvalidInput { arg, .. }) if arg == "samples"), "{:?}", refused.err());
+        assert!(
+            matches!(&refused, Err(Error::InvalidInput { arg, .. }) if arg == "samples"),
+            "{:?}",
+            refused.err()
+        );
         Ok(())
     }
 }

@@ -36,14 +36,20 @@ impl ViewSet {
     ///
     /// Errors: no samples; a sample inside (or level with) the receivers' bounds, so no
     /// perspective view contains them.
-    pub fn fit(light: &Light, eyes: &[Vec3], bounds: (Vec3, Vec3), resolution: usize) -> Result<Self> {
+    pub fn fit(
+        light: &Light,
+        eyes: &[Vec3],
+        bounds: (Vec3, Vec3),
+        resolution: usize,
+    ) -> Result<Self> {
         if eyes.is_empty() {
             return Err(Error::invalid("views", "needs at least one light sample"));
         }
         let base = LightFrustum::fit(light.center(), bounds.0, bounds.1, resolution)?;
         let (lo, hi) = bounds;
-        let corners: [Vec3; 8] =
-            std::array::from_fn(|i| Vec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), hi, lo));
+        let corners: [Vec3; 8] = std::array::from_fn(|i| {
+            Vec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), hi, lo)
+        });
         let (mut tan, mut z_min, mut z_max) = (0.0f32, f32::INFINITY, 0.0f32);
         for (i, eye) in eyes.iter().enumerate() {
             for c in &corners {
@@ -68,9 +74,19 @@ impl ViewSet {
         let (near, far) = (NEAR_FRACTION * z_min, z_max * 1.001);
         let views = eyes
             .iter()
-            .map(|&eye| LightFrustum { eye, near, far, tan_half_x: tan, tan_half_y: tan, ..base })
+            .map(|&eye| LightFrustum {
+                eye,
+                near,
+                far,
+                tan_half_x: tan,
+                tan_half_y: tan,
+                ..base
+            })
             .collect();
-        Ok(Self { views, weights: eyes.iter().map(|&y| light.weight(y)).collect() })
+        Ok(Self {
+            views,
+            weights: eyes.iter().map(|&y| light.weight(y)).collect(),
+        })
     }
 
     /// The number of views.
@@ -115,6 +131,12 @@ pub fn resolve(sums: &[f32], views: &ViewSet, rx: &Receivers) -> Vec<f32> {
     let total = views.total_weight();
     sums.iter()
         .zip(&rx.valid)
-        .map(|(&s, &valid)| if valid && total > 0.0 { (f64::from(s) / total).clamp(0.0, 1.0) as f32 } else { 0.0 })
+        .map(|(&s, &valid)| {
+            if valid && total > 0.0 {
+                (f64::from(s) / total).clamp(0.0, 1.0) as f32
+            } else {
+                0.0
+            }
+        })
         .collect()
 }

@@ -51,7 +51,10 @@ impl DepthBias {
         match bias {
             None => Ok(DepthBias::ReceiverPlane { slack }),
             Some(b) if b.is_finite() && b >= 0.0 => Ok(DepthBias::Constant(b)),
-            Some(b) => Err(Error::invalid("bias", format!("must be finite and >= 0 (or None for auto), got {b}"))),
+            Some(b) => Err(Error::invalid(
+                "bias",
+                format!("must be finite and >= 0 (or None for auto), got {b}"),
+            )),
         }
     }
 }
@@ -73,22 +76,42 @@ impl ReceiverDepth {
     /// The receiver at `p` (unit normal `n`) whose projection into `frustum` is `s = (sx, sy, z)`.
     pub fn new(frustum: &LightFrustum, p: Vec3, n: Vec3, s: Vec3, bias: DepthBias) -> Self {
         let slack_texels = match bias {
-            DepthBias::Constant(b) => return Self { s, grad: Vec2::ZERO, slack: b, reach: 0.0 },
+            DepthBias::Constant(b) => {
+                return Self {
+                    s,
+                    grad: Vec2::ZERO,
+                    slack: b,
+                    reach: 0.0,
+                }
+            }
             DepthBias::ReceiverPlane { slack } => slack,
         };
         let v = frustum.to_view(p);
-        let n_v = Vec3::new(n.dot(frustum.right), n.dot(frustum.up), n.dot(frustum.forward));
+        let n_v = Vec3::new(
+            n.dot(frustum.right),
+            n.dot(frustum.up),
+            n.dot(frustum.forward),
+        );
         let facing = n_v.dot(v);
         let k = Vec2::new(
             frustum.width as f32 / (2.0 * frustum.tan_half_x),
             frustum.height as f32 / (2.0 * frustum.tan_half_y),
         );
-        let grad = if facing != 0.0 { Vec2::new(n_v.x / k.x, -n_v.y / k.y) / facing } else { Vec2::ZERO };
+        let grad = if facing != 0.0 {
+            Vec2::new(n_v.x / k.x, -n_v.y / k.y) / facing
+        } else {
+            Vec2::ZERO
+        };
         let texel = frustum.texel_world_size(s.z);
         let gradient = s.z * s.z * (grad.x.abs() + grad.y.abs());
         let slack = slack_texels * gradient.min(10.0 * texel) + 1e-4 * s.z;
         let grad = if grad.is_finite() { grad } else { Vec2::ZERO };
-        Self { s, grad, slack, reach: 20.0 * texel }
+        Self {
+            s,
+            grad,
+            slack,
+            reach: 20.0 * texel,
+        }
     }
 
     /// The receiver's linear depth.
@@ -107,7 +130,11 @@ impl ReceiverDepth {
         let (dx, dy) = (x as f32 + 0.5 - self.s.x, y as f32 + 0.5 - self.s.y);
         let inv = 1.0 / self.s.z + self.grad.x * dx + self.grad.y * dy;
         let limit = self.reach * (dx.abs().max(dy.abs()) + 1.0);
-        let plane = if inv > 0.0 { (1.0 / inv).clamp(self.s.z - limit, self.s.z + limit) } else { self.s.z + limit };
+        let plane = if inv > 0.0 {
+            (1.0 / inv).clamp(self.s.z - limit, self.s.z + limit)
+        } else {
+            self.s.z + limit
+        };
         plane - self.slack
     }
 }
@@ -123,10 +150,15 @@ impl PcfKernel {
     /// `side × side` taps (odd side, at most [`MAX_PCF_SIDE`]); `side = 1` is a single tap.
     pub fn square(side: usize) -> Result<Self> {
         if side & 1 == 0 || side > MAX_PCF_SIDE {
-            return Err(Error::invalid("pcf", format!("must be odd and in 1..={MAX_PCF_SIDE} (taps per side), got {side}")));
+            return Err(Error::invalid(
+                "pcf",
+                format!("must be odd and in 1..={MAX_PCF_SIDE} (taps per side), got {side}"),
+            ));
         }
         let r = (side / 2) as i64;
-        let offsets = (-r..=r).flat_map(|dy| (-r..=r).map(move |dx| (dx, dy))).collect();
+        let offsets = (-r..=r)
+            .flat_map(|dy| (-r..=r).map(move |dx| (dx, dy)))
+            .collect();
         Ok(Self { offsets, radius: r })
     }
 
@@ -135,7 +167,10 @@ impl PcfKernel {
     /// (9 = 3 × 3, 25 = 5 × 5, ...).
     pub fn with_taps(taps: usize) -> Result<Self> {
         if taps == 5 {
-            return Ok(Self { offsets: vec![(0, 0), (-1, 0), (1, 0), (0, -1), (0, 1)], radius: 1 });
+            return Ok(Self {
+                offsets: vec![(0, 0), (-1, 0), (1, 0), (0, -1), (0, 1)],
+                radius: 1,
+            });
         }
         let side = (taps as f64).sqrt().round() as usize;
         if side * side != taps || side & 1 == 0 || side > MAX_PCF_SIDE {
@@ -180,11 +215,20 @@ impl PcfKernel {
     /// `frustum`: 0 when the receiver faces away from the eye (`n · (eye − p) <= 0`, as in the
     /// ray-traced definition), 1 when it lies nearer than the near plane or projects outside the
     /// map (the map says nothing about it), else the lit fraction with `bias`.
-    pub fn visibility(&self, map: &DepthMap, frustum: &LightFrustum, p: Vec3, n: Vec3, bias: DepthBias) -> f32 {
+    pub fn visibility(
+        &self,
+        map: &DepthMap,
+        frustum: &LightFrustum,
+        p: Vec3,
+        n: Vec3,
+        bias: DepthBias,
+    ) -> f32 {
         if n.dot(frustum.eye - p) <= 0.0 {
             return 0.0;
         }
-        let Some(s) = frustum.project(p) else { return 1.0 };
+        let Some(s) = frustum.project(p) else {
+            return 1.0;
+        };
         if !(s.x >= 0.0 && s.y >= 0.0 && s.x < map.width as f32 && s.y < map.height as f32) {
             return 1.0;
         }
@@ -200,7 +244,10 @@ mod tests {
     fn tap_counts() {
         assert_eq!(PcfKernel::with_taps(1).unwrap().taps(), 1);
         assert_eq!(PcfKernel::with_taps(5).unwrap().radius(), 1);
-        assert_eq!(PcfKernel::with_taps(25).unwrap(), PcfKernel::square(5).unwrap());
+        assert_eq!(
+            PcfKernel::with_taps(25).unwrap(),
+            PcfKernel::square(5).unwrap()
+        );
         for bad in [0, 2, 4, 16, 3] {
             assert!(PcfKernel::with_taps(bad).is_err(), "{bad}");
         }
@@ -211,8 +258,17 @@ mod tests {
         let mut map = DepthMap::empty(3, 3).unwrap();
         map.depth[1] = 0.5; // the texel above the center
         let k = PcfKernel::with_taps(5).unwrap();
-        let frustum = LightFrustum::new(Vec3::ZERO, Vec3::Z, Vec3::Y, 90.0, 1.0, 0.1, 10.0, 3, 3).unwrap();
-        let at = |depth: f32| ReceiverDepth::new(&frustum, Vec3::ZERO, Vec3::Z, Vec3::new(1.5, 1.5, depth), DepthBias::Constant(0.0));
+        let frustum =
+            LightFrustum::new(Vec3::ZERO, Vec3::Z, Vec3::Y, 90.0, 1.0, 0.1, 10.0, 3, 3).unwrap();
+        let at = |depth: f32| {
+            ReceiverDepth::new(
+                &frustum,
+                Vec3::ZERO,
+                Vec3::Z,
+                Vec3::new(1.5, 1.5, depth),
+                DepthBias::Constant(0.0),
+            )
+        };
         assert_eq!(k.lit_fraction(&map, &at(1.0)), 0.8);
         assert_eq!(k.lit_fraction(&map, &at(0.25)), 1.0);
     }

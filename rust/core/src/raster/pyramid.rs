@@ -59,14 +59,20 @@ impl MinMaxPyramid {
     pub fn new(width: usize, height: usize, depth: &[f32]) -> Result<Self> {
         check_image("depth", width, height, 1, depth.len())?;
         if depth.iter().any(|d| d.is_nan() || *d == f32::NEG_INFINITY) {
-            return Err(Error::invalid("depth", "contains NaN or -inf (use +inf for empty texels)"));
+            return Err(Error::invalid(
+                "depth",
+                "contains NaN or -inf (use +inf for empty texels)",
+            ));
         }
         limits::check_memory("min/max pyramid", Self::peak(width, height).bytes())?;
         let base = MinMaxLevel {
             width,
             height,
             min: depth.to_vec(),
-            max: depth.iter().map(|&d| if d.is_finite() { d } else { f32::NEG_INFINITY }).collect(),
+            max: depth
+                .iter()
+                .map(|&d| if d.is_finite() { d } else { f32::NEG_INFINITY })
+                .collect(),
         };
         let mut levels = vec![base];
         while let Some(next) = levels.last().and_then(reduce_min_max) {
@@ -88,7 +94,14 @@ impl MinMaxPyramid {
     /// `(min, max)` depth of the drawn texels in the half-open rectangle `[x0, x1) × [y0, y1)` of
     /// level `level`'s texels (clamped to the level). `None` when the rectangle is empty after
     /// clamping, the level does not exist, or no drawn texel lies inside.
-    pub fn query(&self, level: usize, x0: usize, y0: usize, x1: usize, y1: usize) -> Option<(f32, f32)> {
+    pub fn query(
+        &self,
+        level: usize,
+        x0: usize,
+        y0: usize,
+        x1: usize,
+        y1: usize,
+    ) -> Option<(f32, f32)> {
         let l = self.levels.get(level)?;
         let (x1, y1) = (x1.min(l.width), y1.min(l.height));
         let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
@@ -110,7 +123,13 @@ impl MinMaxPyramid {
             return None;
         }
         let level = self.region_level(x0, y0, x1, y1);
-        self.query(level, x0 >> level, y0 >> level, ((x1 - 1) >> level) + 1, ((y1 - 1) >> level) + 1)
+        self.query(
+            level,
+            x0 >> level,
+            y0 >> level,
+            ((x1 - 1) >> level) + 1,
+            ((y1 - 1) >> level) + 1,
+        )
     }
 
     /// The level [`MinMaxPyramid::query_region`] reads for the non-empty level-0 rectangle
@@ -130,16 +149,24 @@ fn reduce_min_max(l: &MinMaxLevel) -> Option<MinMaxLevel> {
     let (w, h) = (l.width.div_ceil(2), l.height.div_ceil(2));
     let mut min = vec![f32::INFINITY; w * h];
     let mut max = vec![f32::NEG_INFINITY; w * h];
-    min.par_chunks_mut(w).zip(max.par_chunks_mut(w)).enumerate().for_each(|(y, (mn, mx))| {
-        for (x, (a, b)) in mn.iter_mut().zip(mx.iter_mut()).enumerate() {
-            let (kids, n) = children(x, y, l.width, l.height);
-            for &(cx, cy) in &kids[..n] {
-                *a = a.min(l.min[cy * l.width + cx]);
-                *b = b.max(l.max[cy * l.width + cx]);
+    min.par_chunks_mut(w)
+        .zip(max.par_chunks_mut(w))
+        .enumerate()
+        .for_each(|(y, (mn, mx))| {
+            for (x, (a, b)) in mn.iter_mut().zip(mx.iter_mut()).enumerate() {
+                let (kids, n) = children(x, y, l.width, l.height);
+                for &(cx, cy) in &kids[..n] {
+                    *a = a.min(l.min[cy * l.width + cx]);
+                    *b = b.max(l.max[cy * l.width + cx]);
+                }
             }
-        }
-    });
-    Some(MinMaxLevel { width: w, height: h, min, max })
+        });
+    Some(MinMaxLevel {
+        width: w,
+        height: h,
+        min,
+        max,
+    })
 }
 
 /// The (1, 2 or 4) texels of a `w × h` level that texel `(x, y)` of the next level covers: the
@@ -174,7 +201,11 @@ impl MultiScaleMap {
     ///
     /// Errors: wrong length; NaN or `−inf` depths; `TooLarge` past the memory limit.
     pub fn new(width: usize, height: usize, depth: &[f32]) -> Result<Self> {
-        Self::from_level(MinMaxPyramid::new(width, height, depth)?.levels.swap_remove(0))
+        Self::from_level(
+            MinMaxPyramid::new(width, height, depth)?
+                .levels
+                .swap_remove(0),
+        )
     }
 
     /// The number of scales of the MSSM of a `width × height` map: sides 1, 2, 4, … up to the
@@ -185,7 +216,12 @@ impl MultiScaleMap {
 
     /// The memory of the MSSM of a `width × height` map: one min/max level per scale.
     pub fn peak(width: usize, height: usize) -> Peak {
-        Peak::default().buffer(&[width as u64, height as u64, 8, Self::scale_count(width, height) as u64])
+        Peak::default().buffer(&[
+            width as u64,
+            height as u64,
+            8,
+            Self::scale_count(width, height) as u64,
+        ])
     }
 
     /// The MSSM over the texels of a min/max level (for the YSM: a level of an HSM, whose texels
@@ -199,7 +235,11 @@ impl MultiScaleMap {
             let next = Self::coarser(&scales[k - 1], 1 << (k - 1));
             scales.push(next);
         }
-        Ok(Self { width, height, scales })
+        Ok(Self {
+            width,
+            height,
+            scales,
+        })
     }
 
     /// The MSSM of an HSM level that does not keep its own finest scale: that scale is `base`
@@ -208,7 +248,12 @@ impl MultiScaleMap {
     /// explicitly stored"). Query it with [`MultiScaleMap::query_over`] and that level.
     pub fn sharing_finest(base: &MinMaxLevel) -> Result<Self> {
         let mut map = Self::from_level(base.clone())?;
-        map.scales[0] = MinMaxLevel { width: base.width, height: base.height, min: Vec::new(), max: Vec::new() };
+        map.scales[0] = MinMaxLevel {
+            width: base.width,
+            height: base.height,
+            min: Vec::new(),
+            max: Vec::new(),
+        };
         Ok(map)
     }
 
@@ -217,18 +262,26 @@ impl MultiScaleMap {
         let (width, height) = (prev.width, prev.height);
         let mut min = vec![f32::INFINITY; width * height];
         let mut max = vec![f32::NEG_INFINITY; width * height];
-        min.par_chunks_mut(width).zip(max.par_chunks_mut(width)).enumerate().for_each(|(y, (mn, mx))| {
-            for x in 0..width {
-                for (dx, dy) in [(0, 0), (half, 0), (0, half), (half, half)] {
-                    if x + dx < width && y + dy < height {
-                        let i = (y + dy) * width + x + dx;
-                        mn[x] = mn[x].min(prev.min[i]);
-                        mx[x] = mx[x].max(prev.max[i]);
+        min.par_chunks_mut(width)
+            .zip(max.par_chunks_mut(width))
+            .enumerate()
+            .for_each(|(y, (mn, mx))| {
+                for x in 0..width {
+                    for (dx, dy) in [(0, 0), (half, 0), (0, half), (half, half)] {
+                        if x + dx < width && y + dy < height {
+                            let i = (y + dy) * width + x + dx;
+                            mn[x] = mn[x].min(prev.min[i]);
+                            mx[x] = mx[x].max(prev.max[i]);
+                        }
                     }
                 }
-            }
-        });
-        MinMaxLevel { width, height, min, max }
+            });
+        MinMaxLevel {
+            width,
+            height,
+            min,
+            max,
+        }
     }
 
     /// Exact `(min, max)` over the drawn texels of `[x0, x1) × [y0, y1)` (clamped to the image);
@@ -239,7 +292,14 @@ impl MultiScaleMap {
 
     /// [`MultiScaleMap::query`] reading its finest scale from `finest` (a map built by
     /// [`MultiScaleMap::sharing_finest`] from that level).
-    pub fn query_over(&self, finest: &MinMaxLevel, x0: usize, y0: usize, x1: usize, y1: usize) -> Option<(f32, f32)> {
+    pub fn query_over(
+        &self,
+        finest: &MinMaxLevel,
+        x0: usize,
+        y0: usize,
+        x1: usize,
+        y1: usize,
+    ) -> Option<(f32, f32)> {
         let (x1, y1) = (x1.min(self.width), y1.min(self.height));
         if x0 >= x1 || y0 >= y1 {
             return None;
@@ -249,7 +309,11 @@ impl MultiScaleMap {
         let (s, level) = (1usize << k, if k == 0 { finest } else { &self.scales[k] });
         // Squares from a grid of step s, the last one flush with the far edge: they cover the
         // rectangle exactly (at most 2 per axis for a squarish one).
-        let starts = |a: usize, b: usize| (a..b).step_by(s).map(move |v| v.min(b.saturating_sub(s).max(a)));
+        let starts = |a: usize, b: usize| {
+            (a..b)
+                .step_by(s)
+                .map(move |v| v.min(b.saturating_sub(s).max(a)))
+        };
         let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
         for y in starts(y0, y1) {
             for x in starts(x0, x1) {
@@ -304,25 +368,41 @@ impl SummedAreaTable {
             return Err(Error::invalid("image", "contains NaN or Inf"));
         }
         let (tw, th) = (width + 1, height + 1);
-        limits::check_memory("summed-area table", Self::peak(width, height, channels).bytes())?;
+        limits::check_memory(
+            "summed-area table",
+            Self::peak(width, height, channels).bytes(),
+        )?;
         let mut table = vec![0.0f64; tw * th * channels];
         // Row prefix sums in parallel (row y of the image fills table row y + 1) ...
-        table.par_chunks_mut(tw * channels).skip(1).enumerate().for_each(|(y, row)| {
-            let src = &data[y * width * channels..(y + 1) * width * channels];
-            for x in 0..width {
-                for c in 0..channels {
-                    row[(x + 1) * channels + c] = row[x * channels + c] + src[x * channels + c] as f64;
+        table
+            .par_chunks_mut(tw * channels)
+            .skip(1)
+            .enumerate()
+            .for_each(|(y, row)| {
+                let src = &data[y * width * channels..(y + 1) * width * channels];
+                for x in 0..width {
+                    for c in 0..channels {
+                        row[(x + 1) * channels + c] =
+                            row[x * channels + c] + src[x * channels + c] as f64;
+                    }
                 }
-            }
-        });
+            });
         // ... then the column sums, one row after the other.
         let stride = tw * channels;
         for y in 1..th {
             let (above, rest) = table.split_at_mut(y * stride);
             let prev = &above[(y - 1) * stride..];
-            rest[..stride].iter_mut().zip(prev).for_each(|(v, p)| *v += *p);
+            rest[..stride]
+                .iter_mut()
+                .zip(prev)
+                .for_each(|(v, p)| *v += *p);
         }
-        Ok(Self { width, height, channels, table })
+        Ok(Self {
+            width,
+            height,
+            channels,
+            table,
+        })
     }
 
     /// A table of several single-channel images of the same size (stored interleaved).
@@ -334,7 +414,9 @@ impl SummedAreaTable {
             check_image("images", width, height, 1, img.len())?;
         }
         let c = images.len();
-        let data: Vec<f32> = (0..width * height).flat_map(|i| images.iter().map(move |img| img[i])).collect();
+        let data: Vec<f32> = (0..width * height)
+            .flat_map(|i| images.iter().map(move |img| img[i]))
+            .collect();
         debug_assert_eq!(data.len(), width * height * c);
         Self::new(width, height, c, &data)
     }
@@ -370,7 +452,11 @@ impl SummedAreaTable {
     /// coordinates read the table exactly).
     #[inline]
     fn integral(&self, corners: &[(usize, f64); 4], k: usize) -> f64 {
-        corners.iter().filter(|(_, w)| *w != 0.0).map(|(base, w)| self.table[base + k] * w).sum()
+        corners
+            .iter()
+            .filter(|(_, w)| *w != 0.0)
+            .map(|(base, w)| self.table[base + k] * w)
+            .sum()
     }
 
     /// The corners of the box `[x0, x1) × [y0, y1)` ∩ image as `(x1,y1), (x0,y1), (x1,y0), (x0,y0)`,
@@ -381,12 +467,18 @@ impl SummedAreaTable {
         if x1 <= x0 || y1 <= y0 {
             return None;
         }
-        Some([self.corners(x1, y1), self.corners(x0, y1), self.corners(x1, y0), self.corners(x0, y0)])
+        Some([
+            self.corners(x1, y1),
+            self.corners(x0, y1),
+            self.corners(x1, y0),
+            self.corners(x0, y0),
+        ])
     }
 
     #[inline]
     fn sum_channel(&self, b: &[[(usize, f64); 4]; 4], k: usize) -> f64 {
-        self.integral(&b[0], k) - self.integral(&b[1], k) - self.integral(&b[2], k) + self.integral(&b[3], k)
+        self.integral(&b[0], k) - self.integral(&b[1], k) - self.integral(&b[2], k)
+            + self.integral(&b[3], k)
     }
 
     /// Sums of every channel over the box `[x0, x1) × [y0, y1)` ∩ image (level-0 texel units,
@@ -401,8 +493,13 @@ impl SummedAreaTable {
     /// The sum of `channel` over the box (see [`SummedAreaTable::box_sum_into`]). Panics when
     /// `channel >= channels()` (a programming error, like slice indexing).
     pub fn box_sum(&self, channel: usize, x0: f64, y0: f64, x1: f64, y1: f64) -> f64 {
-        assert!(channel < self.channels, "channel {channel} of a {}-channel table", self.channels);
-        self.box_corners(x0, y0, x1, y1).map_or(0.0, |b| self.sum_channel(&b, channel))
+        assert!(
+            channel < self.channels,
+            "channel {channel} of a {}-channel table",
+            self.channels
+        );
+        self.box_corners(x0, y0, x1, y1)
+            .map_or(0.0, |b| self.sum_channel(&b, channel))
     }
 
     /// The box a mean sums over and its area: the box ∩ image, or when that has zero area the
@@ -489,7 +586,11 @@ impl MipMap {
             return Err(Error::invalid("image", "contains NaN or Inf"));
         }
         limits::check_memory("mipmap", Self::peak(width, height, channels).bytes())?;
-        let mut levels = vec![MipLevel { width, height, data: data.to_vec() }];
+        let mut levels = vec![MipLevel {
+            width,
+            height,
+            data: data.to_vec(),
+        }];
         while let Some(next) = levels.last().and_then(|l| reduce_mean(l, channels)) {
             levels.push(next);
         }
@@ -519,7 +620,12 @@ impl MipMap {
         let (j0, j1, fy) = lerp_taps(y * scale - 0.5, l.height);
         let c = self.channels;
         let at = |i: usize, j: usize| (j * l.width + i) * c;
-        Taps { data: &l.data, idx: [at(i0, j0), at(i1, j0), at(i0, j1), at(i1, j1)], fx, fy }
+        Taps {
+            data: &l.data,
+            idx: [at(i0, j0), at(i1, j0), at(i0, j1), at(i1, j1)],
+            fx,
+            fy,
+        }
     }
 
     /// Bilinear lookup of every channel at level `level` (clamped to the last level) and level-0
@@ -540,7 +646,11 @@ impl MipMap {
     /// The two levels and the blend weight of the upper one for a filter `footprint` texels wide.
     fn trilinear_levels(&self, footprint: f64) -> (usize, f32) {
         let top = (self.levels.len() - 1) as f64;
-        let lambda = if footprint > 1.0 { footprint.log2().min(top) } else { 0.0 };
+        let lambda = if footprint > 1.0 {
+            footprint.log2().min(top)
+        } else {
+            0.0
+        };
         let l0 = lambda.floor();
         (l0 as usize, (lambda - l0) as f32)
     }
@@ -592,7 +702,11 @@ impl Taps<'_> {
 
 /// The two clamped taps and the weight of the second for a lookup at texel-center coordinate `u`.
 fn lerp_taps(u: f64, n: usize) -> (usize, usize, f64) {
-    let u = if u.is_nan() { 0.0 } else { u.clamp(0.0, (n - 1) as f64) };
+    let u = if u.is_nan() {
+        0.0
+    } else {
+        u.clamp(0.0, (n - 1) as f64)
+    };
     let i0 = (u.floor() as usize).min(n - 1);
     let i1 = (i0 + 1).min(n - 1);
     (i0, i1, u - i0 as f64)
@@ -609,10 +723,17 @@ fn reduce_mean(l: &MipLevel, c: usize) -> Option<MipLevel> {
         for x in 0..w {
             let (kids, n) = children(x, y, l.width, l.height);
             for k in 0..c {
-                let sum: f64 = kids[..n].iter().map(|&(cx, cy)| l.data[(cy * l.width + cx) * c + k] as f64).sum();
+                let sum: f64 = kids[..n]
+                    .iter()
+                    .map(|&(cx, cy)| l.data[(cy * l.width + cx) * c + k] as f64)
+                    .sum();
                 row[x * c + k] = (sum / n as f64) as f32;
             }
         }
     });
-    Some(MipLevel { width: w, height: h, data })
+    Some(MipLevel {
+        width: w,
+        height: h,
+        data,
+    })
 }

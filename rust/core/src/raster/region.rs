@@ -19,9 +19,15 @@ pub fn convex_hull(points: &[DVec2]) -> Vec<DVec2> {
     let mut hull: Vec<DVec2> = Vec::with_capacity(2 * pts.len());
     for pass in 0..2 {
         let start = hull.len();
-        let iter: Box<dyn Iterator<Item = &DVec2>> = if pass == 0 { Box::new(pts.iter()) } else { Box::new(pts.iter().rev()) };
+        let iter: Box<dyn Iterator<Item = &DVec2>> = if pass == 0 {
+            Box::new(pts.iter())
+        } else {
+            Box::new(pts.iter().rev())
+        };
         for &p in iter {
-            while hull.len() >= start + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0 {
+            while hull.len() >= start + 2
+                && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
+            {
                 hull.pop();
             }
             hull.push(p);
@@ -38,9 +44,17 @@ const SLACK: f64 = 1e-6;
 /// `(y, x0, x1)`: the half-open texel columns `[x0, x1)` whose squares it touches in that row,
 /// clipped to a `width × height` map. Conservative: every texel square the polygon overlaps is
 /// included (up to `1e-6` texel of slack).
-pub fn conservative_rows(hull: &[DVec2], width: usize, height: usize) -> Vec<(usize, usize, usize)> {
-    let Some((first, last)) = conservative_row_range(hull, height) else { return Vec::new() };
-    (first..=last).filter_map(|y| conservative_span(hull, y, width).map(|(x0, x1)| (y, x0, x1))).collect()
+pub fn conservative_rows(
+    hull: &[DVec2],
+    width: usize,
+    height: usize,
+) -> Vec<(usize, usize, usize)> {
+    let Some((first, last)) = conservative_row_range(hull, height) else {
+        return Vec::new();
+    };
+    (first..=last)
+        .filter_map(|y| conservative_span(hull, y, width).map(|(x0, x1)| (y, x0, x1)))
+        .collect()
 }
 
 /// The first and last rows of a `height`-row map that the polygon `hull` may touch (with the
@@ -49,7 +63,11 @@ pub fn conservative_row_range(hull: &[DVec2], height: usize) -> Option<(usize, u
     if hull.is_empty() {
         return None;
     }
-    let (lo_y, hi_y) = hull.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.y), b.max(p.y)));
+    let (lo_y, hi_y) = hull
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+            (a.min(p.y), b.max(p.y))
+        });
     let y_first = (lo_y - SLACK).floor().max(0.0) as usize;
     let y_last = ((hi_y + SLACK).floor().min(height as f64 - 1.0)).max(-1.0);
     (y_last >= 0.0 && y_first < height).then_some((y_first, y_last as usize))
@@ -90,7 +108,13 @@ mod tests {
 
     #[test]
     fn hull_of_a_square_with_inner_points() {
-        let pts = [DVec2::new(0.0, 0.0), DVec2::new(2.0, 0.0), DVec2::new(1.0, 1.0), DVec2::new(2.0, 2.0), DVec2::new(0.0, 2.0)];
+        let pts = [
+            DVec2::new(0.0, 0.0),
+            DVec2::new(2.0, 0.0),
+            DVec2::new(1.0, 1.0),
+            DVec2::new(2.0, 2.0),
+            DVec2::new(0.0, 2.0),
+        ];
         let hull = convex_hull(&pts);
         assert_eq!(hull.len(), 4);
         assert!(!hull.contains(&DVec2::new(1.0, 1.0)));
@@ -98,17 +122,30 @@ mod tests {
 
     #[test]
     fn coverage_is_conservative() {
-        let hull = convex_hull(&[DVec2::new(1.2, 1.5), DVec2::new(6.7, 2.1), DVec2::new(3.3, 7.9)]);
+        let hull = convex_hull(&[
+            DVec2::new(1.2, 1.5),
+            DVec2::new(6.7, 2.1),
+            DVec2::new(3.3, 7.9),
+        ]);
         let rows = conservative_rows(&hull, 10, 10);
         // Brute force: texels whose square overlaps the triangle, by dense point sampling.
         for y in 0..10 {
             for x in 0..10 {
-                let touched = (0..=20).flat_map(|i| (0..=20).map(move |j| (i, j))).any(|(i, j)| {
-                    let p = DVec2::new(x as f64 + i as f64 / 20.0, y as f64 + j as f64 / 20.0);
-                    (0..hull.len()).all(|k| (hull[(k + 1) % hull.len()] - hull[k]).perp_dot(p - hull[k]) >= 0.0)
-                });
-                let covered = rows.iter().any(|&(ry, x0, x1)| ry == y && (x0..x1).contains(&x));
-                assert!(!touched || covered, "texel ({x}, {y}) touched but not covered");
+                let touched = (0..=20)
+                    .flat_map(|i| (0..=20).map(move |j| (i, j)))
+                    .any(|(i, j)| {
+                        let p = DVec2::new(x as f64 + i as f64 / 20.0, y as f64 + j as f64 / 20.0);
+                        (0..hull.len()).all(|k| {
+                            (hull[(k + 1) % hull.len()] - hull[k]).perp_dot(p - hull[k]) >= 0.0
+                        })
+                    });
+                let covered = rows
+                    .iter()
+                    .any(|&(ry, x0, x1)| ry == y && (x0..x1).contains(&x));
+                assert!(
+                    !touched || covered,
+                    "texel ({x}, {y}) touched but not covered"
+                );
             }
         }
     }

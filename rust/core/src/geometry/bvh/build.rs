@@ -37,14 +37,23 @@ struct Aabb {
 }
 
 impl Aabb {
-    const EMPTY: Aabb = Aabb { lo: Vec3::splat(f32::INFINITY), hi: Vec3::splat(f32::NEG_INFINITY) };
+    const EMPTY: Aabb = Aabb {
+        lo: Vec3::splat(f32::INFINITY),
+        hi: Vec3::splat(f32::NEG_INFINITY),
+    };
 
     fn union(self, o: Aabb) -> Aabb {
-        Aabb { lo: self.lo.min(o.lo), hi: self.hi.max(o.hi) }
+        Aabb {
+            lo: self.lo.min(o.lo),
+            hi: self.hi.max(o.hi),
+        }
     }
 
     fn grow(self, p: Vec3) -> Aabb {
-        Aabb { lo: self.lo.min(p), hi: self.hi.max(p) }
+        Aabb {
+            lo: self.lo.min(p),
+            hi: self.hi.max(p),
+        }
     }
 
     /// Half the surface area (the SAH only compares ratios); 0 for an empty box.
@@ -94,7 +103,10 @@ pub(super) fn build(scene: &Scene) -> Result<Bvh> {
         .par_iter()
         .map(|t| {
             let b = Aabb::EMPTY.grow(t[0]).grow(t[1]).grow(t[2]);
-            Prim { b, c: (b.lo + b.hi) * 0.5 }
+            Prim {
+                b,
+                c: (b.lo + b.hi) * 0.5,
+            }
         })
         .collect();
     let mut idx: Vec<u32> = (0..n as u32).collect();
@@ -114,7 +126,10 @@ pub(super) fn build(scene: &Scene) -> Result<Bvh> {
     let root = out.node(0, 1);
     if 3 * out.depth as usize + 1 > STACK {
         // Unreachable by the depth bound of the module doc; refuse rather than risk the stacks.
-        return Err(Error::invalid("meshes", format!("BVH depth {} exceeds the traversal stack", out.depth)));
+        return Err(Error::invalid(
+            "meshes",
+            format!("BVH depth {} exceeds the traversal stack", out.depth),
+        ));
     }
     let b = nodes2[0].b;
     Ok(Bvh {
@@ -132,7 +147,11 @@ pub(super) fn build(scene: &Scene) -> Result<Bvh> {
 /// Per global face, whether it belongs to a perforated mesh (precomputed so that opaque meshes
 /// never look at textures).
 fn perforated_faces(scene: &Scene) -> Vec<bool> {
-    scene.meshes.iter().flat_map(|m| std::iter::repeat_n(m.is_perforated(), m.faces.len())).collect()
+    scene
+        .meshes
+        .iter()
+        .flat_map(|m| std::iter::repeat_n(m.is_perforated(), m.faces.len()))
+        .collect()
 }
 
 fn bounds_of(prims: &[Prim], idx: &[u32]) -> (Aabb, Aabb) {
@@ -158,7 +177,13 @@ fn build_subtree(prims: &[Prim], idx: &mut [u32], start: u32, depth: u32) -> Vec
         || build_subtree(prims, ri, start + mid as u32, depth + 1),
     );
     let mut out = Vec::with_capacity(1 + l.len() + r.len());
-    out.push(Node2 { b, kind: Kind::Inner { left: 1, right: 1 + l.len() as u32 } });
+    out.push(Node2 {
+        b,
+        kind: Kind::Inner {
+            left: 1,
+            right: 1 + l.len() as u32,
+        },
+    });
     append_shifted(&mut out, &l);
     append_shifted(&mut out, &r);
     out
@@ -168,20 +193,41 @@ fn build_subtree(prims: &[Prim], idx: &mut [u32], start: u32, depth: u32) -> Vec
 fn append_shifted(out: &mut Vec<Node2>, sub: &[Node2]) {
     let shift = out.len() as u32;
     out.extend(sub.iter().map(|n| match n.kind {
-        Kind::Inner { left, right } => Node2 { b: n.b, kind: Kind::Inner { left: left + shift, right: right + shift } },
+        Kind::Inner { left, right } => Node2 {
+            b: n.b,
+            kind: Kind::Inner {
+                left: left + shift,
+                right: right + shift,
+            },
+        },
         Kind::Leaf { .. } => *n,
     }));
 }
 
 /// Sequential build appending to `out`; returns the index of the subtree's root.
-fn build_serial(prims: &[Prim], idx: &mut [u32], start: u32, depth: u32, out: &mut Vec<Node2>) -> u32 {
+fn build_serial(
+    prims: &[Prim],
+    idx: &mut [u32],
+    start: u32,
+    depth: u32,
+    out: &mut Vec<Node2>,
+) -> u32 {
     let (b, cb) = bounds_of(prims, idx);
     let me = out.len() as u32;
     if idx.len() <= LEAF_SIZE {
-        out.push(Node2 { b, kind: Kind::Leaf { start, count: idx.len() as u32 } });
+        out.push(Node2 {
+            b,
+            kind: Kind::Leaf {
+                start,
+                count: idx.len() as u32,
+            },
+        });
         return me;
     }
-    out.push(Node2 { b, kind: Kind::Leaf { start, count: 0 } });
+    out.push(Node2 {
+        b,
+        kind: Kind::Leaf { start, count: 0 },
+    });
     let mid = split(prims, idx, cb, depth);
     let (li, ri) = idx.split_at_mut(mid);
     let left = build_serial(prims, li, start, depth + 1, out);
@@ -196,7 +242,9 @@ fn split(prims: &[Prim], idx: &mut [u32], cb: Aabb, depth: u32) -> usize {
     if depth < SAH_DEPTH_LIMIT {
         if let Some((axis, plane, scale)) = best_sah_split(prims, idx, cb) {
             let lo = cb.lo[axis];
-            let mid = partition(idx, |i| bin_of(prims[i as usize].c[axis], lo, scale) < plane);
+            let mid = partition(idx, |i| {
+                bin_of(prims[i as usize].c[axis], lo, scale) < plane
+            });
             if mid > 0 && mid < idx.len() {
                 return mid;
             }
@@ -311,17 +359,18 @@ impl Collapse<'_> {
         let mut kids = vec![left, right];
         while kids.len() < 4 {
             // Open the inner child with the largest area (first on ties).
-            let pick = kids.iter().enumerate().filter(|(_, &k)| matches!(self.n2[k].kind, Kind::Inner { .. })).fold(
-                None::<(usize, f32)>,
-                |acc, (pos, &k)| {
+            let pick = kids
+                .iter()
+                .enumerate()
+                .filter(|(_, &k)| matches!(self.n2[k].kind, Kind::Inner { .. }))
+                .fold(None::<(usize, f32)>, |acc, (pos, &k)| {
                     let a = self.n2[k].b.half_area();
                     if acc.is_none_or(|(_, best)| a > best) {
                         Some((pos, a))
                     } else {
                         acc
                     }
-                },
-            );
+                });
             let Some((pos, _)) = pick else { break };
             if let Kind::Inner { left, right } = self.n2[kids[pos]].kind {
                 kids.splice(pos..=pos, [left as usize, right as usize]);
@@ -345,14 +394,18 @@ impl Collapse<'_> {
                 hi[a][lane] = b.hi[a];
             }
         }
-        self.nodes[me] = Node4 { bounds: [lo.map(Vec4::from_array), hi.map(Vec4::from_array)], child };
+        self.nodes[me] = Node4 {
+            bounds: [lo.map(Vec4::from_array), hi.map(Vec4::from_array)],
+            child,
+        };
         me as u32
     }
 
     /// Emits the block of triangles `idx[start .. start + count]` (1 to 4 of them).
     fn leaf(&mut self, start: usize, count: usize) -> u32 {
         let faces = &self.idx[start..start + count];
-        self.blocks.push(Tri4::from_faces(faces, self.tris, self.alpha));
+        self.blocks
+            .push(Tri4::from_faces(faces, self.tris, self.alpha));
         self.block_parents.push(EMPTY);
         LEAF | (self.blocks.len() - 1) as u32
     }

@@ -47,7 +47,11 @@ pub(super) struct Frustum {
 /// The bounding box `[min, max]` of `points`; `None` when there are none.
 pub(super) fn bounds(points: &[Vec3]) -> Option<[Vec3; 2]> {
     let first = *points.first()?;
-    Some(points.iter().fold([first, first], |[lo, hi], &p| [lo.min(p), hi.max(p)]))
+    Some(
+        points
+            .iter()
+            .fold([first, first], |[lo, hi], &p| [lo.min(p), hi.max(p)]),
+    )
 }
 
 /// Relative widening of the slope bounds.
@@ -68,7 +72,12 @@ impl Frustum {
     /// `[tlo, thi]` may be any box holding the targets (e.g. the bounds of a superset of them):
     /// a looser frustum changes only the speed.
     pub fn around(origin: Vec3, targets: [Vec3; 2]) -> Option<Frustum> {
-        Self::pyramid(origin, &[targets], targets, [targets[0].min(origin), targets[1].max(origin)])
+        Self::pyramid(
+            origin,
+            &[targets],
+            targets,
+            [targets[0].min(origin), targets[1].max(origin)],
+        )
     }
 
     /// The frustum with apex `apex` through the corners of every box of `boxes` (`[min, max]`
@@ -78,14 +87,21 @@ impl Frustum {
     /// dominant axis of the center of their bounding box, or without boxes.
     pub fn around_boxes(apex: Vec3, boxes: &[[Vec3; 2]]) -> Option<Frustum> {
         let [first, ..] = boxes else { return None };
-        let bounds = boxes.iter().fold(*first, |[lo, hi], b| [lo.min(b[0]), hi.max(b[1])]);
+        let bounds = boxes
+            .iter()
+            .fold(*first, |[lo, hi], b| [lo.min(b[0]), hi.max(b[1])]);
         Self::pyramid(apex, boxes, bounds, bounds)
     }
 
     /// The pyramid with apex `origin` through the corners of `boxes`, whose bounding box is
     /// `[tlo, thi]`, cut by the box `[lo, hi]` (see [`Frustum::around`] and
     /// [`Frustum::around_boxes`]).
-    fn pyramid(origin: Vec3, boxes: &[[Vec3; 2]], [tlo, thi]: [Vec3; 2], [lo, hi]: [Vec3; 2]) -> Option<Frustum> {
+    fn pyramid(
+        origin: Vec3,
+        boxes: &[[Vec3; 2]],
+        [tlo, thi]: [Vec3; 2],
+        [lo, hi]: [Vec3; 2],
+    ) -> Option<Frustum> {
         let center = (tlo + thi) * 0.5 - origin;
         let s = center.abs();
         let k = if s.x >= s.y && s.x >= s.z {
@@ -97,11 +113,19 @@ impl Frustum {
         };
         let sign = if center[k] < 0.0 { -1.0 } else { 1.0 };
         let (i, j) = ((k + 1) % 3, (k + 2) % 3);
-        let (mut amin, mut amax, mut bmin, mut bmax) =
-            (f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY);
+        let (mut amin, mut amax, mut bmin, mut bmax) = (
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        );
         for &[blo, bhi] in boxes {
             for corner in 0..8 {
-                let q = Vec3::select(glam::BVec3::new(corner & 1 != 0, corner & 2 != 0, corner & 4 != 0), bhi, blo);
+                let q = Vec3::select(
+                    glam::BVec3::new(corner & 1 != 0, corner & 2 != 0, corner & 4 != 0),
+                    bhi,
+                    blo,
+                );
                 let d = q - origin;
                 let dk = d[k] * sign;
                 if dk.is_nan() || dk <= 0.0 {
@@ -132,7 +156,14 @@ impl Frustum {
         let pad = (hi - lo) * 1e-5 + (lo.abs().max(hi.abs())) * 1e-6 + Vec3::splat(1e-30);
         let (lo, hi) = (lo - pad, hi + pad);
         let splat3 = |v: Vec3| [Vec4::splat(v.x), Vec4::splat(v.y), Vec4::splat(v.z)];
-        Some(Frustum { o: splat3(origin), k, sign, planes, lo: splat3(lo), hi: splat3(hi) })
+        Some(Frustum {
+            o: splat3(origin),
+            k,
+            sign,
+            planes,
+            lo: splat3(lo),
+            hi: splat3(hi),
+        })
     }
 
     /// The dominant axis `k` and the sign of the targets' offsets from the apex along it: every
@@ -157,7 +188,13 @@ impl Frustum {
 
     /// Collects into `out` the leaves, with their boxes, of the tree under `root` that may meet
     /// the frustum; `None` when there are more than `out` holds.
-    pub fn collect(&self, nodes: &[Node4], root: Root, stack: &mut [u32; STACK], out: &mut [LeafRef]) -> Option<usize> {
+    pub fn collect(
+        &self,
+        nodes: &[Node4],
+        root: Root,
+        stack: &mut [u32; STACK],
+        out: &mut [LeafRef],
+    ) -> Option<usize> {
         let mut cur = match root {
             Root::Node(node) => node,
             Root::Leaf(leaf) => {

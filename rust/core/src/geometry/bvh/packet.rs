@@ -230,7 +230,9 @@ fn movemask(bytes: [u8; W]) -> u64 {
 fn movemask_sse2(b: [u8; W]) -> u64 {
     use std::arch::x86_64::{_mm_movemask_epi8, _mm_set_epi8};
     let [b0, b1, b2, b3, b4, b5, b6, b7, b8, b9, b10, b11, b12, b13, b14, b15] = b.map(|x| x as i8);
-    let v = _mm_set_epi8(b15, b14, b13, b12, b11, b10, b9, b8, b7, b6, b5, b4, b3, b2, b1, b0);
+    let v = _mm_set_epi8(
+        b15, b14, b13, b12, b11, b10, b9, b8, b7, b6, b5, b4, b3, b2, b1, b0,
+    );
     u64::from(_mm_movemask_epi8(v) as u16)
 }
 
@@ -316,7 +318,11 @@ fn regular_ray(org: [f32; 3], dir: [f32; 3]) -> LaneRay {
         2
     };
     let dz = pick(dir, kz);
-    let (kx, ky) = if dz < 0.0 { ((kz + 2) % 3, (kz + 1) % 3) } else { ((kz + 1) % 3, (kz + 2) % 3) };
+    let (kx, ky) = if dz < 0.0 {
+        ((kz + 2) % 3, (kz + 1) % 3)
+    } else {
+        ((kz + 1) % 3, (kz + 2) % 3)
+    };
     LaneRay {
         inv: [safe(dir[0]), safe(dir[1]), safe(dir[2])],
         k: [kx, ky, kz],
@@ -377,7 +383,8 @@ impl Chunk {
         let k = [self.k[0][first], self.k[1][first], self.k[2][first]];
         let mut differs = [0u8; W];
         for l in 0..W {
-            differs[l] = top_bit((self.k[0][l] != k[0]) | (self.k[1][l] != k[1]) | (self.k[2][l] != k[2]));
+            differs[l] =
+                top_bit((self.k[0][l] != k[0]) | (self.k[1][l] != k[1]) | (self.k[2][l] != k[2]));
         }
         (movemask(differs) & lanes == 0).then_some(k)
     }
@@ -408,14 +415,24 @@ impl Chunk {
     #[inline(always)]
     fn aim_regular(&mut self, targets: &[[f32; W]; 3]) -> u64 {
         let o = self.origin;
-        let (mut inv, mut k, mut ok, mut s) = ([[0f32; W]; 3], [[0u32; W]; 3], [[0f32; W]; 3], [[0f32; W]; 3]);
+        let (mut inv, mut k, mut ok, mut s) = (
+            [[0f32; W]; 3],
+            [[0u32; W]; 3],
+            [[0f32; W]; 3],
+            [[0f32; W]; 3],
+        );
         let mut bytes = [0u8; W];
         for l in 0..W {
             let org = [o[0][l], o[1][l], o[2][l]];
-            let dir = [targets[0][l] - org[0], targets[1][l] - org[1], targets[2][l] - org[2]];
+            let dir = [
+                targets[0][l] - org[0],
+                targets[1][l] - org[1],
+                targets[2][l] - org[2],
+            ];
             let ray = regular_ray(org, dir);
             for a in 0..3 {
-                (inv[a][l], k[a][l], ok[a][l], s[a][l]) = (ray.inv[a], ray.k[a], ray.ok[a], ray.s[a]);
+                (inv[a][l], k[a][l], ok[a][l], s[a][l]) =
+                    (ray.inv[a], ray.k[a], ray.ok[a], ray.s[a]);
             }
             let regular = |x: f32| (x != 0.0) & x.is_finite();
             bytes[l] = top_bit(regular(dir[0]) & regular(dir[1]) & regular(dir[2]));
@@ -491,8 +508,14 @@ impl Chunk {
     fn slab_distances(&self, l: usize, a: usize, lo: &[f32; 3], hi: &[f32; 3]) -> (f32, f32) {
         // Whether the box maximum is the entry plane (`RayData::near`).
         let near = self.inv[a][l] < 0.0;
-        let (bn, bf) = (if near { hi[a] } else { lo[a] }, if near { lo[a] } else { hi[a] });
-        ((bn - self.org_near[a][l]) * self.inv[a][l], (bf - self.org_far[a][l]) * self.inv[a][l])
+        let (bn, bf) = (
+            if near { hi[a] } else { lo[a] },
+            if near { lo[a] } else { hi[a] },
+        );
+        (
+            (bn - self.org_near[a][l]) * self.inv[a][l],
+            (bf - self.org_far[a][l]) * self.inv[a][l],
+        )
     }
 
     /// The lanes of `lanes` that hit triangle `v` (`v[vertex][axis]`) by the watertight test
@@ -522,7 +545,11 @@ impl Chunk {
     fn edge_tests<const SHARED: bool>(&self, v: &[[f32; 3]; 3], vk: &[[f32; 3]; 3]) -> (u64, u64) {
         let (mut hits, mut zero) = ([0u8; W], [0u8; W]);
         for l in 0..W {
-            let e = if SHARED { self.sheared_permuted(l, vk) } else { self.sheared(l, v) };
+            let e = if SHARED {
+                self.sheared_permuted(l, vk)
+            } else {
+                self.sheared(l, v)
+            };
             let uvw = edge_functions(&e);
             hits[l] = top_bit(self.accepts(l, &e, uvw));
             zero[l] = top_bit((uvw[0] == 0.0) | (uvw[1] == 0.0) | (uvw[2] == 0.0));
@@ -549,7 +576,11 @@ impl Chunk {
                 *p = [b.v[vert][0][t], b.v[vert][1][t], b.v[vert][2][t]];
             }
             let hits = self.triangle_lanes(&v, lanes & !blocked);
-            blocked |= if b.alpha >> t & 1 != 0 { opaque_lanes(scene, b.ids[t], self, &v, hits) } else { hits };
+            blocked |= if b.alpha >> t & 1 != 0 {
+                opaque_lanes(scene, b.ids[t], self, &v, hits)
+            } else {
+                hits
+            };
             if blocked == lanes {
                 break;
             }
@@ -665,7 +696,11 @@ fn edge_functions(e: &[f32; 9]) -> [f32; 3] {
 /// `refine` in `bvh/triangle.rs` does for rays through edges and vertices.
 fn edge_functions_f64(e: &[f32; 9]) -> [f32; 3] {
     let [ax, ay, bx, by, cx, cy] = [0, 1, 2, 3, 4, 5].map(|q| f64::from(e[q]));
-    [(cx * by - cy * bx) as f32, (ax * cy - ay * cx) as f32, (bx * ay - by * ax) as f32]
+    [
+        (cx * by - cy * bx) as f32,
+        (ax * cy - ay * cx) as f32,
+        (bx * ay - by * ax) as f32,
+    ]
 }
 
 impl Packet {
@@ -675,7 +710,12 @@ impl Packet {
             chunks: [Chunk::EMPTY; CHUNKS],
             origin_bounds: [Vec3::ZERO; 2],
             origin_scale: 0.0,
-            slopes: Slopes { y: Vec3::ZERO, k: 0, sign: 1.0, scale: 0.0 },
+            slopes: Slopes {
+                y: Vec3::ZERO,
+                k: 0,
+                sign: 1.0,
+                scale: 0.0,
+            },
             lane_stack: [0; STACK],
             slot_stack: [NO_SLOT; STACK],
         }
@@ -689,8 +729,12 @@ impl Packet {
             self.chunks[c].set_origins(chunk);
         }
         let first = origins.first().copied().unwrap_or(Vec3::ZERO);
-        self.origin_bounds = origins.iter().fold([first, first], |[lo, hi], &o| [lo.min(o), hi.max(o)]);
-        self.origin_scale = origins.iter().fold(0f32, |m, o| m.max(o.abs().max_element()));
+        self.origin_bounds = origins
+            .iter()
+            .fold([first, first], |[lo, hi], &o| [lo.min(o), hi.max(o)]);
+        self.origin_scale = origins
+            .iter()
+            .fold(0f32, |m, o| m.max(o.abs().max_element()));
     }
 
     /// Sets the lanes to the segments from `origin` to `targets` (at most [`LANES`], one lane
@@ -712,7 +756,12 @@ impl Packet {
     #[inline(always)]
     fn aim(&mut self, target: Vec3, lanes: u64, (k, sign): (usize, f32)) -> u64 {
         let scale = self.origin_scale.max(target.abs().max_element());
-        self.slopes = Slopes { y: target, k, sign, scale };
+        self.slopes = Slopes {
+            y: target,
+            k,
+            sign,
+            scale,
+        };
         let slopes = self.slopes;
         let mut live = 0u64;
         for (c, chunk) in self.chunks.iter_mut().enumerate() {
@@ -735,7 +784,10 @@ impl Packet {
         let (i, j) = ((k + 1) % 3, (k + 2) % 3);
         let [lo, hi] = &node.bounds;
         let sign = Vec4::splat(sign);
-        let (k0, k1) = ((lo[k] - Vec4::splat(y[k])) * sign, (hi[k] - Vec4::splat(y[k])) * sign);
+        let (k0, k1) = (
+            (lo[k] - Vec4::splat(y[k])) * sign,
+            (hi[k] - Vec4::splat(y[k])) * sign,
+        );
         let kmin = k0.min(k1);
         let ahead = kmin.cmpgt(Vec4::ZERO);
         // Reciprocals: their extra rounding (one ulp) is far below the tolerance.
@@ -746,7 +798,10 @@ impl Packet {
             let (qmin, qmax) = (q0.min(q1).min(q2.min(q3)), q0.max(q1).max(q2.max(q3)));
             let magnitude = lo[a].abs().max(hi[a].abs()).max(Vec4::splat(scale));
             let tol = (qmin.abs().max(qmax.abs()) + magnitude / kmin) * 1e-4;
-            (Vec4::select(ahead, qmin - tol, Vec4::NEG_INFINITY), Vec4::select(ahead, qmax + tol, Vec4::INFINITY))
+            (
+                Vec4::select(ahead, qmin - tol, Vec4::NEG_INFINITY),
+                Vec4::select(ahead, qmax + tol, Vec4::INFINITY),
+            )
         };
         let ((amin, amax), (bmin, bmax)) = (range(i), range(j));
         [amin, amax, bmin, bmax]
@@ -769,7 +824,12 @@ impl Packet {
                 continue;
             }
             for child in 0..4 {
-                let rect = [rects[0][child], rects[1][child], rects[2][child], rects[3][child]];
+                let rect = [
+                    rects[0][child],
+                    rects[1][child],
+                    rects[2][child],
+                    rects[3][child],
+                ];
                 out[child] |= (chunk.rect_lanes(rect) & mine & met[child]) << (W * c);
             }
         }
@@ -839,7 +899,13 @@ impl Bvh {
     ///
     /// Same answers as [`Bvh::occluded`] per origin; faster for nearby origins, whose segments
     /// form a narrow frustum with apex `target` traced as coherent packets (see `bvh/packet.rs`).
-    pub fn occluded_converging(&self, scene: &Scene, origins: &[Vec3], target: Vec3, out: &mut Vec<bool>) {
+    pub fn occluded_converging(
+        &self,
+        scene: &Scene,
+        origins: &[Vec3],
+        target: Vec3,
+        out: &mut Vec<bool>,
+    ) {
         out.clear();
         for chunk in origins.chunks(LANES) {
             let mut blocked = [0u64];
@@ -878,7 +944,9 @@ impl Bvh {
         blocked: &mut [u64],
     ) {
         let origins = &origins[..origins.len().min(LANES)];
-        let present = u64::MAX.checked_shr((LANES - origins.len()) as u32).unwrap_or(0);
+        let present = u64::MAX
+            .checked_shr((LANES - origins.len()) as u32)
+            .unwrap_or(0);
         PACKET.with(|p| {
             // Only busy if `is_opaque_at` re-entered the BVH on this thread.
             let mut packet = p.try_borrow_mut().ok();
@@ -970,7 +1038,11 @@ impl Bvh {
             }
             // Only busy if `is_opaque_at` re-entered the BVH on this thread: ray by ray.
             Err(_) => out.extend(targets.iter().map(|&y| {
-                let hits = |r: &RayData| cand.iter().any(|c| Self::block_occludes(scene, &self.blocks[c.block as usize], r, 1.0));
+                let hits = |r: &RayData| {
+                    cand.iter().any(|c| {
+                        Self::block_occludes(scene, &self.blocks[c.block as usize], r, 1.0)
+                    })
+                };
                 RayData::new(origin, y - origin).is_some_and(|r| hits(&r))
             })),
         });
@@ -989,7 +1061,14 @@ impl Bvh {
     }
 
     #[inline(always)]
-    fn blocks_trace_body(&self, scene: &Scene, p: &mut Packet, origin: Vec3, targets: &[Vec3], cand: &[LeafRef]) -> u64 {
+    fn blocks_trace_body(
+        &self,
+        scene: &Scene,
+        p: &mut Packet,
+        origin: Vec3,
+        targets: &[Vec3],
+        cand: &[LeafRef],
+    ) -> u64 {
         let live = p.set_rays(origin, targets);
         let mut blocked = 0u64;
         for c in cand {
@@ -1015,7 +1094,14 @@ impl Bvh {
     /// One loop, no inner one (see [`Packet::child_lanes`]): leaves are stacked like nodes,
     /// after the inner children of their parent, so they are tested first.
     #[inline(always)]
-    fn packet_traverse(&self, scene: &Scene, p: &mut Packet, f: &Frustum, active: &mut u64, stack: &mut [u32; STACK]) {
+    fn packet_traverse(
+        &self,
+        scene: &Scene,
+        p: &mut Packet,
+        f: &Frustum,
+        active: &mut u64,
+        stack: &mut [u32; STACK],
+    ) {
         let mut sp = 0usize;
         // A single-leaf tree has no node box: every lane tests the leaf.
         let (mut cur, mut lanes, mut slot) = (self.root, *active, NO_SLOT);
@@ -1075,14 +1161,25 @@ mod tests {
             let c = r3(4.0);
             pos.extend([c + r3(0.5) - 0.25, c + r3(0.5) - 0.25, c + r3(0.5) - 0.25]);
         }
-        let faces: Vec<[u32; 3]> = (0..n as u32).map(|k| [3 * k, 3 * k + 1, 3 * k + 2]).collect();
+        let faces: Vec<[u32; 3]> = (0..n as u32)
+            .map(|k| [3 * k, 3 * k + 1, 3 * k + 2])
+            .collect();
         let opaque = Mesh::new(pos.clone(), faces.clone(), None, None, false).unwrap();
-        let uvs: Vec<Vec2> = pos.iter().map(|p| Vec2::new(p.x * 3.1, p.z * 2.7 + p.y)).collect();
-        let alpha: Vec<f32> = (0..16 * 16).map(|k| ((k * 7919 + 13) % 5 < 2) as u8 as f32).collect();
-        let shifted: Vec<Vec3> = pos.iter().map(|p| *p + Vec3::new(0.17, -0.11, 0.23)).collect();
+        let uvs: Vec<Vec2> = pos
+            .iter()
+            .map(|p| Vec2::new(p.x * 3.1, p.z * 2.7 + p.y))
+            .collect();
+        let alpha: Vec<f32> = (0..16 * 16)
+            .map(|k| ((k * 7919 + 13) % 5 < 2) as u8 as f32)
+            .collect();
+        let shifted: Vec<Vec3> = pos
+            .iter()
+            .map(|p| *p + Vec3::new(0.17, -0.11, 0.23))
+            .collect();
         let tex = AlphaTexture::new(16, 16, &alpha).unwrap();
         let perforated = Mesh::new(shifted, faces, Some(uvs), Some(tex), false).unwrap();
-        let g = [(-1.0, -1.0), (5.0, -1.0), (5.0, 5.0), (-1.0, 5.0)].map(|(x, z)| Vec3::new(x, -0.5, z));
+        let g = [(-1.0, -1.0), (5.0, -1.0), (5.0, 5.0), (-1.0, 5.0)]
+            .map(|(x, z)| Vec3::new(x, -0.5, z));
         let ground = Mesh::new(g.to_vec(), vec![[0, 1, 2], [0, 2, 3]], None, None, false).unwrap();
         Scene::new(vec![opaque, perforated, ground]).unwrap()
     }
@@ -1109,13 +1206,26 @@ mod tests {
         bvh.occluded_converging(scene, origins, target, &mut out);
         assert_eq!(out.len(), origins.len());
         for (&o, &blocked) in origins.iter().zip(&out) {
-            assert_eq!(blocked, bvh.occluded(scene, o, target - o, 1.0), "origin {o} target {target}");
+            assert_eq!(
+                blocked,
+                bvh.occluded(scene, o, target - o, 1.0),
+                "origin {o} target {target}"
+            );
         }
         for isa in isas() {
             for (c, chunk) in origins.chunks(LANES).enumerate() {
                 let mut blocked = [0u64];
-                bvh.occluded_converging_lanes_with(isa, scene, chunk, &[target], &[u64::MAX], &mut blocked);
-                let expected = (0..chunk.len()).filter(|&i| out[LANES * c + i]).fold(0u64, |m, i| m | 1 << i);
+                bvh.occluded_converging_lanes_with(
+                    isa,
+                    scene,
+                    chunk,
+                    &[target],
+                    &[u64::MAX],
+                    &mut blocked,
+                );
+                let expected = (0..chunk.len())
+                    .filter(|&i| out[LANES * c + i])
+                    .fold(0u64, |m, i| m | 1 << i);
                 assert_eq!(blocked[0], expected, "{isa:?} target {target}");
             }
         }
@@ -1132,12 +1242,21 @@ mod tests {
         for _ in 0..60 {
             // A tile of origins on the ground or inside the soup (9 x 9: two packets), and
             // targets above: lit, penumbra and umbra lanes, perforated hits included.
-            let corner = Vec3::new(rng.next_f32() * 4.0, rng.next_f32() * 4.5 - 0.49, rng.next_f32() * 4.0);
+            let corner = Vec3::new(
+                rng.next_f32() * 4.0,
+                rng.next_f32() * 4.5 - 0.49,
+                rng.next_f32() * 4.0,
+            );
             let step = 0.002 + rng.next_f32() * 0.05;
-            let origins: Vec<Vec3> =
-                (0..81).map(|k| corner + Vec3::new((k % 9) as f32 * step, 0.0, (k / 9) as f32 * step)).collect();
+            let origins: Vec<Vec3> = (0..81)
+                .map(|k| corner + Vec3::new((k % 9) as f32 * step, 0.0, (k / 9) as f32 * step))
+                .collect();
             for _ in 0..8 {
-                let target = Vec3::new(rng.next_f32() * 6.0 - 1.0, 6.0 + rng.next_f32(), rng.next_f32() * 6.0 - 1.0);
+                let target = Vec3::new(
+                    rng.next_f32() * 6.0 - 1.0,
+                    6.0 + rng.next_f32(),
+                    rng.next_f32() * 6.0 - 1.0,
+                );
                 let (b, l) = check(&bvh, &scene, &origins, target);
                 (blocked, lit) = (blocked + b, lit + l);
             }
@@ -1159,8 +1278,14 @@ mod tests {
             let d = |k: usize| 1.2 + 0.04 * (k % 16) as f32 + 0.01 * (k / 16) as f32;
             let origins: Vec<Vec3> = (0..64).map(|k| Vec3::new(2.0 - d(k), 1.5, z)).collect();
             for chunk in origins.chunks(W) {
-                let axes: Vec<usize> = chunk.iter().map(|&o| RayData::new(o, target - o).unwrap().k[2]).collect();
-                assert!(axes.contains(&0) && axes.contains(&1), "row {row}: dominant axes {axes:?}");
+                let axes: Vec<usize> = chunk
+                    .iter()
+                    .map(|&o| RayData::new(o, target - o).unwrap().k[2])
+                    .collect();
+                assert!(
+                    axes.contains(&0) && axes.contains(&1),
+                    "row {row}: dominant axes {axes:?}"
+                );
             }
             let (b, l) = check(&bvh, &scene, &origins, target);
             (blocked, lit) = (blocked + b, lit + l);
@@ -1175,12 +1300,16 @@ mod tests {
         let target = Vec3::new(2.0, 6.0, 2.0);
         // Directions with exactly zero components (origins straight below or level with the
         // target) and an empty segment (origin at the target).
-        let mut origins: Vec<Vec3> = (0..20).map(|k| Vec3::new(2.0, -0.5 + 0.3 * k as f32, 2.0)).collect();
+        let mut origins: Vec<Vec3> = (0..20)
+            .map(|k| Vec3::new(2.0, -0.5 + 0.3 * k as f32, 2.0))
+            .collect();
         origins.extend((0..20).map(|k| Vec3::new(0.2 * k as f32, -0.4, 2.0)));
         origins.push(target);
         check(&bvh, &scene, &origins, target);
         // Origins on both sides of the target: no frustum, the rays go one by one.
-        let around: Vec<Vec3> = (0..16).map(|k| Vec3::new(0.3 * k as f32 - 0.5, 2.0, 2.0)).collect();
+        let around: Vec<Vec3> = (0..16)
+            .map(|k| Vec3::new(0.3 * k as f32 - 0.5, 2.0, 2.0))
+            .collect();
         check(&bvh, &scene, &around, Vec3::new(2.0, 2.0, 2.1));
         // No origins at all.
         check(&bvh, &scene, &[], target);
@@ -1194,12 +1323,26 @@ mod tests {
         let bvh = Bvh::build(&scene).unwrap();
         let mut rng = Rng::new(3);
         let origins: Vec<Vec3> = (0..LANES + 5)
-            .map(|k| Vec3::new(1.0 + (k % 8) as f32 * 0.03, -0.49 + rng.next_f32() * 2.0, 1.0 + (k / 8) as f32 * 0.03))
+            .map(|k| {
+                Vec3::new(
+                    1.0 + (k % 8) as f32 * 0.03,
+                    -0.49 + rng.next_f32() * 2.0,
+                    1.0 + (k / 8) as f32 * 0.03,
+                )
+            })
             .collect();
         let targets: Vec<Vec3> = (0..24)
-            .map(|_| Vec3::new(rng.next_f32() * 6.0 - 1.0, 6.0 + rng.next_f32(), rng.next_f32() * 6.0 - 1.0))
+            .map(|_| {
+                Vec3::new(
+                    rng.next_f32() * 6.0 - 1.0,
+                    6.0 + rng.next_f32(),
+                    rng.next_f32() * 6.0 - 1.0,
+                )
+            })
             .collect();
-        let lanes: Vec<u64> = (0..targets.len()).map(|_| rng.next_u64() | rng.next_u64()).collect();
+        let lanes: Vec<u64> = (0..targets.len())
+            .map(|_| rng.next_u64() | rng.next_u64())
+            .collect();
         let (mut blocked, mut lit) = (0, 0);
         for isa in isas() {
             let mut out = vec![u64::MAX; targets.len()];
@@ -1207,7 +1350,9 @@ mod tests {
             for ((&y, &m), &got) in targets.iter().zip(&lanes).zip(&out) {
                 // Origins past the first LANES are ignored.
                 let expected = (0..LANES)
-                    .filter(|&i| m >> i & 1 != 0 && bvh.occluded(&scene, origins[i], y - origins[i], 1.0))
+                    .filter(|&i| {
+                        m >> i & 1 != 0 && bvh.occluded(&scene, origins[i], y - origins[i], 1.0)
+                    })
                     .fold(0u64, |acc, i| acc | 1 << i);
                 assert_eq!(got, expected, "{isa:?} target {y}");
                 (blocked, lit) = (blocked + got.count_ones(), lit + (m & !got).count_ones());
@@ -1222,16 +1367,24 @@ mod tests {
     #[test]
     fn converging_packets_through_vertices_and_edges() {
         let k = 8u32;
-        let pos: Vec<Vec3> = (0..=k).flat_map(|z| (0..=k).map(move |x| Vec3::new(x as f32, 0.0, z as f32))).collect();
+        let pos: Vec<Vec3> = (0..=k)
+            .flat_map(|z| (0..=k).map(move |x| Vec3::new(x as f32, 0.0, z as f32)))
+            .collect();
         let faces = (0..k)
             .flat_map(|z| (0..k).map(move |x| z * (k + 1) + x))
             .flat_map(|a| [[a, a + 1, a + k + 2], [a, a + k + 2, a + k + 1]])
             .collect();
         let scene = Scene::new(vec![Mesh::new(pos, faces, None, None, false).unwrap()]).unwrap();
         let bvh = Bvh::build(&scene).unwrap();
-        let origins: Vec<Vec3> = (0..49).map(|i| Vec3::new((i % 7) as f32, -1.0, (i / 7) as f32)).collect();
+        let origins: Vec<Vec3> = (0..49)
+            .map(|i| Vec3::new((i % 7) as f32, -1.0, (i / 7) as f32))
+            .collect();
         let mut blocked = 0;
-        for target in [Vec3::new(2.0, 1.0, 4.0), Vec3::new(3.0, 3.0, 1.0), Vec3::new(6.0, 1.0, 6.0)] {
+        for target in [
+            Vec3::new(2.0, 1.0, 4.0),
+            Vec3::new(3.0, 3.0, 1.0),
+            Vec3::new(6.0, 1.0, 6.0),
+        ] {
             blocked += check(&bvh, &scene, &origins, target).0;
         }
         assert_eq!(blocked, 3 * 49);
@@ -1248,11 +1401,24 @@ mod tests {
         let mut rng = Rng::new(5);
         let (mut blocked, mut lit) = (0, 0);
         for _ in 0..20 {
-            let origin = Vec3::new(rng.next_f32() * 4.0, rng.next_f32() * 4.5 - 0.49, rng.next_f32() * 4.0);
+            let origin = Vec3::new(
+                rng.next_f32() * 4.0,
+                rng.next_f32() * 4.5 - 0.49,
+                rng.next_f32() * 4.0,
+            );
             let targets: Vec<Vec3> = (0..LANES + 13)
-                .map(|_| Vec3::new(rng.next_f32() * 6.0 - 1.0, 6.0 + rng.next_f32(), rng.next_f32() * 6.0 - 1.0))
+                .map(|_| {
+                    Vec3::new(
+                        rng.next_f32() * 6.0 - 1.0,
+                        6.0 + rng.next_f32(),
+                        rng.next_f32() * 6.0 - 1.0,
+                    )
+                })
                 .collect();
-            let expected: Vec<bool> = targets.iter().map(|&y| bvh.occluded(&scene, origin, y - origin, 1.0)).collect();
+            let expected: Vec<bool> = targets
+                .iter()
+                .map(|&y| bvh.occluded(&scene, origin, y - origin, 1.0))
+                .collect();
             for isa in isas() {
                 let mut out = Vec::new();
                 bvh.occluded_by_blocks(isa, &scene, origin, &targets, &all, &mut out);

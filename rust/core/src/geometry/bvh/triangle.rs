@@ -100,7 +100,11 @@ impl RayData {
             inv: inv3.map(Vec4::splat),
             near,
             k: [kx, ky, kz],
-            ok: [Vec4::splat(org[kx]), Vec4::splat(org[ky]), Vec4::splat(org[kz])],
+            ok: [
+                Vec4::splat(org[kx]),
+                Vec4::splat(org[ky]),
+                Vec4::splat(org[kz]),
+            ],
             s: s3.map(Vec4::splat),
         })
     }
@@ -139,7 +143,11 @@ impl Lanes {
 pub(super) fn hit4(b: &Tri4, r: &RayData, t_max: f32) -> Lanes {
     let [kx, ky, kz] = r.k;
     // Vertices relative to the origin, in the permuted axes.
-    let (az, bz, cz) = (b.v[0][kz] - r.ok[2], b.v[1][kz] - r.ok[2], b.v[2][kz] - r.ok[2]);
+    let (az, bz, cz) = (
+        b.v[0][kz] - r.ok[2],
+        b.v[1][kz] - r.ok[2],
+        b.v[2][kz] - r.ok[2],
+    );
     // Shear: x' = x - Sx z, y' = y - Sy z.
     let ax = (b.v[0][kx] - r.ok[0]) - r.s[0] * az;
     let ay = (b.v[0][ky] - r.ok[1]) - r.s[1] * az;
@@ -164,7 +172,13 @@ pub(super) fn hit4(b: &Tri4, r: &RayData, t_max: f32) -> Lanes {
     let ts = t * sign;
     let limit = det.abs() * Vec4::splat(t_max);
     let ok: BVec4A = !(neg & pos) & det.cmpne(Vec4::ZERO) & ts.cmpgt(Vec4::ZERO) & ts.cmplt(limit);
-    Lanes { mask: ok.bitmask(), v, w, det, t }
+    Lanes {
+        mask: ok.bitmask(),
+        v,
+        w,
+        det,
+        t,
+    }
 }
 
 /// Recomputes the edge functions of the lanes in `zero` in double precision (the products of
@@ -188,7 +202,12 @@ fn refine(zero: BVec4A, p: [Vec4; 6], out: [&mut Vec4; 3]) {
 /// The watertight test for one triangle `tri` (vertices 0, 1, 2) against the ray
 /// `origin + t dir`, t in the open interval (0, `t_max`): `(t, b1, b2)` with `b1`, `b2` the
 /// barycentric weights of vertices 1 and 2. Bit-identical to what [`super::Bvh`] computes.
-pub fn intersect_triangle(origin: Vec3, dir: Vec3, tri: [Vec3; 3], t_max: f32) -> Option<(f32, f32, f32)> {
+pub fn intersect_triangle(
+    origin: Vec3,
+    dir: Vec3,
+    tri: [Vec3; 3],
+    t_max: f32,
+) -> Option<(f32, f32, f32)> {
     let r = RayData::new(origin, dir)?;
     let block = Tri4::splat(tri, 0, false);
     let lanes = hit4(&block, &r, t_max);

@@ -1,0 +1,116 @@
+"""A light among the geometry: a lamp inside a closed room, its receivers on every side of it.
+
+The object-based methods split such receivers among the faces of a cube around the light (one
+light frustum per face, Sintorn et al. 2008's six maps for an omni-directional light) and must
+give the ray-traced oracle's bits on the same samples on every receiver.
+"""
+
+import numpy as np
+import pytest
+
+import softshadows as ss
+from softshadows.scenes import _box
+
+ROOM = 2.0
+#: Off every axis and diagonal of the room, so no receiver's direction ties two cube faces.
+LAMP = np.array([0.13, 0.21, -0.07])
+
+
+def room():
+    """A closed room (inward faces) and four boxes around the lamp: above, below, beside, behind."""
+    verts, faces = _box((-ROOM,) * 3, (ROOM,) * 3)
+    walls = ss.Mesh(verts, faces[:, ::-1].copy(), name="room")
+    boxes = [((0.9, -0.3, -0.4), (1.3, 0.5, 0.4)), ((-0.4, 1.0, -0.3), (0.3, 1.2, 0.5)),
+             ((-0.5, -1.1, -0.6), (0.6, -0.8, 0.2)), ((-0.3, -0.2, 0.9), (0.4, 0.6, 1.4)),
+             ((-1.4, 0.0, -1.3), (-0.9, 0.7, -0.8))]
+    return ss.Scene([walls] + [ss.Mesh(*_box(lo, hi), name=f"box{k}") for k, (lo, hi) in enumerate(boxes)])
+
+
+def wall_receivers(n=20, seed=0):
+    """Jittered points on the six inner walls of the room, facing in."""
+    rng = np.random.default_rng(seed)
+    points, normals = [], []
+    for axis in range(3):
+        for side in (-1.0, 1.0):
+            uv = rng.uniform(-ROOM * 0.98, ROOM * 0.98, (n * n, 2))
+            p = np.insert(uv, axis, side * ROOM, axis=1)
+            points.append(p)
+            normals.append(np.tile(np.insert([0.0, 0.0], axis, -side), (len(p), 1)))
+    return ss.Receivers(np.concatenate(points), np.concatenate(normals))
+
+
+LIGHTS = {
+    "point": ss.PointLight(LAMP),
+    "rect": ss.RectLight(LAMP, (0.25, 0.0, 0.05), (0.0, 0.05, -0.25)),
+    "disk": ss.DiskLight(LAMP, (0.3, -1.0, 0.2), 0.25),
+    "sphere": ss.SphereLight(LAMP, 0.2),
+    "ellipsoid": ss.EllipsoidLight(LAMP, [(0.3, 0.0, 0.0), (0.0, 0.1, 0.0), (0.0, 0.0, 0.2)]),
+}
+
+
+def samples_of(light):
+    return 1 if isinstance(light, ss.PointLight) else light.samples(64, pattern="poisson", seed=5)
+
+
+def needs_every_kind_of_receiver(exact):
+    assert np.mean(exact == 0) > 0.02 and np.mean(exact == 1) > 0.3, "needs umbra and lit receivers"
+
+
+@pytest.mark.parametrize("kind", list(LIGHTS))
+def test_object_methods_give_the_oracles_bits_around_a_lamp_in_a_room(kind):
+    scene, light, rx = room(), LIGHTS[kind], wall_receivers()
+    samples = samples_of(light)
+    exact = ss.ray_traced(scene, light, rx, samples=samples)
+    needs_every_kind_of_receiver(exact)
+    if kind != "point":
+        assert np.mean((exact > 0) & (exact < 1)) > 0.05, "needs a penumbra"
+    runs = {
+        "alias_free": lambda: ss.alias_free(scene, light, rx, samples=samples, lut=None, return_stats=True),
+        "stsv bitmask": lambda: ss.stsv(scene, light, rx, samples=samples, opaque="bitmask", return_stats=True),
+        "stsv dcs": lambda: ss.stsv(scene, light, rx, samples=samples, opaque="dcs", return_stats=True),
+        "dcs": lambda: ss.dcs(scene, light, rx, samples=samples, return_stats=True),
+    }
+    for name, run in runs.items():
+        vis, stats = run()
+        assert stats["light_faces"] == 6, name
+        np.testing.assert_array_equal(vis, exact, err_msg=f"{name} with a {kind} light")
+
+
+def test_a_gbuffer_seeing_the_lamp_from_a_corner():
+    # The camera's pixels see three walls and the boxes: their bounds hold the lamp.
+    scene, light = room(), LIGHTS["sphere"]
+    gb = ss.gbuffer(scene, ss.Camera.look_at((1.9, 1.8, 1.9), (0, 0, 0), (0, 1, 0), 100.0, 48, 48))
+    samples = light.samples(64, pattern="poisson", seed=2)
+    exact = ss.ray_traced(scene, light, gb, samples=samples)
+    for method in (ss.alias_free, ss.stsv, ss.dcs):
+        options = {"lut": None} if method is ss.alias_free else {}
+        vis, stats = method(scene, light, gb, samples=samples, return_stats=True, **options)
+        assert stats["light_faces"] > 1, method.__name__
+        np.testing.assert_array_equal(vis[gb.mask], exact[gb.mask], err_msg=method.__name__)
+
+
+def test_penumbra_wedges_stay_close_around_the_lamp():
+    # Penumbra wedges approximate (overlapping silhouettes add), so they are compared in RMSE.
+    scene, light, rx = room(), LIGHTS["sphere"], wall_receivers()
+    samples = samples_of(light)
+    exact = ss.ray_traced(scene, light, rx, samples=samples)
+    vis, stats = ss.penumbra_wedge(scene, light, rx, samples=samples, return_stats=True)
+    assert stats["light_faces"] == 6
+    assert np.sqrt(np.mean((vis - exact) ** 2)) < 0.05
+
+
+def test_receivers_on_one_side_use_one_frustum():
+    scene, light = room(), LIGHTS["sphere"]
+    rx = wall_receivers()
+    floor = rx.points[:, 1] < -ROOM * 0.99
+    below = ss.Receivers(rx.points[floor], rx.normals[floor])
+    samples = samples_of(light)
+    vis, stats = ss.dcs(scene, light, below, samples=samples, return_stats=True)
+    assert stats["light_faces"] == 1
+    np.testing.assert_array_equal(vis, ss.ray_traced(scene, light, below, samples=samples))
+
+
+def test_image_based_methods_say_what_handles_a_lamp_among_the_receivers():
+    scene, light = room(), LIGHTS["sphere"]
+    with pytest.raises(ValueError, match="alias_free, stsv, dcs, penumbra_wedge"):
+        ss.pcss(scene, light, wall_receivers())
