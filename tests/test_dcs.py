@@ -25,14 +25,27 @@ def case(name, size=96, **options):
 def test_counts_give_the_oracles_bits_on_closed_meshes(name, kind):
     setup, gb = case(name, light=kind)
     samples = setup.light.samples(64, pattern="poisson", seed=3)
-    exact = ss.ray_traced(setup.scene, setup.light, gb, samples=samples)
+
+    def oracle(epsilon):
+        return ss.ray_traced(setup.scene, setup.light, gb, samples=samples, rotate="per_receiver", epsilon=epsilon)
+
+    exact = oracle(setup.scene.epsilon)  # on dcs's default samples: rotated per receiver
     assert np.mean((exact > 0) & (exact < 1) & gb.mask) > 0.05, "needs a penumbra"
     vis, stats = ss.dcs(setup.scene, setup.light, gb, samples=samples, return_stats=True)
-    np.testing.assert_array_equal(vis[gb.mask], exact[gb.mask])
+    # Every receiver but a tie: one whose shadow ray to a sample grazes an edge to float32
+    # precision, so that the oracle itself changes when the receiver moves along its normal by
+    # a thousandth of epsilon (about 1e-6 units). On the torus knot under the disk light one
+    # receiver of 8119 (pixel (57, 82)) has such a sample, and dcs places the edge on its other
+    # side: 52 of 64 samples lit against the oracle's 53.
+    differ = (vis != exact) & gb.mask
+    tie = oracle(setup.scene.epsilon * (1 - 1e-3)) != oracle(setup.scene.epsilon * (1 + 1e-3))
+    assert np.all(tie[differ]) and differ.sum() <= 2, f"{differ.sum()} receivers differ, {np.sum(differ & ~tie)} not at a tie"
+    assert np.all(np.abs(vis - exact)[differ] == 1 / 64), "a tie moves one sample"
     assert stats["silhouette_edges"] > 0 and stats["wedge_tests"] > 0 and stats["light_samples"] == 64
 
 
-@pytest.mark.parametrize("options", [{"rotate": "per_receiver"}, {"interleaved": 3}, {"pattern": "sobol", "frame": 2}])
+@pytest.mark.parametrize("options", [{"rotate": "per_receiver"}, {"rotate": None, "interleaved": 3},
+                                     {"rotate": None, "pattern": "sobol", "frame": 2}])
 def test_decorrelated_samples_follow_each_receiver(options):
     setup, gb = case("columns", size=64, light="disk")
     exact = ss.ray_traced(setup.scene, setup.light, gb, samples=16, seed=4, **options)
@@ -90,7 +103,7 @@ def test_samples_past_a_face_are_counted_exactly(kind):
     among = on - center * np.float32(0.8)
     below = on * np.float32([1, -1, 1])
     samples = np.concatenate([among, below])
-    exact = ss.ray_traced(setup.scene, setup.light, gb, samples=samples)
+    exact = ss.ray_traced(setup.scene, setup.light, gb, samples=samples, rotate="per_receiver")  # dcs's default
     assert np.mean((exact > 0) & (exact < 1) & gb.mask) > 0.05, "needs a penumbra"
     np.testing.assert_array_equal(ss.dcs(setup.scene, setup.light, gb, samples=samples), exact)
 
@@ -103,7 +116,7 @@ def test_a_sphere_light_enclosing_the_scene_gives_the_oracles_bits(radius):
     setup, gb = case("ground_sphere", size=16)
     light = ss.SphereLight((0, 3, 0), radius)
     samples = light.samples(64, seed=1)
-    exact = ss.ray_traced(setup.scene, light, gb, samples=samples)
+    exact = ss.ray_traced(setup.scene, light, gb, samples=samples, rotate="per_receiver")
     np.testing.assert_array_equal(ss.dcs(setup.scene, light, gb, samples=samples), exact)
 
 
@@ -115,3 +128,21 @@ def test_unlit_receivers_get_positive_zero(kind):
     vis = ss.dcs(setup.scene, setup.light, gb)
     assert np.any(vis[gb.mask] == 0) and not np.signbit(vis).any()
     assert not np.signbit(ss.stsv(setup.scene, setup.light, gb, opaque="dcs")).any()
+
+
+@pytest.mark.parametrize("method", [ss.dcs, ss.stsv, ss.penumbra_wedge])
+def test_the_default_decorrelates_the_error_per_receiver(method):
+    # Forest et al. 2009, section 4.1 draw an independent (rotated) sample set per receiver. One
+    # shared pattern of 16 samples makes neighbouring penumbra pixels err alike (structured
+    # bands: lag-1 correlation 0.48-0.53 on the columns); the default leaves noise (|r| < 0.05).
+    setup, gb = case("columns", size=128)
+    ref = ss.ray_traced(setup.scene, setup.light, gb, samples=1024, pattern="sobol", seed=9)
+    penumbra = gb.mask & (ref > 0.02) & (ref < 0.98)
+    pairs = penumbra[:, 1:] & penumbra[:, :-1]
+
+    def neighbour_correlation(vis):
+        err = vis - ref
+        return np.corrcoef(err[:, 1:][pairs], err[:, :-1][pairs])[0, 1]
+
+    assert neighbour_correlation(method(setup.scene, setup.light, gb, samples=16, rotate=None)) > 0.4
+    assert abs(neighbour_correlation(method(setup.scene, setup.light, gb, samples=16))) < 0.1

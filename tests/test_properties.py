@@ -61,8 +61,10 @@ def test_exact_methods_keep_the_oracles_bits_on_random_soups(seed, method):
     samples = light.samples(32, seed=int(seed % 1000))
     exact = ss.ray_traced(scene, light, receivers, samples=samples)
     options = {"lut": None} if method == "alias_free" else {}
-    vis = ss.METHODS[method](scene, light, receivers, samples=samples, **options)
-    assert np.mean(vis == exact) >= 0.99
+    vis = ss.METHODS[method](scene, light, receivers, samples=samples, rotate=None, **options)
+    # Exact methods: every receiver (a sample within round-off of a soup triangle's edge could
+    # split them, but none did in 600 soups measured).
+    np.testing.assert_array_equal(vis, exact)
 
 
 @SETTINGS
@@ -79,14 +81,14 @@ def test_alpha_textures_and_uvs_of_any_size_and_range(kind, shape, offset, conti
         card = ss.Mesh(quad, np.uint32([[0, 2, 1], [0, 3, 2]]), uvs=uvs, alpha=alpha)
         scene = ss.Scene([ground, card])
         samples = light.samples(16)
-        exact = ss.ray_traced(scene, light, ground_receivers(), samples=samples)
+        exact = ss.ray_traced(scene, light, ground_receivers(), samples=samples, rotate="per_receiver")  # stsv's default
         vis = ss.stsv(scene, light, ground_receivers(), samples=samples, two_sided=True)
     except ValueError as error:
         refusal_names_an_argument(error)
         assert 0 in shape, "only an empty texture is refused"
         return
     check_visibility(vis)
-    assert np.mean(vis == exact) >= 0.99
+    np.testing.assert_array_equal(vis, exact)
 
 
 @SETTINGS
@@ -192,7 +194,7 @@ def test_exact_methods_keep_the_oracles_bits_for_any_samples(light_samples, meth
     # they lie, every exact method gives ray_traced's bits on every receiver, or refuses them.
     light, samples, place = light_samples
     opaque, perforated, gb = _exact_method_scene()
-    rotation = {"rotate": "per_receiver", "seed": 7} if rotate and not isinstance(light, ss.RectLight) else {}
+    rotation = {"rotate": "per_receiver", "seed": 7} if rotate and not isinstance(light, ss.RectLight) else {"rotate": None}
     scene = perforated if method.startswith("stsv") else opaque
     exact = ss.ray_traced(scene, light, gb, samples=samples, **rotation)
     try:
@@ -246,7 +248,7 @@ def test_exact_methods_keep_the_oracles_bits_whatever_the_lights_size(log_size, 
     exact = ss.ray_traced(scene, light, receivers, samples=samples)
     for method, run in SIZED.items():
         try:
-            vis = run(scene, light, receivers, samples=samples)
+            vis = run(scene, light, receivers, samples=samples, rotate=None)
         except ValueError as error:
             refusal_names_an_argument(error)
             continue

@@ -150,3 +150,16 @@ def test_interleaving_builds_only_the_patterns_of_the_pixels(small_penumbra, rot
             own = setup.light.samples(16, pattern="poisson", seed=pattern_seed(7, x + 1000 * y))
             expected = ss.ray_traced(setup.scene, setup.light, gb, samples=own, seed=7, rotate=rotate)
             assert vis[y, x] == expected[y, x], (x, y)
+
+
+@pytest.mark.parametrize("method", ["ray_traced", "alias_free", "dcs", "stsv"])
+@pytest.mark.parametrize("frame", [0, 3])
+def test_a_sample_count_draws_the_pattern_of_light_samples(small_penumbra, method, frame):
+    # samples=n without interleaving is light.samples(n, pattern=, seed=, frame=) itself, so a
+    # count and the drawn array compare bit for bit (the frames of Sintorn et al. 2008, Figure 7,
+    # accumulate to the union of their patterns).
+    setup, gb = small_penumbra
+    options = {"rotate": None, "lut": None} if method == "alias_free" else {"rotate": None}
+    drawn = setup.light.samples(16, pattern="halton", seed=5, frame=frame)
+    counted = ss.METHODS[method](setup.scene, setup.light, gb, samples=16, pattern="halton", seed=5, frame=frame, **options)
+    np.testing.assert_array_equal(counted, ss.METHODS[method](setup.scene, setup.light, gb, samples=drawn, **options))

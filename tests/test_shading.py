@@ -353,3 +353,43 @@ def test_bent_normals_fade_faces_touching_the_terminator_and_keep_flat_ground():
     assert np.median(cos[faded]) < np.median(cos[lit & ~faded])
     with pytest.raises(ValueError, match="scene"):
         ss.shading.direct(gb, setup.light, vis, bent_normals=True)
+
+
+def test_bent_normals_blend_as_section_4_3_writes_it():
+    # A hinge: a floor triangle and a wall triangle sharing the edge x = 0 (vertices 0 and 1),
+    # a point light up and in front of the floor. Written out independently: at a floor point
+    # with barycentrics b, I = sum b_k max(n_floor . l_k, 0), I_bend = sum b_k min over the
+    # vertex's faces of max(n_f . l_k, 0), alpha = min(1, 3 I_bend), shading alpha I + (1 - alpha) I_bend.
+    floor = np.array([[0, 0, -1], [0, 0, 1], [1, 0, 0]], np.float32)      # normal +y
+    wall = np.array([[0, 0, -1], [0, 0, 1], [0, -1, 0]], np.float32)      # the shared edge, then down
+    # Adjacent faces share vertices (indices 0 and 1), as the paper's triangles with adjacency.
+    scene = ss.Scene([ss.Mesh(np.concatenate([floor, wall[2:]]), np.uint32([[0, 1, 2], [0, 3, 1]]))])
+    light = ss.PointLight((2.0, 1.0, 0.3))
+    camera = ss.Camera.look_at((0.6, 2.0, 0.1), (0.4, 0.0, 0.0), (0, 0, 1), 60.0, 24, 24)
+    gb = ss.gbuffer(scene, camera)
+    on_floor = gb.mask & (gb.face_ids == 0)
+    assert on_floor.sum() > 50
+    plain = ss.shading.direct(gb, light, np.ones(gb.shape))
+    bent = ss.shading.direct(gb, light, np.ones(gb.shape), bent_normals=True, scene=scene)
+
+    normals = {"floor": np.array([0, 1.0, 0]), "wall": np.cross(wall[2] - wall[0], wall[1] - wall[0])}
+    normals["wall"] /= np.linalg.norm(normals["wall"])
+    assert normals["wall"] @ (np.asarray(light.position) - wall[2]) < 0  # the wall faces away from the light
+
+    def cosine(n, vertex):
+        l = np.asarray(light.position, np.float64) - vertex
+        return max(float(n @ l / np.linalg.norm(l)), 0.0)
+
+    own = [cosine(normals["floor"], v) for v in floor]
+    darkest = [min(cosine(normals["floor"], v), cosine(normals["wall"], v)) for v in floor[:2]] + [own[2]]
+    p = gb.positions[on_floor].astype(np.float64)
+    # Barycentrics of the floor points in the xz plane (the floor is y = 0).
+    t = np.linalg.solve(np.array([[floor[0, 0] - floor[2, 0], floor[1, 0] - floor[2, 0]],
+                                  [floor[0, 2] - floor[2, 2], floor[1, 2] - floor[2, 2]]]),
+                        np.stack([p[:, 0] - floor[2, 0], p[:, 2] - floor[2, 2]]))
+    b = np.stack([t[0], t[1], 1 - t[0] - t[1]], 1)
+    i, i_bend = b @ own, b @ darkest
+    alpha = np.minimum(1, 3 * i_bend)
+    expected = plain[on_floor] * (alpha * i + (1 - alpha) * i_bend) / i
+    np.testing.assert_allclose(bent[on_floor], expected, rtol=2e-4, atol=1e-7)
+    assert bent[on_floor].min() < 0.5 * plain[on_floor].min()  # the floor fades towards the wall's edge

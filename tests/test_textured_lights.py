@@ -40,19 +40,27 @@ def test_a_textured_light_is_used_or_refused(name, case):
     assert ss.metrics.rmse(vis, with_texture, gb.mask) < 0.5 * ss.metrics.rmse(vis, without, gb.mask)
 
 
-def test_the_weighting_matches_an_independent_average_over_the_lit_half():
-    """The textured light's visibility is the visibility of the samples on its emitting half
-    alone: computed here by tracing only those samples with an untextured light."""
+EXACT = {"ray_traced": {}, "alias_free": {"lut": None}, "dcs": {}, "stsv": {}}
+
+
+@pytest.mark.parametrize("name", list(EXACT))
+def test_the_weighting_matches_an_independent_average_over_the_two_halves(name):
+    """A light emitting 1 from one half and 3 from the other: each method's visibility is the
+    emission-weighted mean of the two halves' visibilities, each computed here by tracing only
+    that half's samples with an untextured light (no weight function involved)."""
     setup = ss.scenes.get("columns", width=32, height=32)
     gb = ss.gbuffer(setup.scene, setup.camera)
     light = setup.light
-    half = np.zeros((4, 4), np.float32)
-    half[:, :2] = 1.0
-    textured = ss.RectLight(light.center, light.u, light.v, emission=half)
+    emission = np.ones((4, 4), np.float32)
+    emission[:, 2:] = 3.0
+    textured = ss.RectLight(light.center, light.u, light.v, emission=emission)
     samples = light.samples(256, pattern="sobol", seed=2)
     # The sample's parameter u in [-1, 1] along the rect's u axis: columns j < W/2 are u < 0.
     u = (samples - np.asarray(light.center)) @ np.asarray(light.u) / np.dot(light.u, light.u)
-    lit = samples[u < 0]
-    expected = ss.ray_traced(setup.scene, light, gb, samples=lit)
-    got = ss.ray_traced(setup.scene, textured, gb, samples=samples)
+    halves = [(samples[u < 0], 1.0), (samples[u >= 0], 3.0)]
+    weighted = [w * len(s) * ss.ray_traced(setup.scene, light, gb, samples=s).astype(np.float64) for s, w in halves]
+    expected = sum(weighted) / sum(w * len(s) for s, w in halves)
+    unweighted = ss.ray_traced(setup.scene, light, gb, samples=samples)
+    assert np.abs(expected - unweighted)[gb.mask].max() > 0.1  # the weights matter here
+    got = METHODS[name](setup.scene, textured, gb, samples=samples, rotate=None, **EXACT[name])
     np.testing.assert_allclose(got[gb.mask], expected[gb.mask], atol=1e-6)

@@ -20,11 +20,13 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 import time
 from pathlib import Path
 
 from . import __version__
 from . import _validate as v
+from ._extras import MissingExtraError, require
 
 
 def _run_methods(setup, gb, samples, progress):
@@ -48,7 +50,10 @@ def demo(out, *, scene: str = "columns", size: int = 256, samples: int = 64, ref
 
     Writes into ``out``: ``demo.png`` (the comparison grid), ``<method>.exr`` and
     ``reference.exr`` (visibility), ``metrics.md`` and ``metrics.json``. The arguments are checked
-    before ``out`` is created.
+    before ``out`` is created, and so is the ``evaluation`` extra (Mitsuba, scikit-image,
+    flip-evaluator, OpenEXR, matplotlib): without it a ``ModuleNotFoundError`` names it.
+    Without LLVM the Mitsuba reference runs on the slower ``scalar_rgb`` variant, with a warning
+    saying how to get the fast one (:func:`softshadows.reference.variant`).
 
     Parameters
     ----------
@@ -94,6 +99,8 @@ def demo(out, *, scene: str = "columns", size: int = 256, samples: int = 64, ref
         out = Path(out)
     except TypeError:
         raise TypeError(f"out: expected a str or os.PathLike, got {type(out).__name__}") from None
+    for module in ("mitsuba", "skimage", "flip_evaluator", "OpenEXR", "matplotlib"):  # before any work
+        require(module, extra="evaluation", for_="softshadows demo")
     setup = scenes.get(scene, width=size, height=size)
     out.mkdir(parents=True, exist_ok=True)
     # disable=None: tqdm draws only on a terminal.
@@ -191,8 +198,10 @@ def main(argv=None) -> int:
     Returns
     -------
     int
-        The exit status: 0 on success, 1 when a claim's measurement broke (``reproduce``). Bad
-        arguments exit through ``SystemExit(2)`` with a usage message, as argparse does.
+        The exit status: 0 on success, 1 when a claim's measurement broke (``reproduce``) or an
+        optional package the command needs is missing (a message on stderr names the extra to
+        install, ``pip install 'softshadows[evaluation]'``). Bad arguments exit through
+        ``SystemExit(2)`` with a usage message, as argparse does.
 
     Examples
     --------
@@ -244,10 +253,18 @@ def main(argv=None) -> int:
     r.add_argument("--record", type=Path, default=None, help="also record the fast tier's values as the tests' expectations (a CSV)")
     r.add_argument("--readme", type=Path, default=None, help="also rewrite the claims block of this README")
     args = parser.parse_args(argv)
-    if args.command == "evaluate":
-        return _evaluate(args)
-    if args.command == "reproduce":
-        return _reproduce(args, r)
+    try:
+        if args.command == "evaluate":
+            return _evaluate(args)
+        if args.command == "reproduce":
+            return _reproduce(args, r)
+        return _demo(args)
+    except MissingExtraError as exc:  # the core is installed without the evaluation stack
+        print(exc, file=sys.stderr)  # e.g. "softshadows demo needs mitsuba: pip install ..."
+        return 1
+
+
+def _demo(args) -> int:
     table = demo(args.out, scene=args.scene, size=args.size, samples=args.samples, reference_samples=args.reference_samples)
     width = max(map(len, table))
     for name, m in table.items():

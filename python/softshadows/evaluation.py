@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from . import _validate as v
+from ._extras import require
 
 __all__ = ["evaluate", "sweep", "report", "latex_table", "pareto_front", "results_table", "update_readme"]
 
@@ -112,7 +113,7 @@ def evaluate(
     ...
     ValueError: methods: unknown ['ray_trace']; expected names from ['ray_traced', ...]
     """
-    import pandas as pd
+    pd = require("pandas", extra="evaluation", for_="softshadows.evaluate")
     from tqdm.auto import tqdm
 
     from . import metrics, reference, shading
@@ -222,7 +223,7 @@ def sweep(method: str, parameters: dict, *, scenes=("columns",), lights=("rect",
     import os
     from concurrent.futures import ProcessPoolExecutor
 
-    import pandas as pd
+    pd = require("pandas", extra="evaluation", for_="softshadows.sweep")
     from tqdm.auto import tqdm
 
     from .methods import METHODS
@@ -322,7 +323,7 @@ def pareto_front(frame, x: str = "seconds", y: str = "rmse"):
     for i, (a, b) in enumerate(values):
         dominated = ok & (values[:, 0] <= a) & (values[:, 1] <= b) & ((values[:, 0] < a) | (values[:, 1] < b))
         front.append(bool(ok[i] and not dominated.any()))
-    import pandas as pd
+    pd = require("pandas", extra="evaluation", for_="softshadows.evaluation.pareto_front")
 
     return pd.Series(front, index=frame.index, name="pareto", dtype=bool)  # bool even with no rows
 
@@ -362,7 +363,7 @@ def report(frame, out, *, latex: bool = False) -> Path:
     ['pareto.png', 'report.md', 'results.csv', 'results.tex']
     | **exact** | 0.0000 | inf | 1.0000 | 0.0000 | 0.0000 | 0.0000 | 0.0000 | 2.000 |
     """
-    import matplotlib.pyplot as plt
+    plt = require("matplotlib.pyplot", extra="evaluation", for_="softshadows.evaluation.report")
 
     from . import metrics, plot
 
@@ -460,6 +461,7 @@ def latex_table(frame) -> str:
     \bottomrule
     \end{tabular}
     """
+    require("jinja2", extra="evaluation", for_="softshadows.evaluation.latex_table")  # pandas' Styler.to_latex
     _columns(frame, _REPORT_COLUMNS)
     frame = _with_pareto(frame)
     headings = {column: heading for column, heading, _ in _TABLE_COLUMNS}
@@ -483,7 +485,7 @@ def _number(value, digits: int) -> str:
 
 def _with_pareto(frame):
     """``frame`` with a ``pareto`` column: on the time-versus-RMSE front of its scene and light."""
-    import pandas as pd
+    pd = require("pandas", extra="evaluation", for_="softshadows.evaluation")
 
     fronts = [pareto_front(group) for _, group in frame.groupby(["scene", "light"], sort=False)]
     return frame.assign(pareto=pd.concat(fronts).reindex(frame.index))
@@ -561,7 +563,7 @@ def _options(options, methods) -> dict:
 
 def _columns(frame, columns) -> None:
     """A pandas DataFrame with ``columns``, or a ValueError naming the missing ones."""
-    import pandas as pd
+    pd = require("pandas", extra="evaluation", for_="softshadows.evaluation")
 
     if not isinstance(frame, pd.DataFrame):
         raise ValueError(f"frame: expected a pandas.DataFrame from evaluate() or sweep(), got {type(frame).__name__}")

@@ -35,6 +35,7 @@ import tempfile
 import numpy as np
 
 from . import _validate as _v
+from ._extras import require
 
 __all__ = ["write_exr", "read_exr", "read_environment", "write_png", "tonemap", "auto_exposure", "AUTO_PERCENTILE"]
 
@@ -74,7 +75,7 @@ def write_exr(path, image) -> None:
     ValueError: path: '...visibility.png' has the extension '.png' but write_exr writes OpenEXR; ...
     >>> folder.cleanup()
     """
-    import OpenEXR
+    OpenEXR = require("OpenEXR", extra="evaluation", for_="softshadows.io.write_exr")
 
     path = _path(path)
     _extension(path, ".exr", "write_exr writes OpenEXR", "or call write_png for a PNG to look at")
@@ -140,7 +141,7 @@ def read_exr(path) -> np.ndarray:
     ValueError: path: ...view.png is a PNG image, not an OpenEXR file; read it with matplotlib.image.imread (8-bit display values)
     >>> folder.cleanup()
     """
-    import OpenEXR
+    OpenEXR = require("OpenEXR", extra="evaluation", for_="softshadows.io.read_exr")
 
     path = _path(path)
     if not os.path.exists(path):
@@ -247,8 +248,8 @@ def write_png(path, image, *, exposure=None, vmin=None, vmax=None, cmap: str | N
     1.0
     >>> folder.cleanup()
     """
-    import matplotlib
-    import matplotlib.image
+    matplotlib = require("matplotlib", extra="evaluation", for_="softshadows.io.write_png")
+    require("matplotlib.image", extra="evaluation", for_="softshadows.io.write_png")
 
     path = _path(path)
     _extension(path, ".png", "write_png writes PNG", "or call write_exr to keep the float values")

@@ -30,6 +30,7 @@ import math
 import numpy as np
 
 from . import _validate as v
+from ._extras import require
 
 __all__ = ["rmse", "psnr", "ssim", "flip", "regions", "region_rmse", "error_heatmap", "summary"]
 
@@ -137,7 +138,7 @@ def ssim(test, ref, mask=None) -> float:
     >>> metrics.ssim(ramp, ramp), round(metrics.ssim(np.clip(ramp + 0.1, 0, 1), ramp), 4)
     (1.0, 0.9682)
     """
-    from skimage.metrics import structural_similarity
+    structural_similarity = require("skimage.metrics", extra="evaluation", for_="softshadows.metrics.ssim").structural_similarity
 
     t, r, m = _inputs(test, ref, mask)
     if min(t.shape[:2]) < 7:
@@ -183,7 +184,7 @@ def flip(test, ref, mask=None, *, dynamic_range: str = "LDR") -> float:
     >>> metrics.flip(ramp, ramp), 0 < metrics.flip(np.clip(ramp + 0.1, 0, 1), ramp) < 1
     (0.0, True)
     """
-    import flip_evaluator
+    flip_evaluator = require("flip_evaluator", extra="evaluation", for_="softshadows.metrics.flip")
 
     if dynamic_range not in ("LDR", "HDR"):
         raise ValueError(f"dynamic_range: expected 'LDR' or 'HDR', got {dynamic_range!r}")
@@ -252,7 +253,7 @@ def error_heatmap(test, ref, mask=None, *, vmax: float | None = None, signed: bo
     >>> img.shape, bool(img[0, 0, 0] > img[0, 0, 2]), img[0, 1].tolist()  # too bright: red; masked: gray
     ((1, 2, 3), True, [0.5, 0.5, 0.5])
     """
-    import matplotlib
+    matplotlib = require("matplotlib", extra="evaluation", for_="softshadows.metrics.error_heatmap")
 
     t, r, m = _inputs(test, ref, mask)
     err = t - r

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._extras import require
+
 __all__ = ["comparison_grid", "show_samples", "NO_HIT", "MAX_COLUMNS", "MAX_WIDTH"]
 
 #: The colour of pixels that hit no surface, so they never read as shadow.
@@ -68,8 +70,8 @@ def comparison_grid(reference, results: dict, mask=None, *, path=None, titles: d
     >>> fig.canvas.manager is None                                  # not registered with pyplot
     True
     """
-    import matplotlib
-    from matplotlib.figure import Figure
+    matplotlib = require("matplotlib", extra="evaluation", for_="softshadows.plot.comparison_grid")
+    Figure = require("matplotlib.figure", extra="evaluation", for_="softshadows.plot.comparison_grid").Figure
 
     from . import _validate as v
     from .metrics import _inputs, error_heatmap
@@ -144,7 +146,7 @@ def show_samples(light, samples, *, ax=None, title: str | None = None):
     >>> ax.get_title(), ax.figure.canvas.manager is None
     ('16 samples', True)
     """
-    from matplotlib.figure import Figure
+    Figure = require("matplotlib.figure", extra="evaluation", for_="softshadows.plot.show_samples").Figure
 
     from . import _validate as v
 

@@ -79,6 +79,7 @@ from pathlib import Path
 import numpy as np
 
 from . import _validate as v
+from ._extras import require
 from .camera import Camera, as_receivers
 from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight, _tangent_frame
 from .scene import Scene
@@ -131,7 +132,7 @@ def _mitsuba():
 
 def _select_variant():
     global _selected
-    import mitsuba as mi
+    mi = require("mitsuba", extra="evaluation", for_="softshadows.reference")
 
     if _selected is None:
         forced = os.environ.get("SOFTSHADOWS_MITSUBA_VARIANT")
@@ -147,6 +148,14 @@ def _select_variant():
             break
         else:
             raise RuntimeError("no usable Mitsuba variant: " + "; ".join(errors))
+        if errors and not forced:  # the fast variant failed: say so once, and how to get it
+            warnings.warn(
+                f"Mitsuba's fast llvm_ad_rgb variant did not load ({errors[0].splitlines()[0]}); the Mitsuba "
+                "references use scalar_rgb, which traces one ray at a time from Python: correct, but several times "
+                "slower (minutes for the demo). For the fast variant install LLVM 19, on Debian/Ubuntu with "
+                "`sudo apt-get install -y libllvm19` (elsewhere, set DRJIT_LIBLLVM_PATH to LLVM 19's libLLVM.so), "
+                "and start Python again; SOFTSHADOWS_MITSUBA_VARIANT=scalar_rgb chooses scalar_rgb without this warning.",
+                RuntimeWarning, stacklevel=4)
     elif mi.variant() != _selected:
         mi.set_variant(_selected)
     return mi
@@ -236,7 +245,7 @@ def _bsdf_dict(mesh, albedo: float) -> dict:
 
 def _texture(values: np.ndarray) -> dict:
     """A nearest/repeat bitmap of a (H, W) array, row 0 at v = 0 (Mitsuba's in-memory convention)."""
-    import mitsuba as mi
+    mi = require("mitsuba", extra="evaluation", for_="softshadows.reference")
 
     data = np.ascontiguousarray(values, dtype=np.float32)[..., None]
     return {"type": "bitmap", "bitmap": mi.Bitmap(data), "filter_type": "nearest", "wrap_mode": "repeat", "raw": True}
@@ -300,7 +309,7 @@ def _frame(center, x, y, z):
     orthogonal to x and y on the side of ``z`` (``z = normalize(x cross y)`` here): the
     emitting side stays ``normalize(u x v)`` even for non-orthogonal u, v.
     """
-    import mitsuba as mi
+    mi = require("mitsuba", extra="evaluation", for_="softshadows.reference")
 
     m = np.eye(4)
     m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, y, z, center
@@ -454,7 +463,7 @@ class _Tracer:
 
     def _shape_id(self, shape):
         if _vectorized(self.mi):
-            import drjit as dr
+            dr = require("drjit", extra="evaluation", for_="softshadows.reference")
 
             return int(np.asarray(dr.reinterpret_array(self.mi.UInt32, self.mi.ShapePtr(shape)))[0])
         return shape.id()
@@ -507,7 +516,7 @@ class _Tracer:
         """(hit, t, geometric normal, uv, shape id) of the first hit of each ray."""
         mi = self.mi
         if _vectorized(mi):
-            import drjit as dr
+            dr = require("drjit", extra="evaluation", for_="softshadows.reference")
 
             si = self.perforated.ray_intersect(_rays(mi, o, d, maxt), mi.RayFlags.Minimal | mi.RayFlags.UV, False)
             hit = np.asarray(si.is_valid(), bool).reshape(-1)

@@ -49,10 +49,13 @@ from . import _validate as v
 from .camera import as_receivers
 from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight, _tangent_frame
 
-__all__ = ["direct", "unshadowed_irradiance", "DISK_EDGES"]
+__all__ = ["direct", "unshadowed_irradiance", "DISK_EDGES", "BEND_SHARPNESS"]
 
 #: Edges of the regular polygon standing in for a disk light.
 DISK_EDGES = 256
+#: The sharpness c of the bent-normal blend alpha = min(1, max(c I_bend, 0)) (Sintorn et al.
+#: 2008, section 4.3: "c := 3 works well").
+BEND_SHARPNESS = 3.0
 #: Receivers per vectorized batch (bounds temporaries to a few hundred MB for the disk polygon).
 _BATCH = 8192
 
@@ -64,10 +67,13 @@ def direct(gbuffer, light, visibility, albedo=0.8, *, intensity: float = 1.0, be
     With ``bent_normals=True`` the shading follows the smooth coherent model of
     Sintorn et al. 2008, Sample Based Visibility for Soft Shadows, section 4.3:
     each vertex gets the smallest ``max(0, n_f . l)`` over its adjacent faces ``f`` (``l`` from the
-    vertex towards the light's center); each corner of the receiver's face keeps that value over
-    the face's own cosine there, and ``E`` is scaled by the barycentric blend of the three. Light
+    vertex towards the light's center), and ``I_bend`` interpolates it over the receiver's face
+    as ``I`` interpolates the face's own cosine; the shading is ``alpha I + (1 - alpha) I_bend``
+    with ``alpha = min(1, max(c I_bend, 0))``, ``c =`` :data:`BEND_SHARPNESS` = 3, the paper's,
+    applied here as the factor ``(alpha I + (1 - alpha) I_bend) / I`` on ``E``. Light
     back-facing triangles and the triangles touching them fade to black continuously, so light
-    does not leak past the shadow terminator; a flat mesh (all neighbours coplanar) is unchanged.
+    does not leak past the shadow terminator; faces whose darkest neighbour still sees the light
+    at a cosine of 1/3 or more, and a flat mesh (all neighbours coplanar), are unchanged.
 
     Parameters
     ----------
@@ -167,11 +173,17 @@ def _bent_ratio(gbuffer, scene, light, points, normals, mask) -> np.ndarray:
     nrm = np.cross(b - a, c - a)
     b1 = np.einsum("ij,ij->i", np.cross(p - a, c - a), nrm) / n2
     b2 = np.einsum("ij,ij->i", np.cross(b - a, p - a), nrm) / n2
-    # Each corner keeps the fraction of its face's own cosine that its darkest neighbour allows.
+    weights = (1 - b1 - b2, b1, b2)
     own_n = face_n[ids[hit]]
-    corner = [np.einsum("ij,ij->i", own_n, to_light[f[:, k]]) for k in range(3)]
-    fraction = [np.where(c > 0, np.clip(vertex_min[f[:, k]] / np.maximum(c, 1e-12), 0.0, 1.0), 0.0) for k, c in enumerate(corner)]
-    ratio[hit] = (1 - b1 - b2) * fraction[0] + b1 * fraction[1] + b2 * fraction[2]
+    # Section 4.3: I, the face's own (Gouraud-interpolated) cosine; I_bend, the interpolated
+    # smallest cosine of the corners' adjacent faces (<= I); the blend alpha I + (1 - alpha) I_bend
+    # with alpha = min(1, max(c I_bend, 0)) is I where I_bend >= 1/c and falls to I_bend, 0 on the
+    # light back-facing side, towards the terminator. E is scaled by the blend over I.
+    own = sum(w * np.maximum(np.einsum("ij,ij->i", own_n, to_light[f[:, k]]), 0.0) for k, w in enumerate(weights))
+    bend = sum(w * vertex_min[f[:, k]] for k, w in enumerate(weights))
+    alpha = np.minimum(1.0, np.maximum(BEND_SHARPNESS * bend, 0.0))
+    blended = alpha * own + (1 - alpha) * bend
+    ratio[hit] = np.where(own > 0, blended / np.maximum(own, 1e-300), 0.0)
     return ratio
 
 

@@ -89,6 +89,23 @@ def test_compare_expected_reports_a_changed_verdict_with_both_values(tmp_path, m
     assert any("'refuted'" in p and "'holds'" in p and "1.5" in p and "0.5" in p for p in problems)
 
 
+@pytest.mark.parametrize("tolerance, remeasured, reported", [
+    ({"speedup": claims.TIMING}, 0.9, False),  # a time ratio within its timing noise: the load
+    ({"speedup": claims.TIMING}, 1.9, True),  # beyond it: a change
+    ({}, 0.9, True),  # a deterministic value: every flip is a change
+])
+def test_a_verdict_that_timing_noise_flips_is_no_change(tmp_path, monkeypatch, tolerance, remeasured, reported):
+    value = {"speedup": 0.7}
+    monkeypatch.setitem(claims.CLAIMS, "marrs18.synthetic", claims.Claim(
+        "marrs18.synthetic", claims.PAPERS["marrs18"], "nowhere", "faster", "x <= 0.8",
+        lambda tier: claims.Measured(dict(value)), claims.AtMost("speedup", 0.8, in_kind=1.25), "{speedup:.2f}",
+        tolerance=tolerance))
+    path = claims.record_expected(claims.reproduce(ids=["marrs18.synthetic"], progress=False), tmp_path / "expected.csv")
+    value["speedup"] = remeasured
+    problems = claims.compare_expected(claims.reproduce(ids=["marrs18.synthetic"], progress=False), path)
+    assert any("verdict" in p for p in problems) == reported, problems
+
+
 def test_report_has_one_table_per_paper_and_the_csv(tmp_path, monkeypatch):
     for key in ("annen08", "marrs18"):
         monkeypatch.setitem(claims.CLAIMS, f"{key}.synthetic", claims.Claim(

@@ -158,10 +158,13 @@ def _exact_runs(tier_name: str):
     for name, (scene, light, gb) in cases.items():
         samples = light.samples(64, pattern="poisson", seed=3)
         run = functools.partial(ss.stsv, scene, light, gb, samples=samples)
+        # alias_free's bitmasks share one pattern under a rect light; DCS rotates it per receiver.
         runs[name] = {"exact": ss.ray_traced(scene, light, gb, samples=samples), "mask": gb.mask,
-                      "bitmask": run(opaque="bitmask", two_sided=True), "dcs": run(opaque="dcs", two_sided=True)}
+                      "exact_rotated": ss.ray_traced(scene, light, gb, samples=samples, rotate="per_receiver"),
+                      "bitmask": run(opaque="bitmask", rotate=None, two_sided=True),
+                      "dcs": run(opaque="dcs", two_sided=True)}
         if name == "leaves":
-            runs[name]["one_sided"] = run(opaque="bitmask", two_sided=False)
+            runs[name]["one_sided"] = run(opaque="bitmask", rotate=None, two_sided=False)
             runs[name]["perforated_triangles"] = _perforated_triangles(scene)
     return runs, size
 
@@ -180,13 +183,13 @@ def _exact(tier):
     runs, size = _exact_runs(tier.name)
     values = {}
     for name, r in runs.items():
-        for opaque in ("bitmask", "dcs"):
-            values[f"{name}_{opaque}_identical_share"] = identical_fraction(r[opaque], r["exact"], r["mask"])
+        for opaque, exact in (("bitmask", r["exact"]), ("dcs", r["exact_rotated"])):
+            values[f"{name}_{opaque}_identical_share"] = identical_fraction(r[opaque], exact, r["mask"])
     values["worst_identical_share"] = min(values.values())
     note = (f"Fence (2 perforated quads), leaves ({runs['leaves']['perforated_triangles']} perforated triangles and an "
-            f"opaque trunk), columns with the fence's quads; {size}^2 receivers, 64 Poisson samples shared with "
-            "ray_traced (alpha-tested rays); two-sided volumes (section 6's correction); opaque meshes through "
-            "alias_free bitmasks or DCS.")
+            f"opaque trunk), columns with the fence's quads; {size}^2 receivers, the same 64 Poisson samples as "
+            "ray_traced (alpha-tested rays): shared by every receiver with alias_free bitmasks for the opaque "
+            "meshes, rotated per receiver (section 4.1) with DCS; two-sided volumes (section 6's correction).")
     return Measured(values, note=note)
 
 
@@ -240,7 +243,7 @@ def _sampling(tier_name: str):
         for n in SAMPLES:
             for strategy in STRATEGIES:
                 errors[light, strategy, n] = mean_rmse(samples=n, pattern=strategy, rotate="per_receiver")
-            errors[light, "interleaved", n] = mean_rmse(samples=n, pattern="poisson", interleaved=4)
+            errors[light, "interleaved", n] = mean_rmse(samples=n, pattern="poisson", interleaved=4, rotate=None)
     return errors, size, len(seeds)
 
 
@@ -347,6 +350,38 @@ def _interleaved(tier):
     return Measured(values, note=note)
 
 
+@claim(
+    "forest09.decorrelation_avoids_patterns",
+    where="Section 4.1",
+    statement="A sample set drawn independently for each visible point avoids visible sampling patterns.",
+    paper_value="decorrelated sampling by a random rotation per pixel of the pre-computed samples",
+    rule=AllOf(AtMost("decorrelated_neighbour_correlation", 0.1, in_kind=0.2),
+               AtLeast("shared_neighbour_correlation", 0.3)),
+    ours="error of neighbouring penumbra pixels correlated {decorrelated_neighbour_correlation:.2f} when decorrelated, "
+         "{shared_neighbour_correlation:.2f} with one shared pattern (RMSE {decorrelated_rmse:.4f} against "
+         "{shared_rmse:.4f})",
+)
+def _decorrelation(tier):
+    """The lag-1 correlation of the error along rows of penumbra pixels, shared against rotated samples."""
+    ss = _ss()
+    size = tier.pick(128, 512)
+    setup, gb = staged("columns", size)
+    ref = reference(setup, gb, samples=1024)
+    penumbra = gb.mask & (ref > 0.02) & (ref < 0.98)
+    pairs = penumbra[:, 1:] & penumbra[:, :-1]
+    values = {}
+    for name, rotate in (("shared", None), ("decorrelated", "per_receiver")):
+        vis = ss.stsv(setup.scene, setup.light, gb, samples=16, pattern="poisson", rotate=rotate)
+        err = vis - ref
+        values[f"{name}_neighbour_correlation"] = float(np.corrcoef(err[:, 1:][pairs], err[:, :-1][pairs])[0, 1])
+        values[f"{name}_rmse"] = rmse(vis, ref, gb.mask)
+    note = (f"The columns under a rect light, {size}^2 receivers, stsv (DCS framework) with 16 Poisson samples, "
+            "against 1024 ray-traced Sobol samples; the correlation of the errors of horizontally adjacent "
+            f"penumbra pixels ({int(pairs.sum())} pairs). The shared pattern's error comes in bands; the rotated "
+            "patterns' is noise of about the same RMSE, the paper's default and ours.")
+    return Measured(values, note=note)
+
+
 # --- Figure 9: where the time goes -------------------------------------------------------------
 
 
@@ -425,7 +460,7 @@ def _wedge_overlap(tier):
     shadowed = [ss.ray_traced(ss.Scene([ground, p]), fence.light, gb, samples=samples) < 1 for p in panels]
     both = gb.mask & np.logical_and.reduce(shadowed)
     exact = ss.ray_traced(fence.scene, fence.light, gb, samples=samples)
-    wedges = ss.stsv(fence.scene, fence.light, gb, samples=samples, opaque="penumbra_wedge", two_sided=True)
+    wedges = ss.stsv(fence.scene, fence.light, gb, samples=samples, opaque="penumbra_wedge", rotate=None, two_sided=True)
 
     scene, light, gm = _with_fence("columns", size)
     samples = light.samples(64, pattern="poisson", seed=3)
@@ -434,7 +469,7 @@ def _wedge_overlap(tier):
     overlap = gm.mask & (ss.ray_traced(opaque, light, gm, samples=samples) < 1)
     overlap &= ss.ray_traced(perforated, light, gm, samples=samples) < 1
     mixed_exact = ss.ray_traced(scene, light, gm, samples=samples)
-    mixed = ss.stsv(scene, light, gm, samples=samples, opaque="penumbra_wedge", two_sided=True)
+    mixed = ss.stsv(scene, light, gm, samples=samples, opaque="penumbra_wedge", rotate=None, two_sided=True)
     darker = mixed_exact - mixed
     values = {"perforated_overlap_identical_share": identical_fraction(wedges, exact, both),
               "perforated_overlap_pixels": int(both.sum()),
@@ -483,39 +518,37 @@ def _room(size: int):
     statement="STSV handles omni-directional area lights without any additional performance penalty or specific "
               "treatment.",
     paper_value="no penalty (an omni-directional light costs an image-based method six shadow maps)",
-    rule=NotMeasurable("the object-based methods here bin their receivers in one light-space frustum and refuse a "
-                       "light inside the receivers' bounds, the omni-directional case; measured instead: a sphere "
-                       "light's cost against a rect light's, and the omni case split by hand into two calls"),
-    ours="light among its receivers refused: {omni_refused:.0f} (1 = yes); sphere light {sphere_over_rect:.2f}x a "
-         "rect light's time; the omni case split by hand into two calls: {split_identical_share:.2%} identical to "
-         "ray_traced",
-    tolerance={"sphere_over_rect": TIMING},
+    rule=AllOf(AtLeast("identical_share", 0.999, in_kind=0.99), AtMost("omni_over_split", 1.25, in_kind=2.0)),
+    ours="a light among its receivers in one call: {identical_share:.2%} identical to ray_traced, "
+         "{omni_over_split:.2f}x the time of its floor and ceiling in two one-sided calls ({light_faces:.0f} cube faces); "
+         "sphere light {sphere_over_rect:.2f}x a rect light's time",
+    tolerance={"omni_over_split": TIMING, "sphere_over_rect": TIMING},
 )
 def _omni(tier):
-    """The omni case (refused), the split workaround, and a sphere against a rect light."""
+    """The omni case in one call against the same receivers split by hand, and a sphere against a rect light."""
     ss = _ss()
     size = tier.pick(48, 256)
     scene, light, floor, ceiling, both = _room(size)
     samples = light.samples(64, pattern="poisson", seed=3)
     run = functools.partial(ss.stsv, scene, light, samples=samples, opaque="dcs", two_sided=True)
-    try:
-        run(both)
-        refused = 0.0
-    except ValueError:
-        refused = 1.0
-    split = np.concatenate([run(floor), run(ceiling)])
-    exact = ss.ray_traced(scene, light, both, samples=samples)
+    omni_s, (omni, stats) = best_of(5, lambda: run(both, return_stats=True))
+    floor_s, _ = best_of(5, lambda: run(floor))
+    ceiling_s, _ = best_of(5, lambda: run(ceiling))
+    exact = ss.ray_traced(scene, light, both, samples=samples, rotate="per_receiver")  # stsv's default
     seconds = {}
     for kind in ("rect", "sphere"):
         setup, gb = staged("fence", tier.pick(96, 512), light=kind)
         seconds[kind], _ = best_of(5, lambda: ss.stsv(setup.scene, setup.light, gb, samples=64, pattern="poisson",
                                                       opaque="dcs", two_sided=False))
-    values = {"omni_refused": refused, "split_identical_share": identical_fraction(split, exact, np.ones(len(exact), bool)),
+    values = {"identical_share": identical_fraction(omni, exact, np.ones(len(exact), bool)),
+              "omni_over_split": omni_s / (floor_s + ceiling_s), "light_faces": float(stats["light_faces"]),
               "sphere_over_rect": seconds["sphere"] / seconds["rect"]}
     note = (f"Omni case: a sphere light between a floor and a ceiling ({size}^2 receivers each), a perforated quad "
-            "on each side, DCS+STSV with two-sided volumes and 64 Poisson samples; split: floor and ceiling in two "
-            "calls (the receivers that differ from ray_traced see a ray meet a texel edge within float precision). "
-            f"Cost: the fence under a sphere and a rect light of the same size (0.6), {tier.pick(96, 512)}^2 "
+            "on each side, DCS+STSV with two-sided volumes and 64 Poisson samples rotated per receiver. One call "
+            "finds the receivers through the faces of a cube about the light (each face a light frustum, as "
+            "Sintorn et al. 2008 use six maps); against it, floor and ceiling in two calls, each in one frustum "
+            "(best of 5 each; the receivers that differ from ray_traced see a ray meet a texel edge within float "
+            f"precision). Cost: the fence under a sphere and a rect light of the same size (0.6), {tier.pick(96, 512)}^2 "
             "receivers, best of 5.")
     return Measured(values, note=note)
 

@@ -25,7 +25,7 @@ use softshadows_core::geometry::mesh::{AlphaTexture, Mesh, Scene};
 use softshadows_core::geometry::receivers::Receivers;
 use softshadows_core::light::lights::{tangent_frame, EmissionTexture, Light};
 use softshadows_core::light::sampling::{Pattern, SampleSet};
-use softshadows_core::methods::alias_free::{AliasFreeOptions, Casters};
+use softshadows_core::methods::alias_free::{AliasFreeOptions, Casters, TableSize};
 use softshadows_core::methods::backprojection::{Acceleration, Accumulation, BackprojectionOptions, Budget, Occluder};
 use softshadows_core::methods::cssm::{CssmOptions, Prefilter};
 use softshadows_core::methods::envmap::FitOptions;
@@ -604,7 +604,7 @@ pub struct FuzzAliasFreeOptions {
     pub resolution: u8,
     pub all_casters: bool,
     pub bias: Option<Num>,
-    /// Raw bins: 4..=256 are valid.
+    /// Raw bins (4..=256 are valid); `None`: exact tests; `Some(0)`: sized from the samples.
     pub lut: Option<u8>,
     pub hull_degree: u8,
     pub restrict_to_penumbra: bool,
@@ -616,7 +616,11 @@ impl FuzzAliasFreeOptions {
             resolution: side(self.resolution),
             casters: if self.all_casters { Casters::All } else { Casters::Backfacing },
             bias: opt(self.bias).unwrap_or(0.0),
-            lut: self.lut.map(|k| k as usize % 70),
+            lut: match self.lut {
+                None => TableSize::Exact,
+                Some(0) => TableSize::FromSamples,
+                Some(k) => TableSize::Bins(k as usize % 70),
+            },
             hull_degree: self.hull_degree as usize % 70,
             restrict_to_penumbra: self.restrict_to_penumbra,
             ..AliasFreeOptions::default()

@@ -13,7 +13,7 @@ use softshadows_core::gpu::Backend;
 use softshadows_core::light::lights::Light;
 use softshadows_core::light::sampling::SampleSet;
 use softshadows_core::methods::alias_free::{
-    alias_free as alias_free_core, AliasFreeOptions, Casters,
+    alias_free as alias_free_core, AliasFreeOptions, Casters, TableSize,
 };
 use softshadows_core::methods::backprojection::{
     backprojection_levels, Acceleration, Accumulation, BackprojectionOptions, Budget, Occluder,
@@ -348,6 +348,13 @@ fn cube_solid_angles(py: Python<'_>, n: usize) -> PyResult<Bound<'_, PyArray2<f6
 }
 
 /// Sample-based visibility by alias-free shadow maps (hard for point lights, bitmasks otherwise).
+/// `alias_free`'s `lut=`: bins per parameter, or a name (`"auto"`).
+#[derive(FromPyObject)]
+enum LutArg {
+    Bins(usize),
+    Named(String),
+}
+
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
 fn alias_free<'py>(
@@ -359,11 +366,18 @@ fn alias_free<'py>(
     resolution: usize,
     casters: &str,
     bias: f32,
-    lut: Option<usize>,
+    lut: Option<LutArg>,
     hull_degree: usize,
     restrict_to_penumbra: bool,
     backend: &str,
 ) -> PyResult<Output<'py>> {
+    let lut = match lut {
+        None => TableSize::Exact,
+        Some(LutArg::Bins(bins)) => TableSize::Bins(bins),
+        Some(LutArg::Named(name)) => {
+            choice("lut", &name, &[("auto", TableSize::FromSamples)]).or_raise()?
+        }
+    };
     let casters = choice(
         "casters",
         casters,

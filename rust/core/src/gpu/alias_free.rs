@@ -873,7 +873,7 @@ mod tests {
     use crate::gpu::{context, Backend};
     use crate::light::lights::Light;
     use crate::light::sampling::{Pattern, Rng, SampleSet};
-    use crate::methods::alias_free::{sample_masks, AliasFreeOptions, Casters};
+    use crate::methods::alias_free::{sample_masks, AliasFreeOptions, Casters, TableSize};
     use crate::stats::Stats;
     use glam::{Vec2, Vec3};
     use std::sync::Mutex;
@@ -1057,7 +1057,7 @@ mod tests {
             (&disk, 64, true),
             (&sphere, 200, false),
         ] {
-            for lut in [None, Some(16)] {
+            for lut in [TableSize::Exact, TableSize::Bins(16)] {
                 let partly = agree(
                     light,
                     &samples(light, n, rotate),
@@ -1095,7 +1095,7 @@ mod tests {
         let opts = AliasFreeOptions {
             resolution: 64,
             bias: 1e-4,
-            lut: Some(16),
+            lut: TableSize::Bins(16),
             ..Default::default()
         };
         let mut stats = Stats::default();
@@ -1164,7 +1164,7 @@ mod tests {
         let point = Light::point(Vec3::new(0.2, 4.0, 0.1))?;
         for (light, count) in [(&rect, 64), (&point, 1)] {
             let set = samples(light, count, false);
-            for lut in [None, Some(16)] {
+            for lut in [TableSize::Exact, TableSize::Bins(16)] {
                 let opts = AliasFreeOptions {
                     resolution: 64,
                     bias: 1e-4,
@@ -1178,7 +1178,10 @@ mod tests {
                     "{stats:?}"
                 );
                 // Exactly dark with exact tests; the table's binned planes leave holes.
-                assert!(lut.is_some() || (n * n..2 * n * n).all(|i| masks.visibility(i) == 0.0));
+                assert!(
+                    lut != TableSize::Exact
+                        || (n * n..2 * n * n).all(|i| masks.visibility(i) == 0.0)
+                );
                 agree_on(&rx, light, &set, opts, None);
             }
         }
@@ -1210,7 +1213,10 @@ mod tests {
             &receivers(48),
             &rect,
             &samples(&rect, 1024, false),
-            AliasFreeOptions { lut: None, ..opts },
+            AliasFreeOptions {
+                lut: TableSize::Exact,
+                ..opts
+            },
             None,
         );
     }
@@ -1234,14 +1240,17 @@ mod tests {
         let opts = AliasFreeOptions {
             resolution: 32,
             bias: 1e-4,
-            lut: Some(8),
+            lut: TableSize::Bins(8),
             ..Default::default()
         };
         agree(&rect, &samples(&rect, 64, false), opts, Some(limits));
         agree(
             &rect,
             &samples(&rect, 40, false),
-            AliasFreeOptions { lut: None, ..opts },
+            AliasFreeOptions {
+                lut: TableSize::Exact,
+                ..opts
+            },
             Some(limits),
         );
     }

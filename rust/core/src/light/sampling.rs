@@ -585,6 +585,17 @@ impl Interleave {
         (i as u64).wrapping_add((self.k as u64).wrapping_mul(j as u64))
     }
 
+    /// The seed of pattern `(i, j)`: `seed` itself without interleaving, so that `samples=n`
+    /// draws the very pattern of `light.samples(n, seed=seed)`; an independent stream of it for
+    /// each pattern of a tile.
+    fn seed(&self, seed: u64, i: usize, j: usize) -> u64 {
+        if self.k == 1 {
+            seed
+        } else {
+            Rng::stream(seed, self.stream(i, j)).next_u64()
+        }
+    }
+
     /// The position among the built patterns of pixel `(x, y)`'s pattern. A pixel off the grid
     /// the tile was built for wraps around the built columns and rows.
     fn position(&self, x: usize, y: usize) -> usize {
@@ -650,13 +661,7 @@ impl SampleSet {
         for j in 0..tile.rows {
             for i in 0..tile.columns {
                 crate::interrupt::check()?;
-                patterns.push(light_samples(
-                    light,
-                    n,
-                    pattern,
-                    Rng::stream(seed, tile.stream(i, j)).next_u64(),
-                    frame,
-                ));
+                patterns.push(light_samples(light, n, pattern, tile.seed(seed, i, j), frame));
             }
         }
         Ok(Self {

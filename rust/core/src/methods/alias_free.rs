@@ -32,9 +32,10 @@
 //!    samples (1 for a point light). A triangle blocks sample `y` from `p` when `p` and `y` lie
 //!    strictly on opposite sides of its plane and `y` lies strictly inside the three planes through
 //!    `p` and its edges: the masks of those four planes are AND-ed, and the triangles' masks OR-ed.
-//!    With `lut: None` every plane tests every sample exactly; with `lut: Some(k)` a plane's mask
-//!    is read from a table indexed by its normal's two angles and its signed distance from the
-//!    light's center, `k` bins each (the plane-to-bitmask lookup table; Eisemann and Décoret 2007).
+//!    With `TableSize::Exact` every plane tests every sample exactly; with a table of `k` bins a
+//!    plane's mask is read from a table indexed by its normal's two angles and its signed distance
+//!    from the light's center, `k` bins each (the plane-to-bitmask lookup table; Eisemann and
+//!    Décoret 2007), `k` sized from the sample count by default ([`table_bins_for`], section 4.3).
 //!    The bins are angles and distances relative to the light, so a binned plane's error, as seen
 //!    from a view sample, grows with the light's apparent size there: a view sample that sees the
 //!    samples' bounding sphere wider than [`TABLE_MAX_SPREAD`] tests its planes exactly instead.
@@ -86,6 +87,49 @@ pub const MAX_SAMPLES: usize = 1024;
 /// The built-in scenes' default lights stay below 0.36.
 pub const TABLE_MAX_SPREAD: f64 = 0.5;
 
+/// The memory a table sized from the sample count may take (64 MiB: the paper's 64^3 texels of
+/// 128 bits for each block of 128 of 1024 samples come to 32 MiB).
+pub const TABLE_BUDGET_BYTES: u64 = 64 << 20;
+
+/// How the light samples behind a plane are found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TableSize {
+    /// Every plane tests every sample.
+    Exact,
+    /// The plane-to-bitmask table with this many bins per parameter.
+    Bins(usize),
+    /// The table sized from the sample count: [`table_bins_for`].
+    FromSamples,
+}
+
+impl TableSize {
+    /// Bins per parameter of the table for `samples` light samples, `None` for exact tests.
+    pub fn bins(self, samples: usize) -> Option<usize> {
+        match self {
+            Self::Exact => None,
+            Self::Bins(bins) => Some(bins),
+            Self::FromSamples => Some(table_bins_for(samples)),
+        }
+    }
+}
+
+/// Bins per parameter of the table for `samples` light samples (Sintorn et al. 2008, section
+/// 4.3: the table's size is chosen relative to the number of samples, to keep its
+/// discretization error down): 8 sqrt(S) rounded up to a multiple of 8, from 32 to 128, and as
+/// many as [`TABLE_BUDGET_BYTES`] hold (S = 16, 64, 128, 256, 512, 1024: 32, 64, 96, 128, 96 and
+/// 80 bins). A bin's width in angle and in distance then stays near the samples' spacing on the
+/// light (its extent over sqrt(S)), up to the budget.
+pub fn table_bins_for(samples: usize) -> usize {
+    let words = samples.div_ceil(64).max(1) as u64;
+    let wanted = ((8.0 * (samples.max(1) as f64).sqrt() / 8.0).ceil() as usize * 8).clamp(32, 128);
+    let fits = |bins: usize| (bins as u64).pow(3) * words * 8 <= TABLE_BUDGET_BYTES;
+    (8..=wanted)
+        .rev()
+        .step_by(8)
+        .find(|&b| fits(b))
+        .unwrap_or(8)
+}
+
 /// Which triangles cast shadows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Casters {
@@ -105,8 +149,8 @@ pub struct AliasFreeOptions {
     pub casters: Casters,
     /// Receiver offset along its normal for casters that may be its own surface (world units).
     pub bias: f32,
-    /// Bins per parameter of the plane-to-bitmask table, or `None` for exact tests (default 64).
-    pub lut: Option<usize>,
+    /// The plane-to-bitmask table's size, or exact tests (default: sized from the sample count).
+    pub lut: TableSize,
     /// Sides of the bounding polygons of disk and sphere lights (default 6, hexagons).
     pub hull_degree: usize,
     /// Restrict the per-sample tests to the penumbra (section 4.3, default true): view samples
@@ -126,7 +170,7 @@ impl Default for AliasFreeOptions {
             resolution: 512,
             casters: Casters::Backfacing,
             bias: 0.0,
-            lut: Some(64),
+            lut: TableSize::FromSamples,
             hull_degree: 6,
             restrict_to_penumbra: true,
             backend: Backend::Cpu,
@@ -148,11 +192,11 @@ impl AliasFreeOptions {
                 format!("must be finite and >= 0, got {}", self.bias),
             ));
         }
-        if let Some(k) = self.lut {
+        if let TableSize::Bins(k) = self.lut {
             if !(4..=256).contains(&k) {
                 return Err(Error::invalid(
                     "lut",
-                    format!("must be in 4..=256 bins (or None for exact tests), got {k}"),
+                    format!("must be in 4..=256 bins (or \"auto\" to size it from the samples, or None for exact tests), got {k}"),
                 ));
             }
         }
@@ -633,7 +677,7 @@ pub(crate) fn masks_peak(
     let bands = res.div_ceil(band_rows(opts.resolution) as u64);
     let per_caster =
         (std::mem::size_of::<Caster>() + std::mem::size_of::<Prepared>()) as u64 + hull + 4 * bands;
-    let lut = opts.lut.map_or(Peak::default(), |bins| {
+    let lut = opts.lut.bins(samples).map_or(Peak::default(), |bins| {
         Peak::default().buffer(&[bins as u64, bins as u64, bins as u64, words, 8])
     });
     let penumbra = if opts.restrict_to_penumbra {
@@ -719,7 +763,8 @@ pub(crate) fn sample_masks(
         .fold(0.0f64, f64::max)
         * (1.0 + 1e-9)
         + 1e-12;
-    let exact_views = if opts.lut.is_some() && light_samples.points.len() > 1 {
+    let table_bins = opts.lut.bins(light_samples.points.len());
+    let exact_views = if table_bins.is_some() && light_samples.points.len() > 1 {
         mark_too_near_for_the_table(&mut view, center, radius)
     } else {
         0
@@ -753,7 +798,7 @@ pub(crate) fn sample_masks(
     // The table's distances span the light and every sample (a plane past them all leaves the
     // center to decide, which is right only for planes that miss every sample).
     let extent = f64::from(bounds.reach());
-    let lut = match opts.lut {
+    let lut = match table_bins {
         Some(bins)
             if light_samples.points.len() > 1 && extent > 0.0 && exact_views < view.len() =>
         {
@@ -761,6 +806,7 @@ pub(crate) fn sample_masks(
         }
         _ => None,
     };
+    stats.set("lut_bins", lut.as_ref().map_or(0.0, |t| t.bins as f64));
     let setup = Setup {
         scene,
         bounds: &bounds,
@@ -847,7 +893,7 @@ fn light_samples(light: &Light, samples: &SampleSet) -> Result<LightSamples> {
     if rotated && (light.rigid_rotation([0.0; 3]).is_none() || light.is_textured()) {
         return Err(Error::invalid(
             "rotate",
-            "per-receiver rotation needs a symmetric, untextured light (point, disk, sphere): its lookups rotate the planes, not the samples",
+            "per-receiver rotation needs a symmetric, untextured light (point, disk, sphere): its lookups rotate the planes, not the samples; pass rotate=None to share one pattern (with stsv, opaque=\"dcs\" rotates for every light)",
         ));
     }
     let ys = samples.pattern_for(0, 0);
@@ -1292,6 +1338,24 @@ mod tests {
             .collect();
         let tol = 1e-9 * n.length() * (x - poly[0]).length().max(1.0);
         sides.iter().all(|&s| s >= -tol) || sides.iter().all(|&s| s <= tol)
+    }
+
+    /// The table grows with the samples' density on the light until its memory budget stops it.
+    #[test]
+    fn the_table_is_sized_from_the_sample_count_within_its_budget() {
+        let bins: Vec<usize> = [1, 16, 64, 128, 256, 512, 1024]
+            .map(table_bins_for)
+            .to_vec();
+        assert_eq!(bins, [32, 32, 64, 96, 128, 96, 80]);
+        for s in 1..=MAX_SAMPLES {
+            let b = table_bins_for(s) as u64;
+            assert!(
+                b.is_multiple_of(8) && b.pow(3) * s.div_ceil(64) as u64 * 8 <= TABLE_BUDGET_BYTES,
+                "{s} samples"
+            );
+        }
+        assert_eq!(TableSize::Exact.bins(64), None);
+        assert_eq!(TableSize::Bins(20).bins(1024), Some(20));
     }
 
     #[test]

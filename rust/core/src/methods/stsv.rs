@@ -9,16 +9,15 @@
 //!    light's center until all are as far from it as the nearest; each edge of `t'` extrudes the
 //!    outer quad of its penumbra wedge, the plane through the edge that touches the light with
 //!    the whole light outside; adjacent outer planes meet along the closing lines (the cross
-//!    product of their normals) through the shared vertex, extruded to the bounds of the scene
-//!    and the receivers, where the back cap closes the volume ([`stsv_volumes`] returns these
+//!    product of their normals) through the shared vertex, extruded to the back cap, parallel to
+//!    `t'` beyond the bounds of the scene and the receivers, which closes the volume ([`stsv_volumes`] returns these
 //!    closed volumes). The light is bounded by a polygon or polytope ([`light_polytope`](crate::raster::influence::light_polytope)): its
 //!    corners for a rectangle, a circumscribed `hull_degree`-gon for a disk, the circumscribed box
 //!    for spheres and ellipsoids; with samples off the light, one that holds them too
 //!    ([`LightBounds::polytope`]), so that the volume holds every receiver they shadow.
 //! 2. **Points in the volume** (section 2.3): a receiver is inside when it lies on the inner side
-//!    of the four planes, the front cap and the three outer planes (the caps and the clamping
-//!    only serve the paper's z-fail rasterization; a back cap through three clamped points would
-//!    even cut receivers off). Receivers are found through the triangle's influence region in the
+//!    of the four planes, the front cap and the three outer planes (the back cap only serves the
+//!    paper's z-fail rasterization). Receivers are found through the triangle's influence region in the
 //!    light-space lists (the paper rasterizes the volume in screen space).
 //! 3. **Transmittance** (section 2.4, equations 1–5): per triangle `M'` (world to triangle
 //!    space) and `S` (barycentric to texture space); per receiver `J = W M'` with `p` as the
@@ -42,7 +41,7 @@ use crate::gpu::Backend;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, object_work, Peak};
-use crate::methods::alias_free::{masks_peak, sample_masks, AliasFreeOptions, Casters};
+use crate::methods::alias_free::{masks_peak, sample_masks, AliasFreeOptions, Casters, TableSize};
 use crate::methods::dcs::{depth_complexity, depth_complexity_peak, visible_fraction};
 use crate::methods::penumbra_wedge::{wedge_occlusion, wedge_occlusion_peak};
 use crate::raster::influence::{
@@ -142,6 +141,17 @@ fn outer_plane(
     Some((m, m.dot(a)))
 }
 
+/// The eight corners of the box `(lo, hi)`.
+fn box_corners((lo, hi): (DVec3, DVec3)) -> [DVec3; 8] {
+    std::array::from_fn(|i| {
+        DVec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        )
+    })
+}
+
 /// Distance along `dir` from `o` (inside or on the box) to where it leaves the box `(lo, hi)`.
 fn exit_distance(o: DVec3, dir: DVec3, (lo, hi): (DVec3, DVec3)) -> f64 {
     (0..3)
@@ -193,7 +203,15 @@ impl Volume {
             })
             .collect();
         planes.extend(outer.iter().flatten());
-        // The closing lines through each vertex of t', extruded to the bounds: the back cap.
+        // The closing lines through each vertex of t', extruded to the back cap: the plane
+        // parallel to t' through the bounds' corner farthest from the light, so that the closed
+        // volume holds every point of the bounds on the inner side of the planes.
+        let away = -toward_light.normalize();
+        let far = box_corners(bounds)
+            .iter()
+            .chain(&front)
+            .map(|c| away.dot(*c))
+            .fold(f64::NEG_INFINITY, f64::max);
         let back = [0, 1, 2].map(|k| {
             let dir = match (outer[(k + 2) % 3], outer[k]) {
                 (Some((m1, _)), Some((m2, _))) if m1.cross(m2).length_squared() > 0.0 => {
@@ -202,7 +220,15 @@ impl Volume {
                 _ => front[k] - center,
             };
             let dir = (dir * dir.dot(front[k] - center).signum()).normalize();
-            front[k] + dir * exit_distance(front[k], dir, bounds)
+            let along = away.dot(dir);
+            // A closing line (nearly) parallel to the cap never reaches the plane: it ends where
+            // it leaves the bounds.
+            let length = if along > 1e-6 {
+                (far - away.dot(front[k])) / along
+            } else {
+                exit_distance(front[k], dir, bounds)
+            };
+            front[k] + dir * length
         });
         let n = normal.normalize();
         let to_triangle = DMat3::from_cols(v[1] - v[0], v[2] - v[0], -n).inverse();
@@ -317,8 +343,9 @@ fn padded_bounds(scene: &Scene, points: &[Vec3]) -> (DVec3, DVec3) {
 }
 
 /// The closed soft textured shadow volumes of the perforated triangles of `scene` (section 2.2,
-/// Figure 3), each as its six corners: the front cap t', then the back cap at the bounds of the
-/// scene and of `points`; with the face id of each. The faces: the two caps and the quads
+/// Figure 3), each as its six corners: the front cap t', then the back cap, parallel to t' and
+/// beyond the bounds of the scene and of `points`, so that each closed volume holds every
+/// receiver that its triangle can shadow; with the face id of each. The faces: the two caps and the quads
 /// between corners `k, k + 1` of the front and back caps.
 ///
 /// Errors: `hull_degree` outside 3..=64; corners beyond f32's range (receivers so far from the
@@ -470,7 +497,7 @@ fn stsv_in_one_frustum(
         resolution: opts.object.resolution,
         casters: Casters::Backfacing,
         bias: opts.object.epsilon,
-        lut: None,
+        lut: TableSize::Exact,
         hull_degree: opts.object.hull_degree,
         restrict_to_penumbra: true,
         backend: Backend::Cpu,
