@@ -661,7 +661,13 @@ impl SampleSet {
         for j in 0..tile.rows {
             for i in 0..tile.columns {
                 crate::interrupt::check()?;
-                patterns.push(light_samples(light, n, pattern, tile.seed(seed, i, j), frame));
+                patterns.push(light_samples(
+                    light,
+                    n,
+                    pattern,
+                    tile.seed(seed, i, j),
+                    frame,
+                ));
             }
         }
         Ok(Self {
