@@ -163,3 +163,9 @@ def test_a_sample_count_draws_the_pattern_of_light_samples(small_penumbra, metho
     drawn = setup.light.samples(16, pattern="halton", seed=5, frame=frame)
     counted = ss.METHODS[method](setup.scene, setup.light, gb, samples=16, pattern="halton", seed=5, frame=frame, **options)
     np.testing.assert_array_equal(counted, ss.METHODS[method](setup.scene, setup.light, gb, samples=drawn, **options))
+
+
+def test_a_rect_light_takes_its_documented_keywords():
+    by_name = ss.RectLight(center=(0, 3, 0), u=(0.5, 0, 0), v=(0, 0, 0.25))
+    np.testing.assert_array_equal(by_name.samples(8), ss.RectLight((0, 3, 0), (0.5, 0, 0), (0, 0, 0.25)).samples(8))
+    assert "v=[0.0, 0.0, 0.25]" in repr(by_name)

@@ -21,7 +21,7 @@ import abc
 
 import numpy as np
 
-from . import _validate as v
+from . import _validate
 
 __all__ = ["PointLight", "RectLight", "DiskLight", "SphereLight", "EllipsoidLight", "PATTERNS"]
 
@@ -75,12 +75,12 @@ class _Light(abc.ABC):
         -------
         ndarray, shape (n, 3), float32
         """
-        n = v.positive_int("n", n)
-        return self.native().samples(n, _pattern(pattern), v.nonneg_int("seed", seed), v.nonneg_int("frame", frame))
+        n = _validate.positive_int("n", n)
+        return self.native().samples(n, _pattern(pattern), _validate.nonneg_int("seed", seed), _validate.nonneg_int("frame", frame))
 
     def weights(self, samples) -> np.ndarray:
         """Emission weights of world-space light points, shape (S,): 1 without an emission texture."""
-        pts = v.array("samples", samples, np.float32, (None, 3))
+        pts = _validate.array("samples", samples, np.float32, (None, 3))
         return self.native().weights(pts)
 
 
@@ -104,7 +104,7 @@ def _tangent_frame(normal) -> tuple[np.ndarray, np.ndarray]:
 def _emission(emission):
     if emission is None:
         return None
-    e = v.array("emission", emission, np.float32, (None, None))
+    e = _validate.array("emission", emission, np.float32, (None, None))
     if e.size == 0 or (e < 0).any() or not e.any():
         raise ValueError(f"emission: expected a non-empty (H, W) array of values >= 0, not all zero, got shape {e.shape}")
     return e
@@ -121,7 +121,7 @@ class PointLight(_Light):
     kind = "point"
 
     def __init__(self, position):
-        self.position = v.vec3("position", position)
+        self.position = _validate.vec3("position", position)
 
     @property
     def center(self) -> np.ndarray:
@@ -150,10 +150,10 @@ class RectLight(_Light):
 
     kind = "rect"
 
-    def __init__(self, center, u, v_, *, emission=None):
-        self.center = v.vec3("center", center)
-        self.u = v.vec3("u", u)
-        self.v = v.vec3("v", v_)
+    def __init__(self, center, u, v, *, emission=None):
+        self.center = _validate.vec3("center", center)
+        self.u = _validate.vec3("u", u)
+        self.v = _validate.vec3("v", v)
         if np.linalg.norm(np.cross(self.u.astype(np.float64), self.v.astype(np.float64))) == 0:
             raise ValueError(f"u: u = {self.u.tolist()} and v = {self.v.tolist()} span zero area")
         self.emission = _emission(emission)
@@ -195,12 +195,12 @@ class DiskLight(_Light):
     kind = "disk"
 
     def __init__(self, center, normal, radius, *, emission=None):
-        self.center = v.vec3("center", center)
-        n = v.vec3("normal", normal).astype(np.float64)  # float32 |n|^2 underflows for |n| ~ 1e-23
+        self.center = _validate.vec3("center", center)
+        n = _validate.vec3("normal", normal).astype(np.float64)  # float32 |n|^2 underflows for |n| ~ 1e-23
         if not np.any(n):
             raise ValueError("normal: must be non-zero")
         self.normal = (n / np.linalg.norm(n)).astype(np.float32)
-        self.radius = v.positive("radius", radius)
+        self.radius = _validate.positive("radius", radius)
         self.emission = _emission(emission)
         self.native()  # the core works in float32: it refuses a radius that is 0 or inf there
 
@@ -230,8 +230,8 @@ class SphereLight(_Light):
     kind = "sphere"
 
     def __init__(self, center, radius):
-        self.center = v.vec3("center", center)
-        self.radius = v.positive("radius", radius)
+        self.center = _validate.vec3("center", center)
+        self.radius = _validate.positive("radius", radius)
         self.native()  # the core works in float32: it refuses a radius that is 0 or inf there
 
     def _args(self):
@@ -261,8 +261,8 @@ class EllipsoidLight(_Light):
     kind = "ellipsoid"
 
     def __init__(self, center, axes):
-        self.center = v.vec3("center", center)
-        self.axes = v.array("axes", axes, np.float32, (3, 3))
+        self.center = _validate.vec3("center", center)
+        self.axes = _validate.array("axes", axes, np.float32, (3, 3))
         self.native()  # the core checks the axes and names the argument
 
     def _args(self):
