@@ -497,21 +497,30 @@ def record_expected(frame, path) -> Path:
     return path
 
 
+def _rule_keys(rule) -> list:
+    """The values that ``rule`` reads."""
+    if isinstance(rule, AllOf):
+        return [k for r in rule.rules for k in _rule_keys(r)]
+    return [rule.key] if isinstance(rule, _Threshold) else []
+
+
 def _timing_noise(claim, values, recorded) -> bool:
-    """Whether a changed verdict is the machine's load: the rule reads one time ratio, measured
-    within its timing tolerance of the recorded one, so the verdict's threshold lies inside the
-    run-to-run spread (which the ledger's note then states)."""
-    rule = claim.rule
-    if not isinstance(rule, _Threshold) or rule.key not in values or rule.key not in recorded:
-        return False
-    tol = claim.tol(rule.key)
-    return tol.factor is not None and tol.accepts(float(values[rule.key]), float(recorded[rule.key]))
+    """Whether a changed verdict is the machine's load: every value the rule reads is a timing
+    measurement (the claim gives it a tolerance of its own, not :data:`DETERMINISTIC`) measured
+    within that tolerance of the recorded one, so the verdict's threshold lies inside the
+    run-to-run spread."""
+    keys = _rule_keys(claim.rule)
+    return bool(keys) and all(
+        key in values and key in recorded and key in claim.tolerance
+        and claim.tol(key).accepts(float(values[key]), float(recorded[key]))
+        for key in keys
+    )
 
 
 def compare_expected(frame, path) -> list:
     """The differences between a fast-tier run and the recorded expectations at ``path``: one
-    message per changed verdict (but for a verdict that a time ratio within its timing tolerance
-    decides, :func:`_timing_noise`), drifted value, or claim missing from either side."""
+    message per changed verdict (but for a verdict that timings within their tolerances decide,
+    :func:`_timing_noise`), drifted value, or claim missing from either side."""
     import pandas as pd
 
     recorded = pd.read_csv(path, comment="#")
