@@ -27,7 +27,7 @@ RUSTUP = "curl --proto '=https' --tlsv1.2 -sSf https://sh.rustup.rs | sh -s -- -
 #: The evaluation extra's modules (pyproject.toml), and pymeshlab of the models extra.
 EVALUATION_MODULES = ("mitsuba", "drjit", "pandas", "matplotlib", "skimage", "flip_evaluator", "OpenEXR", "jinja2")
 
-pytestmark = pytest.mark.skipif(BASH is None or sys.platform == "win32", reason="the set-up scripts are bash")
+pytestmark = pytest.mark.skipif(BASH is None or sys.platform == "win32", reason="scripts/demo.sh and scripts/test.sh are bash scripts for Debian/Ubuntu; no bash on this machine")
 
 
 # ----------------------------------------------------------------------------- fake machine
@@ -414,7 +414,7 @@ def test_no_warning_when_llvm_loads_or_scalar_is_chosen(fresh_variant, llvm_erro
 
 
 @pytest.mark.mitsuba
-@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="DRJIT_LIBLLVM_PATH hides LLVM on Linux")
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the test hides LLVM by pointing DRJIT_LIBLLVM_PATH at a missing libLLVM.so, a Linux library name; the fallback it checks is the Debian/Ubuntu set-up's")
 def test_the_demo_runs_on_scalar_rgb_when_llvm_cannot_load(tmp_path):
     pytest.importorskip("mitsuba")
     code = textwrap.dedent("""
