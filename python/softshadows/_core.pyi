@@ -107,7 +107,12 @@ class WorkLimitError(RuntimeError): ...
 
 def gpu_info() -> list[tuple[str, str]]: ...
 def ray_traced(
-    scene: NativeScene, light: NativeLight, receivers: NativeReceivers, samples: NativeSamples, epsilon: float
+    scene: NativeScene,
+    light: NativeLight,
+    receivers: NativeReceivers,
+    samples: NativeSamples,
+    epsilon: float,
+    casters: str,
 ) -> tuple[_F32, dict[str, float]]: ...
 def shadow_map(
     scene: NativeScene,

@@ -109,6 +109,7 @@ def ray_traced(
     interleaved: int = 1,
     frame: int = 0,
     epsilon: float | None = None,
+    casters: str = "all",
     return_stats: bool = False,
 ):
     """Exact sampled visibility by shadow rays through a BVH: the oracle (docs/design.md section 3).
@@ -138,6 +139,16 @@ def ray_traced(
         with ``samples=n``, like ``interleaved``; explicit samples are used as given.
     epsilon : float, optional
         Shadow-ray offset along the normal in world units; default ``scene.epsilon``.
+    casters : {"all", "backfacing"}
+        ``"all"`` (the default, the definition above): every surface blocks the segment from
+        ``p + epsilon n``. ``"backfacing"``: as ``alias_free``'s default culls (Sintorn et al.
+        2008, section 3.3), a closed mesh's triangle blocks the segment from ``p`` itself, and
+        only when ``p`` lies strictly in front of its plane; open meshes still block from
+        ``p + epsilon n``, and receivers inside a closed mesh are traced as with ``"all"``.
+        For receivers on the outside of closed meshes this is the limit of ``"all"`` as
+        ``epsilon`` goes to 0, computed without an offset (the closed faces' test in f64, which
+        tells a receiver on its own face from one crossing it); it traces one ray at a time,
+        with no packets: 5-11 times slower than ``"all"`` on the built-in scenes.
     return_stats : bool
         Also return ``{"rays", "trace_seconds", ...}``.
 
@@ -150,7 +161,7 @@ def ray_traced(
         light, samples, pattern=pattern, seed=seed, rotate=rotate, interleaved=interleaved, frame=frame, receivers=inputs[2]
     )
     eps = scene.epsilon if epsilon is None else v.positive("epsilon", epsilon, allow_zero=True)
-    out = _core.ray_traced(*inputs, native_samples, eps)
+    out = _core.ray_traced(*inputs, native_samples, eps, casters)
     return _finish(receivers, out, return_stats)
 
 
@@ -780,7 +791,8 @@ def alias_free(
     the map's resolution. A point light gives hard shadows (one bit per receiver); an area or
     volume light gives a bitmask over ``samples`` light samples per receiver, set by AND-ing the
     masks of the planes through the receiver and the triangle's edges and OR-ing over triangles.
-    On the same samples the exact mode (``lut=None``) computes ``ray_traced``'s visibility.
+    On the same samples the exact mode (``lut=None``) computes ``ray_traced``'s visibility with
+    the same ``casters``: ``ray_traced(..., casters="backfacing")`` for the default.
 
     Parameters
     ----------
@@ -794,9 +806,19 @@ def alias_free(
     resolution : int
         Side of the light's list map in texels (the paper: 512).
     casters : {"backfacing", "all"}
-        ``"backfacing"``: closed meshes cast with their light back-facing triangles only, so they
-        need no bias; open meshes cast with every triangle. ``"all"``: every triangle casts.
-        Culling (the paper's section 3.3) serves receivers outside every closed mesh only: from
+        ``"backfacing"`` (the paper's scheme, section 3.3): closed meshes cast with their light
+        back-facing triangles only, tested from the receiver itself, with no bias, for point and
+        area lights alike (a closed triangle blocks only receivers strictly in front of its
+        plane, so never the surface a receiver lies on); open meshes cast with every triangle,
+        from the receiver moved ``bias``. ``"all"``: every triangle casts, from the moved
+        receiver: ``ray_traced``'s default definition. The two differ only where the offset
+        matters, near contact and where the light grazes a surface; there ``"backfacing"`` is
+        the limit of ``"all"`` as ``bias`` goes to 0, and its oracle is
+        ``ray_traced(..., casters="backfacing")``. Measured at 128x128 on the columns, torus
+        knot and bunny under rect, disk and sphere lights with 256 samples: ``"backfacing"``
+        gives that oracle's bits on every pixel; ``"all"`` at ``scene.epsilon`` differs from it
+        on 1.9-7.4% of the hit pixels, at ``scene.epsilon / 1000`` on 0-12 pixels of 12198-14564.
+        Culling serves receivers outside every closed mesh only: from
         inside one a shadow ray leaves through a light front-facing triangle. So receivers found
         inside a closed mesh (within its bounds, an odd number of its faces on a ray from the
         receiver moved along its normal; stat ``inside_view_samples``), such as those whose

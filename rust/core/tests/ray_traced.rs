@@ -10,6 +10,7 @@ use softshadows_core::geometry::receivers::Receivers;
 use softshadows_core::light::lights::Light;
 use softshadows_core::light::sampling::{Pattern, Rng, SampleSet};
 use softshadows_core::methods::ray_traced::{auto_epsilon, ray_traced, RayTracedOptions};
+use softshadows_core::methods::Casters;
 use softshadows_core::Error;
 use std::f32::consts::PI;
 
@@ -690,11 +691,17 @@ fn bad_options_and_mismatched_bvh_are_refused() {
     let light = ceiling_light(2.0, 0.5);
     let samples = SampleSet::generate(&light, 4, Pattern::Uniform, 1, 1, false, 0).unwrap();
     let rx = ground_receivers(&[0.0]);
-    let bad = RayTracedOptions { epsilon: f32::NAN };
+    let bad = RayTracedOptions {
+        epsilon: f32::NAN,
+        casters: Casters::All,
+    };
     assert!(
         matches!(ray_traced(&scene, &bvh, &light, &rx, &samples, &bad), Err(Error::InvalidInput { ref arg, .. }) if arg == "epsilon")
     );
-    let ok = RayTracedOptions { epsilon: 1e-4 };
+    let ok = RayTracedOptions {
+        epsilon: 1e-4,
+        casters: Casters::All,
+    };
     assert!(
         matches!(ray_traced(&other, &bvh, &light, &rx, &samples, &ok), Err(Error::InvalidInput { ref arg, .. }) if arg == "bvh")
     );

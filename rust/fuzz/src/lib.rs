@@ -25,7 +25,8 @@ use softshadows_core::geometry::mesh::{AlphaTexture, Mesh, Scene};
 use softshadows_core::geometry::receivers::Receivers;
 use softshadows_core::light::lights::{tangent_frame, EmissionTexture, Light};
 use softshadows_core::light::sampling::{Pattern, SampleSet};
-use softshadows_core::methods::alias_free::{AliasFreeOptions, Casters, TableSize};
+use softshadows_core::methods::alias_free::{AliasFreeOptions, TableSize};
+use softshadows_core::methods::Casters;
 use softshadows_core::methods::backprojection::{Acceleration, Accumulation, BackprojectionOptions, Budget, Occluder};
 use softshadows_core::methods::cssm::{CssmOptions, Prefilter};
 use softshadows_core::methods::envmap::FitOptions;
@@ -465,11 +466,15 @@ pub fn side(r: u8) -> usize {
 pub struct FuzzRayTracedOptions {
     /// `None`: the default `auto_epsilon(scene)`.
     pub epsilon: Option<Num>,
+    pub backfacing: bool,
 }
 
 impl FuzzRayTracedOptions {
     pub fn build(&self, scene: &Scene) -> RayTracedOptions {
-        RayTracedOptions { epsilon: opt(self.epsilon).unwrap_or_else(|| auto_epsilon(scene)) }
+        RayTracedOptions {
+            epsilon: opt(self.epsilon).unwrap_or_else(|| auto_epsilon(scene)),
+            casters: if self.backfacing { Casters::Backfacing } else { Casters::All },
+        }
     }
 }
 

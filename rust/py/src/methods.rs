@@ -13,7 +13,7 @@ use softshadows_core::gpu::Backend;
 use softshadows_core::light::lights::Light;
 use softshadows_core::light::sampling::SampleSet;
 use softshadows_core::methods::alias_free::{
-    alias_free as alias_free_core, AliasFreeOptions, Casters, TableSize,
+    alias_free as alias_free_core, AliasFreeOptions, TableSize,
 };
 use softshadows_core::methods::backprojection::{
     backprojection_levels, Acceleration, Accumulation, BackprojectionOptions, Budget, Occluder,
@@ -32,6 +32,7 @@ use softshadows_core::methods::stsv::{
     stsv as stsv_core, stsv_volumes as stsv_volumes_core, Opaque, StsvOptions,
 };
 use softshadows_core::methods::vwss::{vwss as vwss_core, Mode, Parallel, Precision, VwssOptions};
+use softshadows_core::methods::Casters;
 use softshadows_core::raster::influence::ObjectOptions;
 use softshadows_core::Error;
 use softshadows_core::Result as CoreResult;
@@ -56,6 +57,15 @@ fn parse_backend(backend: &str) -> CoreResult<Backend> {
     )
 }
 
+/// The `casters=` option of `alias_free` and `ray_traced`.
+fn parse_casters(casters: &str) -> CoreResult<Casters> {
+    choice(
+        "casters",
+        casters,
+        &[("backfacing", Casters::Backfacing), ("all", Casters::All)],
+    )
+}
+
 /// Exact sampled visibility by BVH shadow rays (the oracle).
 #[pyfunction]
 fn ray_traced<'py>(
@@ -65,8 +75,12 @@ fn ray_traced<'py>(
     receivers: &NativeReceivers,
     samples: &NativeSamples,
     epsilon: f32,
+    casters: &str,
 ) -> PyResult<Output<'py>> {
-    let opts = RayTracedOptions { epsilon };
+    let opts = RayTracedOptions {
+        epsilon,
+        casters: parse_casters(casters).or_raise()?,
+    };
     let bvh = scene.bvh(py)?;
     let out = crate::threads::detached(py, || {
         ray_traced_core(
@@ -378,12 +392,7 @@ fn alias_free<'py>(
             choice("lut", &name, &[("auto", TableSize::FromSamples)]).or_raise()?
         }
     };
-    let casters = choice(
-        "casters",
-        casters,
-        &[("backfacing", Casters::Backfacing), ("all", Casters::All)],
-    )
-    .or_raise()?;
+    let casters = parse_casters(casters).or_raise()?;
     let opts = AliasFreeOptions {
         resolution,
         casters,

@@ -310,9 +310,9 @@ impl Bvh {
         }
         let search = |start: u32| {
             ANY_STACK.with(|s| match s.try_borrow_mut() {
-                Ok(mut stack) => self.any_hit(scene, &r, t_max, start, &mut stack),
+                Ok(mut stack) => self.any_hit(scene, &r, t_max, start, None, &mut stack),
                 // Only reachable if `is_opaque_at` re-entered the BVH on this thread.
-                Err(_) => self.any_hit(scene, &r, t_max, start, &mut [0; STACK]),
+                Err(_) => self.any_hit(scene, &r, t_max, start, None, &mut [0; STACK]),
             })
         };
         // The subtree first (unless it is the whole tree): a hit there is as good as any.
@@ -328,6 +328,30 @@ impl Bvh {
             }
             None => false,
         }
+    }
+
+    /// [`Bvh::occluded`] counting only the faces for which `casts(face id)` holds (one traversal,
+    /// no leaf cache): the oracle of culled casters, `ray_traced(casters="backfacing")`.
+    pub fn occluded_by_faces(
+        &self,
+        scene: &Scene,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        casts: &dyn Fn(u32) -> bool,
+    ) -> bool {
+        if t_max.is_nan() || t_max <= 0.0 {
+            return false;
+        }
+        let Some(r) = RayData::new(origin, dir) else {
+            return false;
+        };
+        ANY_STACK
+            .with(|s| match s.try_borrow_mut() {
+                Ok(mut stack) => self.any_hit(scene, &r, t_max, self.root, Some(casts), &mut stack),
+                Err(_) => self.any_hit(scene, &r, t_max, self.root, Some(casts), &mut [0; STACK]),
+            })
+            .is_some()
     }
 
     /// For each target, whether the open segment from `origin` to it is blocked: the shadow
@@ -521,32 +545,56 @@ impl Bvh {
         let Some(r) = RayData::new(origin, dir) else {
             return 0;
         };
+        let mut total = 0u32;
+        self.leaves_along(&r, t_max, |b| {
+            let hits = hit4(b, &r, t_max).mask;
+            total += distinct_lanes(b)
+                .filter(|&i| hits >> i & 1 != 0 && counts(b.ids[i]))
+                .count() as u32;
+            false
+        });
+        total
+    }
+
+    /// Whether `hit(face id)` holds for some face in a leaf whose box the segment t in
+    /// (0, `t_max`) of `origin + t dir` meets: every face the segment may meet is offered, for
+    /// a test of the caller's own (e.g. in f64). A zero `dir` or `t_max <= 0` offers none.
+    pub fn any_face_along(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        hit: impl Fn(u32) -> bool,
+    ) -> bool {
+        if t_max.is_nan() || t_max <= 0.0 {
+            return false;
+        }
+        let Some(r) = RayData::new(origin, dir) else {
+            return false;
+        };
+        self.leaves_along(&r, t_max, |b| distinct_lanes(b).any(|i| hit(b.ids[i])))
+    }
+
+    /// Visits every leaf whose box the ray meets in (0, `t_max`) until `visit` returns true;
+    /// returns whether it did.
+    fn leaves_along(&self, r: &RayData, t_max: f32, mut visit: impl FnMut(&Tri4) -> bool) -> bool {
         let mut stack = [0u32; STACK];
-        let (mut sp, mut cur, mut total) = (0usize, self.root, 0u32);
+        let (mut sp, mut cur) = (0usize, self.root);
         loop {
             if cur & LEAF == 0 {
                 let node = &self.nodes[cur as usize];
-                let (mut mask, _) = node.hit(&r, t_max);
+                let (mut mask, _) = node.hit(r, t_max);
                 while mask != 0 {
                     // At most 4 pushes per level and 3 * depth + 1 <= STACK (see `build`).
                     stack[sp] = node.child[mask.trailing_zeros() as usize];
                     sp += 1;
                     mask &= mask - 1;
                 }
-            } else {
-                let b = &self.blocks[(cur & !LEAF) as usize];
-                let hits = hit4(b, &r, t_max).mask;
-                // Short leaves repeat their last face: count each face once.
-                total += (0..4)
-                    .filter(|&i| {
-                        hits >> i & 1 != 0
-                            && (i == 0 || b.ids[i] != b.ids[i - 1])
-                            && counts(b.ids[i])
-                    })
-                    .count() as u32;
+            } else if visit(&self.blocks[(cur & !LEAF) as usize]) {
+                return true;
             }
             if sp == 0 {
-                return total;
+                return false;
             }
             sp -= 1;
             cur = stack[sp];
@@ -575,13 +623,14 @@ impl Bvh {
     }
 
     /// Any-hit traversal of the subtree `start` (a child reference); returns the block that
-    /// holds an opaque hit.
+    /// holds an opaque hit, among the faces `casts` keeps (all without it).
     fn any_hit(
         &self,
         scene: &Scene,
         r: &RayData,
         t_max: f32,
         start: u32,
+        casts: Option<&dyn Fn(u32) -> bool>,
         stack: &mut [u32; STACK],
     ) -> Option<u32> {
         let mut sp = 0usize;
@@ -603,7 +652,12 @@ impl Bvh {
                 }
             } else {
                 let b = cur & !LEAF;
-                if Self::block_occludes(scene, &self.blocks[b as usize], r, t_max) {
+                let block = &self.blocks[b as usize];
+                let mut lanes = hit4(block, r, t_max);
+                if let Some(casts) = casts {
+                    lanes.mask &= kept_lanes(block, casts);
+                }
+                if Self::lanes_occlude(scene, block, &lanes) {
                     return Some(b);
                 }
             }
@@ -658,12 +712,27 @@ impl Bvh {
     /// go through the texture.
     #[inline(always)]
     fn block_occludes(scene: &Scene, b: &Tri4, r: &RayData, t_max: f32) -> bool {
-        let lanes = hit4(b, r, t_max);
+        Self::lanes_occlude(scene, b, &hit4(b, r, t_max))
+    }
+
+    /// Whether the hit `lanes` of block `b` hold an opaque hit.
+    #[inline(always)]
+    fn lanes_occlude(scene: &Scene, b: &Tri4, lanes: &Lanes) -> bool {
         if lanes.mask & !b.alpha != 0 {
             return true;
         }
-        lanes.mask != 0 && alpha_occludes(scene, b, &lanes)
+        lanes.mask != 0 && alpha_occludes(scene, b, lanes)
     }
+}
+
+/// The lanes of block `b` that hold distinct faces: short leaves repeat their last face.
+fn distinct_lanes(b: &Tri4) -> impl Iterator<Item = usize> + '_ {
+    (0..4).filter(|&i| i == 0 || b.ids[i] != b.ids[i - 1])
+}
+
+/// The lanes of block `b` whose faces `casts` keeps.
+fn kept_lanes(b: &Tri4, casts: &dyn Fn(u32) -> bool) -> u32 {
+    (0..4).fold(0, |m, i| m | u32::from(casts(b.ids[i])) << i)
 }
 
 /// Whether any hit lane of a perforated block is opaque at its hit point.

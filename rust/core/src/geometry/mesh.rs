@@ -180,6 +180,13 @@ impl Scene {
         }
     }
 
+    /// The vertices of global face `id`.
+    pub fn triangle(&self, id: u32) -> [Vec3; 3] {
+        let r = self.face_ref(id);
+        let m = &self.meshes[r.mesh as usize];
+        m.faces[r.face as usize].map(|v| m.positions[v as usize])
+    }
+
     /// All triangles as `(global id, vertices)`, in global id order.
     pub fn triangles(&self) -> impl Iterator<Item = (u32, [Vec3; 3])> + '_ {
         self.meshes

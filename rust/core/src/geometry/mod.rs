@@ -3,5 +3,6 @@ pub mod bvh;
 pub mod camera;
 pub mod edges;
 pub mod gbuffer;
+pub mod inside;
 pub mod mesh;
 pub mod receivers;

@@ -873,7 +873,8 @@ mod tests {
     use crate::gpu::{context, Backend};
     use crate::light::lights::Light;
     use crate::light::sampling::{Pattern, Rng, SampleSet};
-    use crate::methods::alias_free::{sample_masks, AliasFreeOptions, Casters, TableSize};
+    use crate::methods::alias_free::{sample_masks, AliasFreeOptions, TableSize};
+    use crate::methods::Casters;
     use crate::stats::Stats;
     use glam::{Vec2, Vec3};
     use std::sync::Mutex;

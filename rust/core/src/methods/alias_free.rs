@@ -57,12 +57,14 @@
 use crate::error::{Error, Result};
 use crate::geometry::bvh::Bvh;
 use crate::geometry::edges::{edges, edges_peak, Edge};
+use crate::geometry::inside::inside_closed_meshes;
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::gpu::{self, Backend};
 use crate::light::lights::{Light, Shape};
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, object_work, Peak};
+use crate::methods::Casters;
 use crate::raster::depth::{
     band_rows, casters, Caster, FaceFilter, LightFrustum, RasterMode, RasterOptions,
 };
@@ -73,6 +75,7 @@ use crate::raster::region::conservative_rows;
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
 use rayon::prelude::*;
+use std::borrow::Cow;
 
 /// The most light samples a view sample's bitmask holds.
 pub const MAX_SAMPLES: usize = 1024;
@@ -128,17 +131,6 @@ pub fn table_bins_for(samples: usize) -> usize {
         .step_by(8)
         .find(|&b| fits(b))
         .unwrap_or(8)
-}
-
-/// Which triangles cast shadows.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Casters {
-    /// Closed meshes: light back-facing triangles only (bias-free, section 3.3), but every
-    /// triangle for the receivers inside one (module doc, step 4); open meshes: every triangle.
-    #[default]
-    Backfacing,
-    /// Every triangle, each tested against receivers moved `bias` along their normals.
-    All,
 }
 
 /// Options of [`alias_free`].
@@ -741,7 +733,9 @@ pub(crate) fn sample_masks(
         return Ok(out);
     }
     let inside = if opts.casters == Casters::Backfacing {
-        stats.time_add("list_build", || mark_inside_closed_meshes(scene, &mut view))?
+        stats.time_add("list_build", || {
+            mark_inside_closed_meshes(scene, &mut view, opts.bias)
+        })?
     } else {
         0
     };
@@ -966,69 +960,16 @@ fn view_samples(
         .collect()
 }
 
-/// How far along its normal a view sample is probed for lying inside a closed mesh, at least:
-/// this fraction of the scene's diagonal, a tenth of `ray_traced`'s default offset, so that a
-/// receiver on a closed mesh's surface facing out probes outside it even without a bias, as the
-/// paper's bias-free culling assumes.
-const INSIDE_PROBE: f64 = 1e-5;
-
-/// Two directions of rays from a probed point, along no axis or diagonal of a regular grid: the
-/// watertight test counts a ray through a shared edge or vertex on both triangles, so a ray
-/// that grazes one finds the wrong parity; two such rays at once are left to chance.
-const INSIDE_RAYS: [Vec3; 2] = [
-    Vec3::new(0.289_1, 0.836_7, 0.465_1),
-    Vec3::new(-0.613_6, 0.178_9, -0.769_1),
-];
-
 /// Flags the view samples whose moved point lies inside a closed mesh (see the module doc,
-/// step 4) and returns their number: those within a closed mesh's bounding box, probed
-/// [`INSIDE_PROBE`] or their bias along the normal, that find an odd number of the mesh's faces
-/// on either of the [`INSIDE_RAYS`] through a BVH (built only when some probe is in a box). A
-/// view sample flagged though outside only tests more triangles, and exactly; one inside the
-/// mesh and missed would see the light through it.
-fn mark_inside_closed_meshes(scene: &Scene, view: &mut [ViewSample]) -> Result<usize> {
-    let boxes: Vec<(u32, DVec3, DVec3)> = scene
-        .meshes
-        .iter()
-        .enumerate()
-        .filter(|(_, m)| m.closed && !m.faces.is_empty())
-        .map(|(k, m)| {
-            let corners = m
-                .faces
-                .iter()
-                .flatten()
-                .map(|&v| m.positions[v as usize].as_dvec3());
-            let (lo, hi) = corners.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
-                (lo.min(p), hi.max(p))
-            });
-            (k as u32, lo, hi)
-        })
-        .collect();
-    let (lo, hi) = scene.bounds();
-    let least = INSIDE_PROBE * (hi - lo).as_dvec3().length();
-    let probe = |s: &ViewSample| {
-        let len = s.n.length();
-        s.p + s.n / len * (s.moved - s.p).length().max(least)
-    };
-    let in_box =
-        |q: DVec3, (_, lo, hi): &(u32, DVec3, DVec3)| q.cmpge(*lo).all() && q.cmple(*hi).all();
-    if !view
-        .iter()
-        .any(|s| boxes.iter().any(|b| in_box(probe(s), b)))
-    {
-        return Ok(0);
+/// step 4, and [`inside_closed_meshes`]) and returns their number.
+fn mark_inside_closed_meshes(scene: &Scene, view: &mut [ViewSample], bias: f32) -> Result<usize> {
+    let receivers: Vec<(DVec3, DVec3)> = view.iter().map(|s| (s.p, s.n)).collect();
+    let inside = inside_closed_meshes(scene, &receivers, f64::from(bias), || {
+        Bvh::build(scene).map(Cow::Owned)
+    })?;
+    for (s, inside) in view.iter_mut().zip(inside) {
+        s.inside = inside;
     }
-    let bvh = Bvh::build(scene)?;
-    let odd = |q: DVec3, (mesh, lo, hi): &(u32, DVec3, DVec3)| {
-        let reach = 2.0 * (*hi - *lo).length() as f32 + 1.0;
-        INSIDE_RAYS.iter().any(|d| {
-            bvh.count_hits(q.as_vec3(), *d, reach, |f| scene.face_ref(f).mesh == *mesh) % 2 == 1
-        })
-    };
-    view.par_iter_mut().for_each(|s| {
-        let q = probe(s);
-        s.inside = boxes.iter().any(|b| in_box(q, b) && odd(q, b));
-    });
     Ok(view.iter().filter(|s| s.inside).count())
 }
 
@@ -1116,9 +1057,10 @@ impl CasterSet {
             .iter()
             .map(|(id, t, alpha)| {
                 let v = t.map(|p| p.as_dvec3());
-                // Only a point light's back-facing closed casters can skip the offset (section 3.3):
-                // near its own surface, a receiver's per-sample edge planes are degenerate.
-                let moved = opts.casters == Casters::All || !scene.is_closed_face(*id) || !point;
+                // Closed casters under culling skip the offset (section 3.3), for area lights too:
+                // a closed triangle blocks only from receivers strictly in front of its plane
+                // (`front_only`), so never the surface a receiver lies on.
+                let moved = opts.casters == Casters::All || !scene.is_closed_face(*id);
                 let near_depth = t
                     .iter()
                     .map(|p| f64::from(frustum.to_view(*p).z))

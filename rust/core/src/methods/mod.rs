@@ -15,6 +15,19 @@ pub mod vwss;
 use crate::error::{Error, Result};
 use crate::light::lights::Light;
 
+/// Which triangles cast shadows (`alias_free`, `ray_traced`, `stsv`'s bitmasks).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Casters {
+    /// Closed meshes: light back-facing triangles only, from the receiver itself with no offset
+    /// (bias-free; Sintorn, Eisemann and Assarsson 2008, section 3.3), but every triangle, from
+    /// the moved receiver, for the receivers inside one ([`crate::geometry::inside`]); open
+    /// meshes: every triangle, from the moved receiver.
+    #[default]
+    Backfacing,
+    /// Every triangle, from the receiver moved along its normal (`docs/design.md` section 3).
+    All,
+}
+
 /// Refuses an emission-textured light for the methods that filter one shadow map seen from the
 /// light's center (`shadow_map`, `pcss`, `cssm`, `backprojection`): they have no light samples
 /// to weight by the texture, and a prefiltered map cannot carry it (Annen et al. 2008, section

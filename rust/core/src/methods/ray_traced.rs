@@ -19,15 +19,18 @@
 
 use crate::error::{Error, Result};
 use crate::geometry::bvh::Bvh;
+use crate::geometry::inside::inside_closed_meshes;
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::interrupt;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, Peak, Work};
+use crate::methods::Casters;
 use crate::stats::Stats;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
+use std::borrow::Cow;
 
 /// Receivers per parallel work item (consecutive pixels share occluders: good cache reuse).
 const CHUNK: usize = 64;
@@ -38,13 +41,19 @@ pub struct RayTracedOptions {
     /// Offset of the shadow-ray origins along the receiver normal (world units, >= 0); see
     /// [`auto_epsilon`] for the default.
     pub epsilon: f32,
+    /// `Casters::All` (the default): every triangle, from `p + epsilon n`, the definition.
+    /// `Casters::Backfacing`: closed meshes' triangles block only from receivers strictly in
+    /// front of their plane, from `p` itself, as `alias_free` culls them; so `alias_free` has an
+    /// oracle on its default, and the definition's limit for epsilon -> 0 on closed meshes.
+    pub casters: Casters,
 }
 
 impl RayTracedOptions {
-    /// The options with `epsilon = auto_epsilon(scene)`.
+    /// The options with `epsilon = auto_epsilon(scene)` and every triangle casting.
     pub fn for_scene(scene: &Scene) -> Self {
         Self {
             epsilon: auto_epsilon(scene),
+            casters: Casters::All,
         }
     }
 }
@@ -91,13 +100,14 @@ pub fn ray_traced(
         .check("ray_traced", &mut stats)?;
     let mut out = vec![0f32; n];
     let rays = stats.time("trace", || {
+        let culled = culled_receivers(scene, bvh, receivers, opts)?;
         trace_all(
             scene,
             bvh,
             light,
             receivers,
             samples,
-            opts.epsilon,
+            (opts.epsilon, culled.as_deref()),
             &mut out,
         )
     })?;
@@ -110,19 +120,52 @@ pub fn ray_traced(
     Ok((out, stats))
 }
 
+/// With `Casters::Backfacing` on a scene with a closed mesh, per receiver whether the culling of
+/// closed casters holds for it: it lies outside every closed mesh (see
+/// [`crate::geometry::inside`]). `None` when every triangle casts from the moved receiver.
+fn culled_receivers(
+    scene: &Scene,
+    bvh: &Bvh,
+    receivers: &Receivers,
+    opts: &RayTracedOptions,
+) -> Result<Option<Vec<bool>>> {
+    if opts.casters == Casters::All || !scene.meshes.iter().any(|m| m.closed) {
+        return Ok(None);
+    }
+    let points: Vec<(DVec3, DVec3)> = (0..receivers.len())
+        .map(|i| {
+            (
+                receivers.points[i].as_dvec3(),
+                receivers.normals[i].as_dvec3(),
+            )
+        })
+        .collect();
+    let inside = inside_closed_meshes(scene, &points, f64::from(opts.epsilon), || {
+        Ok(Cow::Borrowed(bvh))
+    })?;
+    Ok(Some(
+        inside
+            .iter()
+            .zip(&receivers.valid)
+            .map(|(&inside, &valid)| valid && !inside)
+            .collect(),
+    ))
+}
+
 /// Fills `out` in parallel with thread-local buffers, in interruptible rounds; returns the rays
-/// traced. When every receiver uses the same unweighted samples, screen tiles of receivers are
-/// traced together ([`trace_shared`]); otherwise each receiver traces its own samples.
+/// traced. When every receiver uses the same unweighted samples and every triangle casts,
+/// screen tiles of receivers are traced together ([`trace_shared`]); otherwise each receiver
+/// traces its own samples, those in `culled` with the culling of closed casters.
 fn trace_all(
     scene: &Scene,
     bvh: &Bvh,
     light: &Light,
     receivers: &Receivers,
     samples: &SampleSet,
-    epsilon: f32,
+    (epsilon, culled): (f32, Option<&[bool]>),
     out: &mut [f32],
 ) -> Result<u64> {
-    if samples.is_shared() && !light.is_textured() {
+    if samples.is_shared() && !light.is_textured() && culled.is_none() {
         return trace_shared(
             scene,
             bvh,
@@ -158,8 +201,13 @@ fn trace_all(
                             }
                             let (p, n) = (receivers.points[i], receivers.normals[i]);
                             samples.fill(light, i, receivers.pixel(i), ys, ws);
+                            let origins = Origins {
+                                p,
+                                moved: p + n * epsilon,
+                                culled: culled.is_some_and(|c| c[i]),
+                            };
                             let (vis, count) =
-                                receiver_visibility(scene, bvh, p, n, epsilon, ys, ws, traced);
+                                receiver_visibility(scene, bvh, origins, n, ys, ws, traced);
                             *v = vis;
                             rays += count;
                         }
@@ -414,20 +462,31 @@ struct Traced {
     blocked: Vec<bool>,
 }
 
-/// The weighted fraction of unblocked samples `ys` (weights `ws`) of the receiver at `p` with
-/// normal `n`, and the number of rays traced.
-#[allow(clippy::too_many_arguments)]
+/// Where a receiver's shadow rays start: the receiver, moved along its normal, and whether the
+/// culling of closed casters holds for it.
+#[derive(Debug, Clone, Copy)]
+struct Origins {
+    p: Vec3,
+    moved: Vec3,
+    culled: bool,
+}
+
+/// The weighted fraction of unblocked samples `ys` (weights `ws`) of the receiver at
+/// `origins.p` with normal `n`, and the number of rays traced.
 fn receiver_visibility(
     scene: &Scene,
     bvh: &Bvh,
-    p: Vec3,
+    origins: Origins,
     n: Vec3,
-    epsilon: f32,
     ys: &[Vec3],
     ws: &[f32],
     s: &mut Traced,
 ) -> (f32, u64) {
-    let origin = p + n * epsilon;
+    let Origins {
+        p,
+        moved: origin,
+        culled,
+    } = origins;
     s.targets.clear();
     s.weights.clear();
     let mut total = 0f64;
@@ -439,7 +498,11 @@ fn receiver_visibility(
             s.weights.push(w);
         }
     }
-    bvh.occluded_many(scene, origin, &s.targets, &mut s.blocked);
+    if culled {
+        occluded_with_culling(scene, bvh, origins, &s.targets, &mut s.blocked);
+    } else {
+        bvh.occluded_many(scene, origin, &s.targets, &mut s.blocked);
+    }
     let lit = s
         .weights
         .iter()
@@ -447,6 +510,52 @@ fn receiver_visibility(
         .filter(|(_, &b)| !b)
         .fold(0.0, |acc, (&w, _)| acc + f64::from(w));
     (fraction(lit, total), s.targets.len() as u64)
+}
+
+/// For each target, whether its segment is blocked with the culling of closed casters (Sintorn,
+/// Eisemann and Assarsson 2008, section 3.3): an open mesh's face blocks the segment from the
+/// moved receiver (the watertight test), a closed mesh's face the segment from the receiver
+/// itself ([`culled_face_blocks`]). Clears and fills `out`.
+fn occluded_with_culling(
+    scene: &Scene,
+    bvh: &Bvh,
+    origins: Origins,
+    targets: &[Vec3],
+    out: &mut Vec<bool>,
+) {
+    let open = |f: u32| !scene.is_closed_face(f);
+    let p = origins.p.as_dvec3();
+    out.clear();
+    out.extend(targets.iter().map(|&y| {
+        bvh.occluded_by_faces(scene, origins.moved, y - origins.moved, 1.0, &open)
+            || bvh.any_face_along(origins.p, y - origins.p, 1.0, |f| {
+                culled_face_blocks(scene, f, p, y.as_dvec3())
+            })
+    }));
+}
+
+/// Whether closed face `f` blocks the segment from `p` to `y` under culling: `p` lies strictly
+/// in front of its plane, `y` strictly behind it, and the segment crosses strictly inside its
+/// three edges (the signed volumes of the segment with each edge agree), where the face is
+/// opaque. In f64: the receiver lies on a closed surface to within f32 rounding, which the
+/// watertight test in f32 cannot tell from crossing it (a shadow ray from `p` would hit its own
+/// face at t ~ 1e-8 for light samples grazing the surface).
+fn culled_face_blocks(scene: &Scene, f: u32, p: DVec3, y: DVec3) -> bool {
+    if !scene.is_closed_face(f) {
+        return false;
+    }
+    let [a, b, c] = scene.triangle(f).map(Vec3::as_dvec3);
+    let n = (b - a).cross(c - a);
+    if !(n.dot(p - a) > 0.0 && n.dot(y - a) < 0.0) {
+        return false;
+    }
+    let d = y - p;
+    let volume = |u: DVec3, v: DVec3| (u - p).cross(v - p).dot(d);
+    let (ab, bc, ca) = (volume(a, b), volume(b, c), volume(c, a));
+    let inside = (ab > 0.0 && bc > 0.0 && ca > 0.0) || (ab < 0.0 && bc < 0.0 && ca < 0.0);
+    // The barycentric weight of each vertex is the volume with the opposite edge.
+    let sum = ab + bc + ca;
+    inside && scene.is_opaque_at(f, (ca / sum) as f32, (ab / sum) as f32)
 }
 
 /// `lit / total` in [0, 1], and 0 when no sample carries weight. (The sums start at +0.0: Rust's
@@ -563,17 +672,13 @@ mod tests {
                     return 0.0;
                 }
                 samples.fill(light, i, rx.pixel(i), &mut ys, &mut ws);
-                receiver_visibility(
-                    scene,
-                    bvh,
-                    rx.points[i],
-                    rx.normals[i],
-                    eps,
-                    &ys,
-                    &ws,
-                    &mut traced,
-                )
-                .0
+                let (p, n) = (rx.points[i], rx.normals[i]);
+                let origins = Origins {
+                    p,
+                    moved: p + n * eps,
+                    culled: false,
+                };
+                receiver_visibility(scene, bvh, origins, n, &ys, &ws, &mut traced).0
             })
             .collect()
     }
@@ -588,7 +693,10 @@ mod tests {
         let bvh = Bvh::build(&scene).unwrap();
         let light = Light::rect(Vec3::new(0.0, 3.0, 0.0), Vec3::X * 0.6, Vec3::Z * 0.6).unwrap();
         let rx = grid();
-        let opts = RayTracedOptions { epsilon: 1e-4 };
+        let opts = RayTracedOptions {
+            epsilon: 1e-4,
+            casters: Casters::All,
+        };
         let variants = [(1, false), (1, true), (3, false)];
         for (interleave, rotate) in variants {
             let samples =

@@ -41,9 +41,10 @@ use crate::gpu::Backend;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, object_work, Peak};
-use crate::methods::alias_free::{masks_peak, sample_masks, AliasFreeOptions, Casters, TableSize};
+use crate::methods::alias_free::{masks_peak, sample_masks, AliasFreeOptions, TableSize};
 use crate::methods::dcs::{depth_complexity, depth_complexity_peak, visible_fraction};
 use crate::methods::penumbra_wedge::{wedge_occlusion, wedge_occlusion_peak};
+use crate::methods::Casters;
 use crate::raster::influence::{
     by_light_face, check_hull_degree, LightBounds, ObjectOptions, Origins,
 };
@@ -493,9 +494,11 @@ fn stsv_in_one_frustum(
     }
     stats.set("light_samples", s as f64);
     let words = s.div_ceil(64);
+    // Every triangle from the moved receiver, as `dcs` and `penumbra_wedge` test, so the opaque
+    // frameworks give the same bits: `ray_traced`'s.
     let af = AliasFreeOptions {
         resolution: opts.object.resolution,
-        casters: Casters::Backfacing,
+        casters: Casters::All,
         bias: opts.object.epsilon,
         lut: TableSize::Exact,
         hull_degree: opts.object.hull_degree,
