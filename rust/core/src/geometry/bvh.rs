@@ -297,10 +297,7 @@ impl Bvh {
         t_max: f32,
         cache: &mut ShadowCache,
     ) -> bool {
-        if t_max.is_nan() || t_max <= 0.0 {
-            return false;
-        }
-        let Some(r) = RayData::new(origin, dir) else {
+        let Some(r) = segment(origin, dir, t_max) else {
             return false;
         };
         if let Some(b) = self.blocks.get(cache.block as usize) {
@@ -340,10 +337,7 @@ impl Bvh {
         t_max: f32,
         casts: &dyn Fn(u32) -> bool,
     ) -> bool {
-        if t_max.is_nan() || t_max <= 0.0 {
-            return false;
-        }
-        let Some(r) = RayData::new(origin, dir) else {
+        let Some(r) = segment(origin, dir, t_max) else {
             return false;
         };
         ANY_STACK
@@ -539,10 +533,7 @@ impl Bvh {
         t_max: f32,
         counts: impl Fn(u32) -> bool,
     ) -> u32 {
-        if t_max.is_nan() || t_max <= 0.0 {
-            return 0;
-        }
-        let Some(r) = RayData::new(origin, dir) else {
+        let Some(r) = segment(origin, dir, t_max) else {
             return 0;
         };
         let mut total = 0u32;
@@ -566,10 +557,7 @@ impl Bvh {
         t_max: f32,
         hit: impl Fn(u32) -> bool,
     ) -> bool {
-        if t_max.is_nan() || t_max <= 0.0 {
-            return false;
-        }
-        let Some(r) = RayData::new(origin, dir) else {
+        let Some(r) = segment(origin, dir, t_max) else {
             return false;
         };
         self.leaves_along(&r, t_max, |b| distinct_lanes(b).any(|i| hit(b.ids[i])))
@@ -723,6 +711,15 @@ impl Bvh {
         }
         lanes.mask != 0 && alpha_occludes(scene, b, lanes)
     }
+}
+
+/// The ray of the open segment t in (0, `t_max`) of `origin + t dir`; `None` when it is empty
+/// (`t_max <= 0` or NaN, a zero `dir`) or not finite.
+fn segment(origin: Vec3, dir: Vec3, t_max: f32) -> Option<RayData> {
+    if t_max.is_nan() || t_max <= 0.0 {
+        return None;
+    }
+    RayData::new(origin, dir)
 }
 
 /// The lanes of block `b` that hold distinct faces: short leaves repeat their last face.
