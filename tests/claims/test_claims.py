@@ -15,6 +15,7 @@ import pytest
 
 import softshadows as ss
 from softshadows import claims
+from softshadows.claims import ledger
 
 EXPECTED = Path(__file__).with_name("expected.csv")
 
@@ -64,6 +65,7 @@ def test_tolerances_accept_drift_within_and_refuse_beyond():
     assert claims.DETERMINISTIC.accepts(1.01, 1.0) and not claims.DETERMINISTIC.accepts(1.05, 1.0)
     assert claims.TIMING.accepts(2.0, 1.0) and claims.TIMING.accepts(0.5, 1.0) and not claims.TIMING.accepts(3.0, 1.0)
     assert not claims.DETERMINISTIC.accepts(math.nan, 1.0) and claims.DETERMINISTIC.accepts(math.nan, math.nan)
+    assert claims.WALL_CLOCK.accepts(10.7, 27.9) and claims.WALL_CLOCK.accepts(300.0, 27.9)
 
 
 def test_a_broken_measurement_is_reported_in_its_row(monkeypatch):
@@ -126,6 +128,13 @@ def test_every_paper_has_claims_and_every_claim_is_well_formed():
     for c in claims.CLAIMS.values():
         assert c.id.startswith(c.paper.key + ".") and c.where and c.statement and c.paper_value and c.ours
         assert "seed 00" not in c.statement + c.where + c.paper_value
+
+
+def test_no_verdict_reads_an_absolute_time():
+    """Absolute seconds depend on the machine; a verdict must rest on ratios measured side by side."""
+    for c in claims.CLAIMS.values():
+        clocked = {k for k, t in c.tolerance.items() if t is claims.WALL_CLOCK}
+        assert not clocked & set(ledger._rule_keys(c.rule)), c.id
 
 
 def test_the_cli_refuses_an_unknown_paper_with_the_known_ones(capsys):

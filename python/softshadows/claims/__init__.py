@@ -35,7 +35,7 @@ References
 """
 
 from .ledger import (
-    CLAIMS, DETERMINISTIC, PAPERS, TIMING, VERDICTS, AllOf, AtLeast, AtMost, Between, Claim, Measured,
+    CLAIMS, DETERMINISTIC, PAPERS, TIMING, VERDICTS, WALL_CLOCK, AllOf, AtLeast, AtMost, Between, Claim, Measured,
     NotMeasurable, Paper, Rule, Tier, Tol, claim, compare_expected, machine, record_expected, reproduce,
     update_readme, write_report,
 )
@@ -44,7 +44,7 @@ from .ledger import (
 from . import annen08, forest09, marrs18, schwarz08, sintorn08  # noqa: E402,F401
 
 __all__ = [
-    "CLAIMS", "DETERMINISTIC", "PAPERS", "TIMING", "VERDICTS", "AllOf", "AtLeast", "AtMost", "Between", "Claim",
+    "CLAIMS", "DETERMINISTIC", "PAPERS", "TIMING", "VERDICTS", "WALL_CLOCK", "AllOf", "AtLeast", "AtMost", "Between", "Claim",
     "Measured", "NotMeasurable", "Paper", "Rule", "Tier", "Tol", "claim", "compare_expected", "machine",
     "record_expected", "reproduce", "update_readme", "write_report",
 ]
