@@ -66,11 +66,11 @@ def main() -> None:
     gb = ss.gbuffer(s.scene, s.camera)
     print(f"{s.name}: {args.size}x{args.size} receivers, {s.scene.num_faces} triangles")
     calls = {
-        "vwss": lambda backend: ss.vwss(s.scene, s.light, gb, views=args.views, backend=backend, return_stats=True),
+        "vwss": lambda backend: ss.vwss(s.scene, s.light, gb, samples=args.views, backend=backend, return_stats=True),
         "cssm": lambda backend: ss.cssm(s.scene, s.light, gb, backend=backend, return_stats=True),
         "shadow_map": lambda backend: ss.shadow_map(s.scene, s.light, gb, pcf=5, backend=backend, return_stats=True),
         "pcss": lambda backend: ss.pcss(s.scene, s.light, gb, backend=backend, return_stats=True),
-        "mvr": lambda backend: ss.mvr(s.scene, s.light, gb, views=args.views, backend=backend, return_stats=True),
+        "mvr": lambda backend: ss.mvr(s.scene, s.light, gb, samples=args.views, backend=backend, return_stats=True),
         "alias_free": lambda backend: ss.alias_free(s.scene, s.light, gb, backend=backend, return_stats=True),
     }
     header = f"{'method':>10} {'backend':>7} " + " ".join(f"{'stage ' + str(k + 1) + ' ms':>11}" for k in range(3))

@@ -46,7 +46,7 @@ def render():
         "pcss": ss.pcss(setup.scene, setup.light, gb),
         "cssm": ss.cssm(setup.scene, setup.light, gb),
         f"alias_free, {SAMPLES} samples": ss.alias_free(setup.scene, setup.light, gb, samples=samples),
-        f"vwss, {VIEWS} views": ss.vwss(setup.scene, setup.light, gb, views=views),
+        f"vwss, {VIEWS} views": ss.vwss(setup.scene, setup.light, gb, samples=views),
     }
     return setup, gb, reference, methods
 

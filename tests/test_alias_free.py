@@ -17,7 +17,7 @@ def oracle(scene, light, receivers, **options):
     """``ray_traced`` casting as ``alias_free``'s default does: closed meshes' triangles from the
     receiver itself, only where it lies in front of them (no bias); open meshes' from the receiver
     moved ``scene.epsilon``."""
-    return ss.ray_traced(scene, light, receivers, casters="backfacing", **options)
+    return ss.ray_traced(scene, light, receivers, caster_faces="backfacing", **options)
 
 
 def case(name, size=96, **options):
@@ -34,7 +34,7 @@ def test_hard_shadows_equal_ray_tracing_without_a_bias_in_closed_mode(name):
     # the default offset off the surface, 2 of the bunny's 48785 hit pixels differed: the
     # offset, however small, is not the limit.)
     exact = oracle(setup.scene, light, gb, samples=1)
-    hard = ss.alias_free(setup.scene, light, gb, casters="backfacing")
+    hard = ss.alias_free(setup.scene, light, gb, caster_faces="backfacing")
     assert set(np.unique(hard[gb.mask])) <= {0.0, 1.0}
     assert exact[gb.mask].min() == 0 and exact[gb.mask].max() == 1
     np.testing.assert_array_equal(hard[gb.mask], exact[gb.mask])
@@ -47,7 +47,7 @@ def test_hard_shadows_with_every_caster_equal_ray_tracing(name):
     setup, gb = case(name)
     light = ss.PointLight(setup.light.center)
     exact = ss.ray_traced(setup.scene, light, gb, samples=1)
-    np.testing.assert_array_equal(ss.alias_free(setup.scene, light, gb, casters="all")[gb.mask], exact[gb.mask])
+    np.testing.assert_array_equal(ss.alias_free(setup.scene, light, gb, caster_faces="all")[gb.mask], exact[gb.mask])
 
 
 @pytest.mark.parametrize("kind", ["rect", "disk", "sphere", "ellipsoid"])
@@ -62,7 +62,7 @@ def test_exact_soft_shadows_give_the_oracles_bits(kind):
     # from receivers moved scene.epsilon, the definition's bits.
     offset = ss.ray_traced(setup.scene, setup.light, gb, samples=samples)
     assert np.mean((offset != exact)[gb.mask]) > 0.005
-    every = ss.alias_free(setup.scene, setup.light, gb, samples=samples, lut=None, casters="all")
+    every = ss.alias_free(setup.scene, setup.light, gb, samples=samples, lut=None, caster_faces="all")
     np.testing.assert_array_equal(every[gb.mask], offset[gb.mask])
     lut = ss.alias_free(setup.scene, setup.light, gb, samples=samples)
     assert np.abs(lut - exact)[gb.mask].mean() < 0.01
@@ -126,7 +126,7 @@ def test_adding_an_occluder_never_raises_visibility():
     [
         ({"samples": 0}, "samples"),
         ({"samples": 1025}, "samples"),
-        ({"casters": "front"}, "casters"),
+        ({"caster_faces": "front"}, "caster_faces"),
         ({"lut": 2}, "lut"),
         ({"hull_degree": 2}, "hull_degree"),
         ({"bias": -1.0}, "bias"),

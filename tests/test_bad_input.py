@@ -92,8 +92,10 @@ def test_bad_method_arguments(ground):
         ss.ray_traced(scene, light, rx, samples=np.zeros((4, 2)))
     with pytest.raises(ValueError, match="rotate"):
         ss.ray_traced(scene, light, rx, rotate="sometimes")
-    with pytest.raises(ValueError, match="^casters: .*backfacing"):
-        ss.ray_traced(scene, light, rx, casters="front")
+    with pytest.raises(ValueError, match="^caster_faces: .*backfacing"):
+        ss.ray_traced(scene, light, rx, caster_faces="front")
+    with pytest.raises(ValueError, match="^casters: "):
+        ss.ray_traced(scene, light, rx, casters=["front"])
     with pytest.raises(ValueError, match="receivers"):
         ss.ray_traced(scene, light, np.zeros((3, 3)))
     with pytest.raises(ValueError, match="normals"):

@@ -146,7 +146,7 @@ def test_the_cpu_backend_does_not_probe(unprobed):
 @pytest.mark.parametrize(
     "call",
     ["ss.gpu_info()",
-     "s = ss.scenes.get('columns').with_size(16, 16); ss.vwss(s.scene, s.light, ss.gbuffer(s.scene, s.camera), backend='gpu', views=4)"],
+     "s = ss.scenes.get('columns').with_size(16, 16); ss.vwss(s.scene, s.light, ss.gbuffer(s.scene, s.camera), backend='gpu', samples=4)"],
     ids=["gpu_info", "backend=gpu"],
 )
 def test_no_xdg_runtime_dir_complaint_on_stderr_of_a_headless_machine(monkeypatch, capfd, call):

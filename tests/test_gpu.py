@@ -41,13 +41,13 @@ def test_gpu_info_names_the_adapter_and_its_limits(adapter):
         ("columns", {}),
         ("columns", {"precision": "float16", "parallel": "full"}),
         ("fence", {"layered": False}),
-        ("torus_knot", {"parallel": "serial", "views": 6}),
+        ("torus_knot", {"parallel": "serial", "samples": 6}),
     ],
 )
 def test_vwss_on_the_gpu_equals_the_cpu(adapter, scene, options):
     s = ss.scenes.get(scene).with_size(64, 64)
     gb = ss.gbuffer(s.scene, s.camera)
-    options = {"resolution": 256, "views": 12, **options}
+    options = {"resolution": 256, "samples": 12, **options}
     cpu, cpu_stats = ss.vwss(s.scene, s.light, gb, backend="cpu", return_stats=True, **options)
     gpu, gpu_stats = ss.vwss(s.scene, s.light, gb, backend="gpu", return_stats=True, **options)
     assert np.abs(gpu - cpu).max() <= 1e-6
@@ -107,11 +107,11 @@ def test_cssm_mipmaps_are_refused_on_the_gpu(adapter):
         ss.cssm(s.scene, s.light, ss.gbuffer(s.scene, s.camera), backend="gpu", prefilter="mipmap")
 
 
-@pytest.mark.parametrize(("scene", "options"), [("columns", {}), ("torus_knot", {"pcf": 1, "views": 6}), ("bunny", {"resolution": 512})])
+@pytest.mark.parametrize(("scene", "options"), [("columns", {}), ("torus_knot", {"pcf": 1, "samples": 6}), ("bunny", {"resolution": 512})])
 def test_mvr_on_the_gpu_equals_the_cpu(adapter, scene, options):
     s = ss.scenes.get(scene).with_size(64, 64)
     gb = ss.gbuffer(s.scene, s.camera)
-    options = {"resolution": 256, "views": 12, **options}
+    options = {"resolution": 256, "samples": 12, **options}
     cpu, cpu_stats = ss.mvr(s.scene, s.light, gb, backend="cpu", return_stats=True, **options)
     gpu, gpu_stats = ss.mvr(s.scene, s.light, gb, backend="gpu", return_stats=True, **options)
     assert np.abs(gpu - cpu).max() <= 1e-6
@@ -122,7 +122,7 @@ def test_mvr_on_the_gpu_equals_the_cpu(adapter, scene, options):
 def test_mvr_refuses_perforated_meshes_on_the_gpu(adapter):
     s = ss.scenes.get("fence").with_size(8, 8)
     with pytest.raises(ValueError, match="^backend:.*alpha"):
-        ss.mvr(s.scene, s.light, ss.gbuffer(s.scene, s.camera), backend="gpu", resolution=64, views=4)
+        ss.mvr(s.scene, s.light, ss.gbuffer(s.scene, s.camera), backend="gpu", resolution=64, samples=4)
 
 
 @pytest.mark.parametrize(
@@ -133,7 +133,7 @@ def test_mvr_refuses_perforated_meshes_on_the_gpu(adapter):
         ("fence", "rect", {"samples": 100}),
         ("torus_knot", "sphere", {"restrict_to_penumbra": False, "hull_degree": 8}),
         ("leaves", "rect", {"lut": None, "samples": 64}),
-        ("columns", "point", {"casters": "all"}),
+        ("columns", "point", {"caster_faces": "all"}),
     ],
 )
 def test_alias_free_on_the_gpu_equals_the_cpu_bit_for_bit(adapter, scene, light, options):
@@ -166,8 +166,8 @@ def test_gpu_calls_from_8_threads_at_once_equal_serial_calls(adapter):
     s = ss.scenes.get("columns").with_size(32, 32)
     gb = ss.gbuffer(s.scene, s.camera)
     calls = [
-        lambda: ss.vwss(s.scene, s.light, gb, backend="gpu", resolution=128, views=6),
-        lambda: ss.mvr(s.scene, s.light, gb, backend="gpu", resolution=128, views=6),
+        lambda: ss.vwss(s.scene, s.light, gb, backend="gpu", resolution=128, samples=6),
+        lambda: ss.mvr(s.scene, s.light, gb, backend="gpu", resolution=128, samples=6),
         lambda: ss.cssm(s.scene, s.light, gb, backend="gpu", resolution=128),
         lambda: ss.pcss(s.scene, s.light, gb, backend="gpu", resolution=128),
         lambda: ss.alias_free(s.scene, s.light, gb, backend="gpu", resolution=64, samples=32),
@@ -183,8 +183,8 @@ def _every_gpu_method():
     s = ss.scenes.get("columns").with_size(32, 32)
     gb = ss.gbuffer(s.scene, s.camera)
     return {
-        "vwss": lambda: ss.vwss(s.scene, s.light, gb, backend="gpu", resolution=128, views=6),
-        "mvr": lambda: ss.mvr(s.scene, s.light, gb, backend="gpu", resolution=128, views=6),
+        "vwss": lambda: ss.vwss(s.scene, s.light, gb, backend="gpu", resolution=128, samples=6),
+        "mvr": lambda: ss.mvr(s.scene, s.light, gb, backend="gpu", resolution=128, samples=6),
         "cssm": lambda: ss.cssm(s.scene, s.light, gb, backend="gpu", resolution=128),
         "pcss": lambda: ss.pcss(s.scene, s.light, gb, backend="gpu", resolution=128),
         "alias_free": lambda: ss.alias_free(s.scene, s.light, gb, backend="gpu", resolution=64, samples=32),
@@ -271,15 +271,15 @@ def test_without_an_adapter_gpu_raises_and_auto_falls_back_with_a_warning():
         s = ss.scenes.get("columns").with_size(16, 16)
         gb = ss.gbuffer(s.scene, s.camera)
         try:
-            ss.vwss(s.scene, s.light, gb, backend="gpu", resolution=64, views=4)
+            ss.vwss(s.scene, s.light, gb, backend="gpu", resolution=64, samples=4)
             raise SystemExit("backend='gpu' ran without an adapter")
         except RuntimeError as error:
             assert "mesa-vulkan-drivers" in str(error), error
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            auto = ss.vwss(s.scene, s.light, gb, backend="auto", resolution=64, views=4)
+            auto = ss.vwss(s.scene, s.light, gb, backend="auto", resolution=64, samples=4)
         assert any("runs on the CPU" in str(w.message) for w in caught), caught
-        assert np.array_equal(auto, ss.vwss(s.scene, s.light, gb, resolution=64, views=4))
+        assert np.array_equal(auto, ss.vwss(s.scene, s.light, gb, resolution=64, samples=4))
         print("ok")
         """
     )

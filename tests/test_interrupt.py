@@ -24,7 +24,7 @@ from softshadows import scenes
 # call was stopped. Each entry: the scene, its size, and the call on its setup `st` and G-buffer `gb`.
 LONG_CALLS = {
     "ray_traced": ("columns", 128, "ss.ray_traced(st.scene, st.light, gb, samples=60000, pattern='sobol')"),
-    "mvr": ("columns", 128, "ss.mvr(st.scene, st.light, gb, views=20000, resolution=512, pattern='sobol')"),
+    "mvr": ("columns", 128, "ss.mvr(st.scene, st.light, gb, samples=20000, resolution=512, pattern='sobol')"),
     "gbuffer": ("columns", 128, "ss.gbuffer(st.scene, st.camera.with_size(4000, 3000), msaa=8)"),
     "alias_free": ("hairball", 256, "ss.alias_free(st.scene, st.light, gb, samples=1024, lut=None)"),
     "dcs": ("hairball", 256, "ss.dcs(st.scene, st.light, gb, samples=1024)"),
@@ -99,7 +99,7 @@ def test_a_mistyped_sample_count_is_refused_before_its_patterns_are_drawn(restor
 def test_a_mistyped_view_count_is_refused_before_any_map_is_drawn(tiny_setup):
     st, gb = tiny_setup
     with pytest.raises(ss.WorkLimitError, match=r"mvr needs about .* operations"):
-        ss.mvr(st.scene, st.light, gb, views=10**5, resolution=4096, pattern="sobol")
+        ss.mvr(st.scene, st.light, gb, samples=10**5, resolution=4096, pattern="sobol")
 
 
 METHODS_WITH_STATS = ["ray_traced", "shadow_map", "pcss", "cssm", "mvr", "vwss", "backprojection", "alias_free", "dcs", "stsv", "penumbra_wedge"]
@@ -111,7 +111,7 @@ def test_every_method_records_its_estimate(tiny_setup, method):
     # estimates stay far below the default limit; the others grow with samples and views.
     st, gb = tiny_setup
     options = {"samples": 16} if method in ("ray_traced", "alias_free", "dcs", "stsv", "penumbra_wedge") else {}
-    options.update({"views": 4, "resolution": 64} if method in ("mvr", "vwss") else {})
+    options.update({"samples": 4, "resolution": 64} if method in ("mvr", "vwss") else {})
     _, stats = getattr(ss, method)(st.scene, st.light, gb, return_stats=True, **options)
     assert stats["work"] >= 24 * 24
 

@@ -179,7 +179,7 @@ def _exact_method_scene():
 EXACT = {
     # Every caster from the moved receiver: the definition ray_traced computes here (the default
     # culling of closed casters has its own oracle, tests/test_alias_free.py).
-    "alias_free": lambda opaque, perforated, *a, **k: ss.alias_free(opaque, *a, lut=None, casters="all", **k),
+    "alias_free": lambda opaque, perforated, *a, **k: ss.alias_free(opaque, *a, lut=None, caster_faces="all", **k),
     "dcs": lambda opaque, perforated, *a, **k: ss.dcs(opaque, *a, **k),
     "stsv_bitmask": lambda opaque, perforated, *a, **k: ss.stsv(perforated, *a, opaque="bitmask", two_sided=True, **k),
     "stsv_dcs": lambda opaque, perforated, *a, **k: ss.stsv(perforated, *a, opaque="dcs", two_sided=True, **k),
@@ -223,7 +223,7 @@ def _sized_light_scene():
 
 
 SIZED = {
-    "alias_free": lambda *a, **k: ss.alias_free(*a, lut=None, casters="all", **k),
+    "alias_free": lambda *a, **k: ss.alias_free(*a, lut=None, caster_faces="all", **k),
     "stsv": ss.stsv,
     "dcs": ss.dcs,
 }

@@ -199,7 +199,7 @@ def test_culled_closed_casters_give_the_limit_of_the_offset():
     samples = light.samples(256, seed=2)
     expected = in_front(samples, rx).astype(np.float32)
     assert 0.2 < np.mean((expected > 0) & (expected < 1)), "needs receivers the light grazes"
-    culled = ss.ray_traced(scene, light, rx, samples=samples, casters="backfacing")
+    culled = ss.ray_traced(scene, light, rx, samples=samples, caster_faces="backfacing")
     np.testing.assert_array_equal(culled, expected)
     # Without culling and without an offset, the rays hit the receivers' own faces (acne).
     assert np.mean(ss.ray_traced(scene, light, rx, samples=samples, epsilon=0.0) != expected) > 0.1
@@ -213,7 +213,7 @@ def test_the_offsets_limit_is_the_culled_oracle(name):
     setup = ss.scenes.get(name, width=64, height=64, light="rect")
     gb = ss.gbuffer(setup.scene, setup.camera)
     samples = setup.light.samples(128, seed=3)
-    limit = ss.ray_traced(setup.scene, setup.light, gb, samples=samples, casters="backfacing")
+    limit = ss.ray_traced(setup.scene, setup.light, gb, samples=samples, caster_faces="backfacing")
     off = [
         np.mean((ss.ray_traced(setup.scene, setup.light, gb, samples=samples, epsilon=setup.scene.epsilon / d) != limit)[gb.mask])
         for d in (1, 10, 1000)
@@ -231,4 +231,4 @@ def test_culling_leaves_receivers_inside_a_closed_mesh_to_every_face(ground):
     samples = light.samples(64, seed=3)
     # Inside the sphere, facing up: the culled back faces alone would let the light through.
     inside = ss.Receivers(np.float32([[0, 1.2, 0], [0.3, 1.6, 0.1]]), np.float32([[0, 1, 0], [0, 1, 0]]))
-    np.testing.assert_array_equal(ss.ray_traced(scene, light, inside, samples=samples, casters="backfacing"), 0.0)
+    np.testing.assert_array_equal(ss.ray_traced(scene, light, inside, samples=samples, caster_faces="backfacing"), 0.0)

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import softshadows as ss
-from softshadows.methods import METHODS, SAMPLE_KEYWORDS
+from softshadows.methods import METHODS, SAMPLED
 
 #: The methods that filter one shadow map from the light's center and cannot weight a texture.
 REFUSING = {"shadow_map", "pcss", "cssm", "backprojection"}
@@ -28,7 +28,7 @@ def case():
 def test_a_textured_light_is_used_or_refused(name, case):
     setup, gb, plain, textured = case
     samples = textured.samples(64, pattern="sobol", seed=1)
-    kwargs = {SAMPLE_KEYWORDS[name]: samples} if name in SAMPLE_KEYWORDS else {}
+    kwargs = {"samples": samples} if name in SAMPLED else {}
     if name in REFUSING:
         with pytest.raises(ValueError, match="light"):
             METHODS[name](setup.scene, textured, gb, **kwargs)
@@ -41,7 +41,7 @@ def test_a_textured_light_is_used_or_refused(name, case):
 
 
 # alias_free with every caster from the moved receiver, as ray_traced traces the halves.
-EXACT = {"ray_traced": {}, "alias_free": {"lut": None, "casters": "all"}, "dcs": {}, "stsv": {}}
+EXACT = {"ray_traced": {}, "alias_free": {"lut": None, "caster_faces": "all"}, "dcs": {}, "stsv": {}}
 
 
 @pytest.mark.parametrize("name", list(EXACT))

@@ -55,7 +55,7 @@ def test_results_do_not_depend_on_the_thread_count():
         "ray_traced": lambda: ss.ray_traced(setup.scene, setup.light, gb, samples=32, rotate="per_receiver"),
         "alias_free": lambda: ss.alias_free(setup.scene, setup.light, gb, samples=samples),
         "dcs": lambda: ss.dcs(setup.scene, setup.light, gb, samples=samples),
-        "vwss": lambda: ss.vwss(setup.scene, setup.light, gb, views=8),
+        "vwss": lambda: ss.vwss(setup.scene, setup.light, gb, samples=8),
         "backprojection": lambda: ss.backprojection(setup.scene, setup.light, gb, resolution=256, budget=6),
     }
     try:

@@ -35,6 +35,18 @@ def set_memory_limit(bytes: int | None) -> None:
 
     A call whose estimate exceeds it raises ``MemoryError`` before allocating. ``bytes`` must be
     in [1, 2**64 - 1] (the core reads 0 as "restore the default", so 0.5 must not round to it).
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> setup = ss.scenes.get("columns", width=16, height=16)
+    >>> ss.set_memory_limit(1000)
+    >>> try:
+    ...     ss.ray_traced(setup.scene, setup.light, ss.gbuffer(setup.scene, setup.camera))
+    ... except MemoryError:
+    ...     print("refused before allocating")
+    refused before allocating
+    >>> ss.set_memory_limit(None)
     """
     if bytes is None:
         _core.set_memory_limit(0)
@@ -49,7 +61,16 @@ def set_memory_limit(bytes: int | None) -> None:
 
 
 def memory_limit() -> int:
-    """The current memory limit in bytes."""
+    """The current memory limit in bytes.
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> ss.set_memory_limit(2**30)
+    >>> ss.memory_limit()
+    1073741824
+    >>> ss.set_memory_limit(None)
+    """
     return int(_core.memory_limit())
 
 
@@ -93,7 +114,14 @@ def set_work_limit(operations: int | None) -> None:
 
 
 def work_limit() -> int:
-    """The current work limit in operations (see :func:`set_work_limit`)."""
+    """The current work limit in operations (see :func:`set_work_limit`).
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> ss.work_limit()  # the default
+    1000000000000
+    """
     return int(_core.work_limit())
 
 
@@ -107,12 +135,33 @@ def set_num_threads(threads: int | None) -> None:
 
     Results do not depend on it: every method's output is the same bits for any thread count.
     ``threads`` is at most :data:`MAX_THREADS` (1024).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import softshadows as ss
+    >>> setup = ss.scenes.get("columns", width=16, height=16)
+    >>> gb = ss.gbuffer(setup.scene, setup.camera)
+    >>> ss.set_num_threads(1)
+    >>> one = ss.stsv(setup.scene, setup.light, gb)
+    >>> ss.set_num_threads(None)
+    >>> bool(np.array_equal(one, ss.stsv(setup.scene, setup.light, gb)))  # the same bits on every core count
+    True
     """
     _core.set_num_threads(0 if threads is None else _validate.nonneg_int("threads", threads, maximum=MAX_THREADS))
 
 
 def num_threads() -> int:
-    """The worker threads of every heavy call."""
+    """The worker threads of every heavy call.
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> ss.set_num_threads(2)
+    >>> ss.num_threads()
+    2
+    >>> ss.set_num_threads(None)
+    """
     return int(_core.num_threads())
 
 

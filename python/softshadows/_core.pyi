@@ -112,7 +112,7 @@ def ray_traced(
     receivers: NativeReceivers,
     samples: NativeSamples,
     epsilon: float,
-    casters: str,
+    caster_faces: str,
 ) -> tuple[_F32, dict[str, float]]: ...
 def shadow_map(
     scene: NativeScene,
@@ -147,6 +147,7 @@ def vwss(
     cull_backfaces: bool,
     layered: bool,
     precision: str,
+    source_view: str,
     point_density: float,
     source_resolution: int | None,
     backend: str,
@@ -236,7 +237,7 @@ def alias_free(
     receivers: NativeReceivers,
     samples: NativeSamples,
     resolution: int,
-    casters: str,
+    caster_faces: str,
     bias: float,
     lut: int | None,
     hull_degree: int,

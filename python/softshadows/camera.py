@@ -23,6 +23,15 @@ class Camera:
         Vertical field of view in degrees.
     width, height : int
         Image size in pixels; row 0 is the top of the image.
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> camera = ss.Camera.look_at((0, 3, 5), (0, 0, 0), fov_y=40.0, width=64, height=48)
+    >>> camera.width, camera.height, camera.fov_y
+    (64, 48, 40.0)
+    >>> camera.with_size(32, 24).height
+    24
     """
 
     eye: np.ndarray
@@ -76,6 +85,15 @@ class Receivers:
     points : array_like, shape (K, 3)
     normals : array_like, shape (K, 3)
         Need not be unit length; must be non-zero.
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> setup = ss.scenes.get("columns", width=16, height=16)
+    >>> rx = ss.Receivers([[0, 0, 0], [2.5, 0, 2.5]], [[0, 1, 0], [0, 1, 0]])  # two points on the ground
+    >>> vis = ss.ray_traced(setup.scene, setup.light, rx, samples=16)
+    >>> vis.shape, vis.dtype
+    ((2,), dtype('float32'))
     """
 
     def __init__(self, points, normals):
@@ -114,6 +132,16 @@ class GBuffer:
     sample_depths : ndarray, shape (H, W, msaa), float32 or None
         Distances along each MSAA sample's ray (inf for no hit), when ``msaa > 1``.
     camera : Camera
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> setup = ss.scenes.get("columns", width=32, height=32)
+    >>> gb = ss.gbuffer(setup.scene, setup.camera)
+    >>> gb.shape, gb.positions.shape, gb.face_ids.dtype
+    ((32, 32), (32, 32, 3), dtype('int64'))
+    >>> bool(gb.mask.any()) and bool((gb.face_ids[~gb.mask] == -1).all())
+    True
     """
 
     positions: np.ndarray

@@ -31,13 +31,13 @@ from ._extras import MissingExtraError, require
 
 def _run_methods(setup, gb, samples, progress):
     """Each method's visibility and seconds on the shared light samples."""
-    from .methods import METHODS, SAMPLE_KEYWORDS
+    from .methods import METHODS, SAMPLED
 
     results, seconds = {}, {}
     for name, method in METHODS.items():
         progress.set_description(name)
         start = time.perf_counter()
-        kwargs = {SAMPLE_KEYWORDS[name]: samples} if name in SAMPLE_KEYWORDS else {}
+        kwargs = {"samples": samples} if name in SAMPLED else {}
         results[name] = method(setup.scene, setup.light, gb, **kwargs)
         seconds[name] = time.perf_counter() - start
         progress.update()

@@ -65,6 +65,13 @@ def sky(height: int = 128, *, sun_direction=(0.4, 0.8, -0.3), sun_radiance: floa
     zenith, horizon, ground : array_like, shape (3,)
         RGB radiance at the zenith and at the horizon (blended by elevation) and of the lower
         hemisphere.
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> env = ss.envmap.sky(32)
+    >>> env.shape, env.dtype, bool(env.max() > 100 * env.mean())  # the sun outshines the sky
+    ((32, 64, 3), dtype('float32'), True)
     """
     height = v.positive_int("height", height)
     # About 100 bytes of float64 temporaries per pixel (directions, blends, the sun mask).
@@ -109,7 +116,16 @@ def _latlong_lookup(latlong: np.ndarray, d: np.ndarray) -> np.ndarray:
 
 def cube_from_latlong(latlong, n: int = 64, *, supersample: int = 3) -> np.ndarray:
     """Resamples a lat-long map (H, W, 3) into a cube map (6, n, n, 3), averaging
-    ``supersample ** 2`` bilinear lookups per texel."""
+    ``supersample ** 2`` bilinear lookups per texel.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import softshadows as ss
+    >>> cube = ss.envmap.cube_from_latlong(np.ones((16, 32, 3), np.float32), n=8)
+    >>> cube.shape, bool(np.allclose(cube, 1.0))  # a constant map stays constant
+    ((6, 8, 8, 3), True)
+    """
     latlong = v.array("env", latlong, np.float32, (None, None, 3)).astype(np.float64)
     if latlong.size == 0:
         raise ValueError(f"env: expected a non-empty lat-long map, got shape {latlong.shape}")
@@ -143,6 +159,17 @@ class EnvironmentLight:
         Cube face (+x, -x, +y, -y, +z, -z).
     rect : tuple of int
         Texel rows ``i0:i1`` and columns ``j0:j1`` on the face.
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> fit = ss.envmap.fit_area_lights(ss.envmap.sky(32), resolution=16)
+    >>> light = max(fit.lights, key=lambda l: l.energy.sum())  # the sun's
+    >>> bool(light.direction[1] > 0.5), bool(light.solid_angle < 0.1)
+    (True, True)
+    >>> rect = light.area_light((0, 0, 0), 10.0)
+    >>> type(rect).__name__, bool(rect.normal @ light.direction < 0)  # it faces the scene
+    ('RectLight', True)
     """
 
     direction: np.ndarray
@@ -183,7 +210,16 @@ class EnvironmentLight:
 @dataclass(frozen=True)
 class EnvironmentFit:
     """The result of :func:`fit_area_lights`: the lights, the cube map they were fitted to, and
-    the map's total RGB energy (radiance times solid angle)."""
+    the map's total RGB energy (radiance times solid angle).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import softshadows as ss
+    >>> fit = ss.envmap.fit_area_lights(ss.envmap.sky(32), resolution=16)
+    >>> fit.cube.shape, bool(np.allclose(sum(l.energy for l in fit.lights), fit.energy, rtol=1e-4))
+    ((6, 16, 16, 3), True)
+    """
 
     lights: list
     cube: np.ndarray
@@ -331,6 +367,16 @@ def environment(scene, lights, receivers, *, method: str = "cssm", albedo=0.8, d
     Returns
     -------
     ndarray, float32, the receivers' shape + (3,): linear RGB, 0 where there is no hit.
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> setup = ss.scenes.get("columns", width=16, height=16)
+    >>> gb = ss.gbuffer(setup.scene, setup.camera)
+    >>> fit = ss.envmap.fit_area_lights(ss.envmap.sky(32), resolution=16, max_lights=6)
+    >>> radiance = ss.envmap.environment(setup.scene, fit, gb, method="cssm", resolution=64, progress=False)
+    >>> radiance.shape, bool((radiance[gb.mask] > 0).all())
+    ((16, 16, 3), True)
     """
     from .camera import as_receivers
     from .methods import METHODS

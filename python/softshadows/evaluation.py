@@ -119,7 +119,7 @@ def evaluate(
     from . import metrics, reference, shading
     from . import scenes as scene_library
     from .camera import gbuffer
-    from .methods import METHODS, SAMPLE_KEYWORDS
+    from .methods import METHODS, SAMPLED
 
     names = list(METHODS) if methods is None else _names("methods", methods, METHODS)
     # Everything is checked before the first Mitsuba reference, which can take minutes.
@@ -146,7 +146,7 @@ def evaluate(
             kept = {"reference": ref, "mask": gb.mask}
             for name in names:
                 bar.set_description(f"{scene_name}/{kind}: {name}")
-                kwargs = {SAMPLE_KEYWORDS[name]: shared} if name in SAMPLE_KEYWORDS else {}
+                kwargs = {"samples": shared} if name in SAMPLED else {}
                 kwargs.update(options.get(name, {}))
                 row = {"scene": scene_name, "light": kind, "method": name, "error": None}
                 try:
@@ -190,8 +190,8 @@ def sweep(method: str, parameters: dict, *, scenes=("columns",), lights=("rect",
         A name from ``softshadows.METHODS``.
     parameters : dict of str to sequence
         The values of each parameter; every combination is one task. The method's keyword
-        options (``budget``, ``order``, ``views``, ``lut``, ...), plus ``samples`` (light samples
-        or views of the sample-based methods) and ``light_size`` (the scene's light size).
+        options (``budget``, ``order``, ``lut``, ...), plus ``samples`` (the number of light
+        samples of the sample-based methods) and ``light_size`` (the scene's light size).
     scenes, lights, size, samples, reference_samples
         As in :func:`evaluate` (``samples`` is the default when ``parameters`` has none).
     executor : concurrent.futures.Executor, optional
@@ -266,7 +266,7 @@ def _sweep_task(task) -> dict:
     from . import metrics, reference, shading
     from . import scenes as scene_library
     from .camera import gbuffer
-    from .methods import METHODS, SAMPLE_KEYWORDS
+    from .methods import METHODS, SAMPLED
 
     scene_name, light, method, params, size, samples, reference_samples = task
     setup_options = {k: v for k, v in params.items() if k == "light_size"}
@@ -275,9 +275,8 @@ def _sweep_task(task) -> dict:
     ref = reference.mitsuba_visibility(setup.scene, setup.light, gb, setup.light.samples(reference_samples, pattern="sobol", seed=1),
                                        progress=False)
     kwargs = {k: v for k, v in params.items() if k not in SETUP_PARAMETERS}
-    if method in SAMPLE_KEYWORDS:
-        count = params.get("samples", samples)
-        kwargs[SAMPLE_KEYWORDS[method]] = setup.light.samples(count, pattern="poisson", seed=0) if SAMPLE_KEYWORDS[method] == "samples" else count
+    if method in SAMPLED:
+        kwargs["samples"] = setup.light.samples(params.get("samples", samples), pattern="poisson", seed=0)
     record = {"scene": scene_name, "light": light, "method": method, **params, "error": None}
     start = time.perf_counter()
     try:
@@ -502,7 +501,20 @@ README_MARKERS = ("<!-- evaluation:start -->", "<!-- evaluation:end -->")
 
 def results_table(frame) -> str:
     """A Markdown table of each method's RMSE, SSIM and seconds, one column group per scene and
-    light (refusals as a dash)."""
+    light (refusals as a dash).
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from softshadows import evaluation
+    >>> frame = pd.DataFrame({"scene": ["columns", "columns"], "light": ["rect", "rect"], "method": ["ray_traced", "pcss"],
+    ...                       "rmse": [0.0101, 0.0301], "ssim": [0.993, 0.969], "seconds": [0.013, 0.010]})
+    >>> print(evaluation.results_table(frame))
+    | method | columns / rect: RMSE, SSIM, s |
+    |---|---|
+    | ray_traced | 0.0101, 0.993, 0.013 |
+    | pcss | 0.0301, 0.969, 0.010 |
+    """
     _columns(frame, ("scene", "light", "method", "rmse", "ssim", "seconds"))
     groups = list(frame.groupby(["scene", "light"], sort=False))
     head = "| method | " + " | ".join(f"{s} / {k}: RMSE, SSIM, s" for (s, k), _ in groups) + " |"
@@ -519,7 +531,24 @@ def results_table(frame) -> str:
 
 def update_readme(frame, path) -> None:
     """Replaces the block between :data:`README_MARKERS` in the file ``path`` with
-    :func:`results_table` and the setup it was measured on."""
+    :func:`results_table` and the setup it was measured on.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> import pandas as pd
+    >>> from softshadows import evaluation
+    >>> frame = pd.DataFrame({"scene": ["columns"], "light": ["rect"], "method": ["pcss"], "rmse": [0.0301],
+    ...                       "ssim": [0.969], "seconds": [0.010]})
+    >>> folder = tempfile.TemporaryDirectory()
+    >>> path = os.path.join(folder.name, "README.md")
+    >>> start, end = evaluation.README_MARKERS
+    >>> with open(path, "w") as f:
+    ...     _ = f.write(os.linesep.join(["# Results", start, end, ""]))
+    >>> evaluation.update_readme(frame, path)
+    >>> print(open(path).read().splitlines()[4])
+    | pcss | 0.0301, 0.969, 0.010 |
+    """
     _columns(frame, ("scene", "light", "method", "rmse", "ssim", "seconds"))
     try:
         path = Path(path)

@@ -188,6 +188,21 @@ def read_environment(path, *, layout: str = "latlong") -> np.ndarray:
     -------
     ndarray, float32, linear radiance >= 0 (small negative values, which some tools write, are clamped)
         Shape (H, W, 3) for ``"latlong"``; (6, N, N, 3) for ``"cube"``.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> import numpy as np
+    >>> from softshadows import io
+    >>> folder = tempfile.TemporaryDirectory()
+    >>> path = os.path.join(folder.name, "sky.exr")
+    >>> io.write_exr(path, np.full((8, 16, 3), 0.5, np.float32))
+    >>> io.read_environment(path).shape
+    (8, 16, 3)
+    >>> io.read_environment(path, layout="cube")
+    Traceback (most recent call last):
+    ...
+    ValueError: path: a cube-map strip must be 6 square faces stacked vertically (H = 6 W), got 8x16
     """
     if layout not in ("latlong", "cube"):
         raise ValueError(f"layout: expected 'latlong' or 'cube', got {layout!r}")

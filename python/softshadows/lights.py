@@ -116,6 +116,13 @@ class PointLight(_Light):
     Parameters
     ----------
     position : array_like, shape (3,)
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> light = ss.PointLight((0, 4, 0))
+    >>> light.samples(3).tolist()  # every sample is the point itself
+    [[0.0, 4.0, 0.0], [0.0, 4.0, 0.0], [0.0, 4.0, 0.0]]
     """
 
     kind = "point"
@@ -146,6 +153,16 @@ class RectLight(_Light):
     emission : array_like, shape (H, W), optional
         Relative emitted radiance over the rectangle: row i covers b in the i-th of H bands from
         -1 to 1, column j the j-th band of a. Samples are weighted by it (a textured light).
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> light = ss.RectLight((0, 4, 0), (0.5, 0, 0), (0, 0, 0.25))  # 1 x 0.5, facing down (u x v)
+    >>> light.area, light.normal.tolist()
+    (0.5, [0.0, -1.0, 0.0])
+    >>> samples = light.samples(64, pattern="sobol", seed=1)
+    >>> samples.shape, bool(abs(samples[:, 0]).max() <= 0.5)
+    ((64, 3), True)
     """
 
     kind = "rect"
@@ -190,6 +207,13 @@ class DiskLight(_Light):
         the disk point ``center + radius (x t_axis + y b_axis)`` is the concentric image of
         ``(s, t)`` and ``t_axis = normalize(normal x X)`` (``normal x Y`` when ``|normal_x| >= 0.9``),
         ``b_axis = normal x t_axis``.
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> light = ss.DiskLight((0, 4, 0), (0, -2, 0), 0.5)
+    >>> light.normal.tolist(), round(light.area, 4)
+    ([0.0, -1.0, 0.0], 0.7854)
     """
 
     kind = "disk"
@@ -225,6 +249,15 @@ class SphereLight(_Light):
     center : array_like, shape (3,)
     radius : float
         Radius in world units, > 0.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import softshadows as ss
+    >>> light = ss.SphereLight((0, 4, 0), 0.5)
+    >>> samples = light.samples(256)
+    >>> bool(np.all(np.linalg.norm(samples - light.center, axis=1) <= 0.5 + 1e-6))  # the whole ball emits
+    True
     """
 
     kind = "sphere"
@@ -256,6 +289,15 @@ class EllipsoidLight(_Light):
     axes : array_like, shape (3, 3)
         The three semi-axis vectors, one per row, in world units: non-zero and mutually
         orthogonal (relative tolerance 1e-4).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import softshadows as ss
+    >>> light = ss.EllipsoidLight((0, 4, 0), [[1.0, 0, 0], [0, 0.2, 0], [0, 0, 0.5]])
+    >>> samples = light.samples(256) - light.center
+    >>> bool(np.all((samples / [1.0, 0.2, 0.5]) ** 2 @ np.ones(3) <= 1 + 1e-5))
+    True
     """
 
     kind = "ellipsoid"

@@ -114,6 +114,12 @@ def variant() -> str:
     str
         ``"llvm_ad_rgb"`` when it loads and runs, else ``"scalar_rgb"`` (or the value of the
         ``SOFTSHADOWS_MITSUBA_VARIANT`` environment variable).
+
+    Examples
+    --------
+    >>> from softshadows import reference
+    >>> reference.variant() in ("llvm_ad_rgb", "scalar_rgb")
+    True
     """
     _mitsuba()
     return _selected
@@ -204,6 +210,14 @@ def mitsuba_scene(scene: Scene, light, camera: Camera | None = None, *, albedo: 
     dict
         Pass it to ``mitsuba.load_dict``. It holds Mitsuba objects, so it belongs to the variant
         that :func:`variant` reports. Keys: ``mesh_000``, ... , ``light``, and ``sensor``.
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> setup = ss.scenes.get("columns", width=16, height=16)
+    >>> d = ss.reference.mitsuba_scene(setup.scene, setup.light, setup.camera)
+    >>> d["type"], sorted(d)
+    ('scene', ['light', 'mesh_000', 'mesh_001', 'sensor', 'type'])
     """
     mi = _mitsuba()
     _check_scene(scene)
@@ -364,6 +378,17 @@ def mitsuba_visibility(scene: Scene, light, receivers, samples, *, epsilon: floa
     -------
     ndarray, shape (H, W) or (K,), float32
         In [0, 1]; 0 where the G-buffer mask is False.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import softshadows as ss
+    >>> setup = ss.scenes.get("columns", width=16, height=16)
+    >>> gb = ss.gbuffer(setup.scene, setup.camera)
+    >>> samples = setup.light.samples(16)
+    >>> theirs = ss.reference.mitsuba_visibility(setup.scene, setup.light, gb, samples, cache=False, progress=False)
+    >>> bool(np.array_equal(theirs, ss.ray_traced(setup.scene, setup.light, gb, samples=samples)))
+    True
     """
     _check_scene(scene)
     _check_light(light)
@@ -626,6 +651,14 @@ def mitsuba_render(scene: Scene, light, camera: Camera, *, spp: int = 64, integr
     ndarray, shape (H, W, 3), float32
         Linear RGB radiance (W m^-2 sr^-1 for radiance 1 lights); comparable with
         ``shading.direct(...)`` at the same ``albedo`` and ``intensity`` (scale 1).
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> setup = ss.scenes.get("columns", width=16, height=16)
+    >>> image = ss.reference.mitsuba_render(setup.scene, setup.light, setup.camera, spp=4, cache=False)
+    >>> image.shape, image.dtype, bool(image.min() >= 0)
+    ((16, 16, 3), dtype('float32'), True)
     """
     _check_scene(scene)
     camera = _check_camera(camera)
@@ -677,6 +710,15 @@ def mitsuba_environment_render(scene: Scene, env, camera: Camera, *, spp: int = 
     -------
     ndarray, shape (H, W, 3), float32
         Linear RGB, comparable with :func:`softshadows.environment` at the same ``albedo``.
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> setup = ss.scenes.get("columns", width=16, height=16)
+    >>> image = ss.reference.mitsuba_environment_render(setup.scene, ss.envmap.sky(16), setup.camera, spp=4,
+    ...                                                 cache=False)
+    >>> image.shape, bool(image.max() > 0)
+    ((16, 16, 3), True)
     """
     _check_scene(scene)
     camera = _check_camera(camera)
@@ -709,7 +751,21 @@ def mitsuba_environment_render(scene: Scene, env, camera: Camera, *, spp: int = 
 
 
 def cache_dir() -> Path:
-    """The reference cache directory: ``$SOFTSHADOWS_CACHE`` or ``~/.cache/softshadows/reference``."""
+    """The reference cache directory: ``$SOFTSHADOWS_CACHE`` or ``~/.cache/softshadows/reference``.
+
+    Examples
+    --------
+    >>> import os
+    >>> from softshadows import reference
+    >>> saved = dict(os.environ)
+    >>> os.environ["SOFTSHADOWS_CACHE"] = "/tmp/softshadows-cache"
+    >>> str(reference.cache_dir())
+    '/tmp/softshadows-cache'
+    >>> del os.environ["SOFTSHADOWS_CACHE"]
+    >>> reference.cache_dir().parts[-3:]
+    ('.cache', 'softshadows', 'reference')
+    >>> os.environ.update(saved)
+    """
     return Path(os.environ.get("SOFTSHADOWS_CACHE") or Path.home() / ".cache" / "softshadows" / "reference")
 
 

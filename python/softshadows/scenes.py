@@ -106,6 +106,15 @@ class Setup:
         A view of the occluders and their shadow on the ground.
     description : str
         What the scene mirrors (paper and figure) and its triangle counts.
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> setup = ss.scenes.get("columns", width=32, height=32)
+    >>> setup.name, setup.camera.width, type(setup.light).__name__
+    ('columns', 32, 'RectLight')
+    >>> [m.name for m in setup.occluders]  # every mesh but the ground
+    ['columns']
     """
 
     name: str
@@ -187,6 +196,12 @@ def ground_sphere(
     -------
     Setup
         Meshes ``ground`` (2 triangles) and ``sphere`` (closed).
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> ss.scenes.ground_sphere(width=32, height=32).scene
+    Scene(2 meshes ['ground', 'sphere'], 1282 faces)
     """
     radius = _length("radius", radius)
     elevation = _length("elevation", elevation, allow_zero=True)
@@ -313,6 +328,12 @@ def columns(
     -------
     Setup
         Meshes ``ground`` and ``columns`` (closed; ``n * 4 * segments`` or ``n * 12`` triangles).
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> ss.scenes.columns(width=32, height=32).scene
+    Scene(2 meshes ['ground', 'columns'], 842 faces)
     """
     n = _v.positive_int("n", n)
     if kind not in ("cylinder", "box"):
@@ -393,6 +414,13 @@ def torus_knot(
     -------
     Setup
         Meshes ``ground`` and ``torus_knot`` (closed).
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> setup = ss.scenes.torus_knot(tube_segments=64, radial_segments=8, width=32, height=32)
+    >>> setup.scene, bool(setup.occluders[0].closed)
+    (Scene(2 meshes ['ground', 'torus_knot'], 1026 faces), True)
     """
     p, q = _v.positive_int("p", p), _v.positive_int("q", q)
     if math.gcd(p, q) != 1:  # np.gcd overflows for p or q >= 2**63
@@ -487,6 +515,13 @@ def fence(
     Setup
         Meshes ``ground`` and ``fence_0``, ``fence_1``, ... (2 triangles each, with uvs and alpha;
         not closed).
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> setup = ss.scenes.fence(width=32, height=32)
+    >>> setup.scene, setup.scene.meshes[1].alpha.shape  # two quads, perforated by an alpha texture
+    (Scene(3 meshes ['ground', 'fence_0', 'fence_1'], 6 faces), (64, 16))
     """
     panels_, tile, reps = _fence_layout(pattern, panels, panel_width, panel_height, repeats, gap, elevation)
     meshes = _fence_quads(panels_, tile, reps)
@@ -535,6 +570,12 @@ def fence_mesh(
     Setup
         Meshes ``ground`` and ``fence_0``, ``fence_1``, ... (opaque, zero thickness, not closed;
         124 triangles per panel for the default slats, 1640 for the default grid).
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> ss.scenes.fence_mesh(width=32, height=32).scene  # the same slats as geometry
+    Scene(3 meshes ['ground', 'fence_0', 'fence_1'], 250 faces)
     """
     panels_, tile, reps = _fence_layout(pattern, panels, panel_width, panel_height, repeats, gap, elevation)
     texels = float(tile.size) * reps[0] * reps[1]
@@ -615,6 +656,12 @@ def leaves(
     -------
     Setup
         Meshes ``ground``, ``trunk`` (closed cylinder) and ``leaves`` (perforated, not closed).
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> ss.scenes.leaves(width=32, height=32).scene
+    Scene(3 meshes ['ground', 'trunk', 'leaves'], 2050 faces)
     """
     n = _v.positive_int("n", n)
     rng = np.random.default_rng(_v.nonneg_int("seed", seed))
@@ -720,6 +767,12 @@ def hairball(
     -------
     Setup
         Meshes ``ground`` and ``hairball`` (closed).
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> ss.scenes.hairball(width=32, height=32).scene
+    Scene(2 meshes ['ground', 'hairball'], 20002 faces)
     """
     strands = _v.positive_int("strands", strands)
     segments = _v.positive_int("segments", segments)
@@ -812,6 +865,12 @@ def sword(
     -------
     Setup
         Meshes ``ground`` and ``sword`` (closed: the blade, a crossguard and a grip; 36 triangles).
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> ss.scenes.sword(width=32, height=32).scene
+    Scene(2 meshes ['ground', 'sword'], 38 faces)
     """
     length = _length("blade_length", blade_length)
     w = _length("blade_width", blade_width)
@@ -893,6 +952,13 @@ def load_model(
     ------
     ModuleNotFoundError
         When pymeshlab is not installed (``pip install "softshadows[models]"``).
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> setup = ss.scenes.load_model("bunny", width=32, height=32)  # needs pip install "softshadows[models]"
+    >>> [m.name for m in setup.scene.meshes], bool(setup.occluders[0].closed)
+    (['ground', 'bunny'], True)
     """
     if not isinstance(name, str) or name not in MODELS:
         raise ValueError(f"name: expected one of {sorted(MODELS)}, got {name!r}")
@@ -952,6 +1018,14 @@ def get(name: str, **options) -> Setup:
         ``"fence_mesh"``, ``"leaves"``, ``"hairball"``, ``"sword"``, ``"bunny"``, ``"bone"``, ``"cow"``).
     **options
         Keyword options of that factory, e.g. ``width=128, height=128``.
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> ss.scenes.get("sword", width=32, height=32).name
+    'sword'
+    >>> sorted(ss.scenes.SCENES)[:4]
+    ['bone', 'bunny', 'columns', 'cow']
     """
     try:
         factory = SCENES[name]
@@ -977,6 +1051,13 @@ def fence_texture(pattern: str = "slats") -> np.ndarray:
         pointed top (rows 56-63), and two rails 6 texels high (rows 14-19 and 42-47) across the
         tile. ``"grid"``: 8 x 8 texels, opaque rows 0-1 and columns 0-1 (a wire mesh with square
         holes of 6 x 6 texels).
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> alpha = ss.scenes.fence_texture()
+    >>> alpha.shape, alpha.dtype, sorted(set(alpha.ravel().tolist()))
+    ((64, 16), dtype('float32'), [0.0, 1.0])
     """
     if pattern == "slats":
         h, w = 64, 16
@@ -1000,6 +1081,13 @@ def leaf_texture(size: int = 32) -> np.ndarray:
 
     The leaf runs along u (columns): its half-width across v is ``0.45 * sin(pi u')**0.7`` for
     the blade (u' in [0, 1] over u in [0.12, 1]) and a thin stem over u in [0, 0.12].
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> alpha = ss.scenes.leaf_texture(16)
+    >>> alpha.shape, bool(0 < alpha.mean() < 1)  # a leaf's outline in a square card
+    ((16, 16), True)
     """
     size = _at_least("size", size, 4)
     _v.memory("leaf_texture", 40.0 * float(size) ** 2)  # float64 coordinates and bool masks per texel

@@ -31,7 +31,17 @@ VERDICTS = ("holds", "holds in kind", "refuted", "not measurable here")
 
 @dataclasses.dataclass(frozen=True)
 class Paper:
-    """A paper whose claims the ledger measures."""
+    """A paper whose claims the ledger measures.
+
+    Examples
+    --------
+    >>> from softshadows import claims
+    >>> paper = claims.PAPERS["forest09"]
+    >>> paper.short
+    'Forest et al. 2009'
+    >>> paper.cite()
+    'Vincent Forest, Loïc Barthe, Gaël Guennebaud and Mathias Paulin. Soft Textured Shadow Volume. Eurographics Symposium on Rendering, 2009.'
+    """
 
     key: str
     authors: str
@@ -72,7 +82,14 @@ PAPERS = {
 @dataclasses.dataclass(frozen=True)
 class Tier:
     """How big a run is: ``fast`` (small sizes, minutes for the whole ledger, run by the tests) or
-    ``paper`` (the papers' own sizes, up to an hour). ``figures``: draw the claims' pictures."""
+    ``paper`` (the papers' own sizes, up to an hour). ``figures``: draw the claims' pictures.
+
+    Examples
+    --------
+    >>> from softshadows import claims
+    >>> claims.Tier("fast").pick(64, 512), claims.Tier("paper").pick(64, 512)
+    (64, 512)
+    """
 
     name: str = "fast"
     figures: bool = False
@@ -89,7 +106,15 @@ class Tier:
 @dataclasses.dataclass
 class Measured:
     """What a claim's measurement returns: named numbers (the rule reads them, the ledger prints
-    them), optionally a matplotlib figure, and a note on the set-up."""
+    them), optionally a matplotlib figure, and a note on the set-up.
+
+    Examples
+    --------
+    >>> from softshadows import claims
+    >>> measured = claims.Measured({"speedup": 2.4}, note="columns, 256² receivers")
+    >>> measured.values["speedup"], measured.figure is None
+    (2.4, True)
+    """
 
     values: dict
     figure: object = None
@@ -100,7 +125,16 @@ class Measured:
 class Tol:
     """How far a re-measured value may drift from its recorded one: within ``rtol * |recorded| +
     atol``, or, with ``factor``, within ``[recorded / factor, recorded * factor]`` (for times,
-    whose ratios move with the machine's load)."""
+    whose ratios move with the machine's load).
+
+    Examples
+    --------
+    >>> from softshadows import claims
+    >>> claims.Tol(rtol=0.02).accepts(1.01, 1.0), claims.Tol(rtol=0.02).accepts(1.05, 1.0)
+    (True, False)
+    >>> claims.TIMING.accepts(2.0, 1.0), claims.WALL_CLOCK.accepts(300.0, 1.0)
+    (True, True)
+    """
 
     rtol: float = 0.0
     atol: float = 0.0
@@ -133,7 +167,15 @@ WALL_CLOCK = Tol(compared=False)
 
 
 class Rule(abc.ABC):
-    """Turns a claim's measured values into a verdict; :meth:`describe` says how, for the ledger."""
+    """Turns a claim's measured values into a verdict; :meth:`describe` says how, for the ledger.
+
+    Examples
+    --------
+    >>> from softshadows import claims
+    >>> rule = claims.AtMost("rmse", 0.02, in_kind=0.05)
+    >>> isinstance(rule, claims.Rule), rule.describe()
+    (True, 'holds if rmse ≤ 0.02, in kind if ≤ 0.05')
+    """
 
     @abc.abstractmethod
     def verdict(self, values: Mapping[str, float]) -> str:
@@ -176,7 +218,15 @@ class _Threshold(Rule):
 @dataclasses.dataclass(frozen=True)
 class AtMost(_Threshold):
     """``holds`` when ``values[key] <= holds``; ``holds in kind`` when ``<= in_kind``; else
-    ``refuted``."""
+    ``refuted``.
+
+    Examples
+    --------
+    >>> from softshadows import claims
+    >>> rule = claims.AtMost("rmse", 0.02, in_kind=0.05)
+    >>> [rule.verdict({"rmse": x}) for x in (0.01, 0.03, 0.1)]
+    ['holds', 'holds in kind', 'refuted']
+    """
 
     passes = staticmethod(lambda x, limit: x <= limit)
     symbol = "≤"
@@ -185,7 +235,15 @@ class AtMost(_Threshold):
 @dataclasses.dataclass(frozen=True)
 class AtLeast(_Threshold):
     """``holds`` when ``values[key] >= holds``; ``holds in kind`` when ``>= in_kind``; else
-    ``refuted``."""
+    ``refuted``.
+
+    Examples
+    --------
+    >>> from softshadows import claims
+    >>> rule = claims.AtLeast("speedup", 2.0, in_kind=1.2)
+    >>> [rule.verdict({"speedup": x}) for x in (3.0, 1.5, 0.9)]
+    ['holds', 'holds in kind', 'refuted']
+    """
 
     passes = staticmethod(lambda x, limit: x >= limit)
     symbol = "≥"
@@ -194,7 +252,15 @@ class AtLeast(_Threshold):
 @dataclasses.dataclass(frozen=True)
 class Between(Rule):
     """``holds`` when ``low <= values[key] <= high``; ``holds in kind`` inside ``in_kind`` (a
-    wider ``(low, high)``); else ``refuted``."""
+    wider ``(low, high)``); else ``refuted``.
+
+    Examples
+    --------
+    >>> from softshadows import claims
+    >>> rule = claims.Between("ratio", 2.0, 5.0, in_kind=(1.2, float("inf")))
+    >>> [rule.verdict({"ratio": x}) for x in (3.0, 20.0, 1.0)]
+    ['holds', 'holds in kind', 'refuted']
+    """
 
     key: str
     low: float
@@ -216,7 +282,15 @@ class Between(Rule):
 
 @dataclasses.dataclass(frozen=True)
 class AllOf(Rule):
-    """The worst verdict of several rules (``refuted`` < ``holds in kind`` < ``holds``)."""
+    """The worst verdict of several rules (``refuted`` < ``holds in kind`` < ``holds``).
+
+    Examples
+    --------
+    >>> from softshadows import claims
+    >>> rule = claims.AllOf(claims.AtLeast("speedup", 2.0), claims.AtMost("rmse", 0.02, in_kind=0.05))
+    >>> rule.verdict({"speedup": 3.0, "rmse": 0.03})  # the worse of the two
+    'holds in kind'
+    """
 
     rules: tuple
 
@@ -234,7 +308,15 @@ class AllOf(Rule):
 @dataclasses.dataclass(frozen=True)
 class NotMeasurable(Rule):
     """``not measurable here``, for the ``reason`` given; the measurement still reports what can
-    be measured (ratios, work counters)."""
+    be measured (ratios, work counters).
+
+    Examples
+    --------
+    >>> from softshadows import claims
+    >>> rule = claims.NotMeasurable("it times a GPU's memory bandwidth")
+    >>> rule.verdict({"ratio": 1.0})
+    'not measurable here'
+    """
 
     reason: str
 
@@ -252,6 +334,15 @@ class Claim:
     ``ours`` formats the measured values for the ledger (``str.format`` over them, e.g.
     ``"{ratio:.2f}x"``); ``tolerance`` maps a value's name to the :class:`Tol` within which a
     re-measurement must agree with the recorded one (unnamed values: :data:`DETERMINISTIC`).
+
+    Examples
+    --------
+    >>> from softshadows import claims
+    >>> c = claims.CLAIMS["marrs18.occluder_fusion"]
+    >>> c.paper.short, c.where
+    ('Marrs et al. 2018', 'Section 2.1, Figure 10 (bottom)')
+    >>> c.tol("rmse_pcss") is claims.DETERMINISTIC  # no tolerance of its own
+    True
     """
 
     id: str
@@ -276,6 +367,17 @@ def claim(id: str, *, where: str, statement: str, paper_value: str, rule: Rule, 
     """Registers the decorated function ``f(tier) -> Measured`` as the measurement of a claim.
 
     ``id`` is ``"<paper key>.<name>"``, the paper key one of :data:`PAPERS`.
+
+    Examples
+    --------
+    >>> from softshadows import claims
+    >>> @claims.claim("marrs18.example", where="Section 1", statement="Two is more than one.",
+    ...               paper_value="2 > 1", rule=claims.AtLeast("ratio", 1.5), ours="{ratio:.1f}x")
+    ... def _example(tier):
+    ...     return claims.Measured({"ratio": 2.0})
+    >>> claims.CLAIMS["marrs18.example"].measure(claims.Tier()).values
+    {'ratio': 2.0}
+    >>> del claims.CLAIMS["marrs18.example"]
     """
     key = id.split(".", 1)[0]
     if key not in PAPERS or "." not in id:
@@ -337,6 +439,18 @@ def reproduce(papers=None, *, tier: str = "fast", out=None, ids=None, figures: b
         ``verdict`` (one of :data:`VERDICTS`, or ``error`` with the exception in ``note``),
         ``rule``, ``values`` (dict), ``note``, ``seconds``; the figures (PNG bytes by claim id) in ``frame.attrs["figures"]``
         and the run's tier, date and machine in ``frame.attrs["run"]``.
+
+    Examples
+    --------
+    >>> from softshadows import claims
+    >>> @claims.claim("marrs18.example", where="Section 1", statement="Two is more than one.",
+    ...               paper_value="2 > 1", rule=claims.AtLeast("ratio", 1.5), ours="{ratio:.1f}x")
+    ... def _example(tier):
+    ...     return claims.Measured({"ratio": 2.0})
+    >>> frame = claims.reproduce(ids=["marrs18.example"], progress=False)
+    >>> frame[["id", "ours", "verdict"]].values.tolist()
+    [['marrs18.example', '2.0x', 'holds']]
+    >>> del claims.CLAIMS["marrs18.example"]
     """
     import pandas as pd
     from tqdm.auto import tqdm
@@ -381,7 +495,14 @@ def _png(figure) -> bytes:
 
 
 def machine() -> str:
-    """The machine a run was measured on, in one line."""
+    """The machine a run was measured on, in one line.
+
+    Examples
+    --------
+    >>> from softshadows import claims
+    >>> "CPU threads" in claims.machine() and "Python" in claims.machine()
+    True
+    """
     cpu = platform.processor() or platform.machine()
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():
@@ -412,7 +533,24 @@ def verdict_counts(frame) -> str:
 
 def write_report(frame, out) -> Path:
     """Writes ``claims.md`` (one table per paper, figures below it), ``claims.csv`` and the
-    figures (``claims/<id>.png``) into the folder ``out``; returns the Markdown file's path."""
+    figures (``claims/<id>.png``) into the folder ``out``; returns the Markdown file's path.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from softshadows import claims
+    >>> @claims.claim("marrs18.example", where="Section 1", statement="Two is more than one.",
+    ...               paper_value="2 > 1", rule=claims.AtLeast("ratio", 1.5), ours="{ratio:.1f}x")
+    ... def _example(tier):
+    ...     return claims.Measured({"ratio": 2.0})
+    >>> folder = tempfile.TemporaryDirectory()
+    >>> path = claims.write_report(claims.reproduce(ids=["marrs18.example"], progress=False), folder.name)
+    >>> path.name, sorted(os.listdir(folder.name))
+    ('claims.md', ['claims.csv', 'claims.md'])
+    >>> "Two is more than one." in path.read_text()
+    True
+    >>> del claims.CLAIMS["marrs18.example"]
+    """
     import json
 
     out = Path(out)
@@ -464,7 +602,26 @@ README_MARKERS = ("<!-- claims:start -->", "<!-- claims:end -->")
 
 def update_readme(frame, path) -> None:
     """Replaces the block between :data:`README_MARKERS` in the file ``path`` with one line per
-    paper: its verdict counts and its headline claims' verdicts."""
+    paper: its verdict counts and its headline claims' verdicts.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from softshadows import claims
+    >>> @claims.claim("marrs18.example", where="Section 1", statement="Two is more than one.",
+    ...               paper_value="2 > 1", rule=claims.AtLeast("ratio", 1.5), ours="{ratio:.1f}x")
+    ... def _example(tier):
+    ...     return claims.Measured({"ratio": 2.0})
+    >>> folder = tempfile.TemporaryDirectory()
+    >>> path = os.path.join(folder.name, "README.md")
+    >>> start, end = claims.ledger.README_MARKERS
+    >>> with open(path, "w") as f:
+    ...     _ = f.write(os.linesep.join(["# Claims", start, end, ""]))
+    >>> claims.update_readme(claims.reproduce(ids=["marrs18.example"], progress=False), path)
+    >>> open(path).read().splitlines()[2]
+    '- **Marrs et al. 2018**, *View-warped Multi-view Soft Shadows for Local Area Lights*: 1 holds.'
+    >>> del claims.CLAIMS["marrs18.example"]
+    """
     path = Path(path)
     text = path.read_text()
     start, end = README_MARKERS
@@ -484,7 +641,23 @@ def update_readme(frame, path) -> None:
 
 def record_expected(frame, path) -> Path:
     """Writes every measured value and verdict of a fast-tier run to the CSV ``path`` (the
-    expectations ``tests/claims`` re-measures against), with a dated header naming the command."""
+    expectations ``tests/claims`` re-measures against), with a dated header naming the command.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from softshadows import claims
+    >>> @claims.claim("marrs18.example", where="Section 1", statement="Two is more than one.",
+    ...               paper_value="2 > 1", rule=claims.AtLeast("ratio", 1.5), ours="{ratio:.1f}x")
+    ... def _example(tier):
+    ...     return claims.Measured({"ratio": 2.0})
+    >>> folder = tempfile.TemporaryDirectory()
+    >>> path = claims.record_expected(claims.reproduce(ids=["marrs18.example"], progress=False),
+    ...                               os.path.join(folder.name, "expected.csv"))
+    >>> path.read_text().splitlines()[-1]
+    'marrs18.example,ratio,2.0,holds'
+    >>> del claims.CLAIMS["marrs18.example"]
+    """
     import csv
 
     run = frame.attrs.get("run", {})
@@ -529,7 +702,27 @@ def _timing_noise(claim, values, recorded) -> bool:
 def compare_expected(frame, path) -> list:
     """The differences between a fast-tier run and the recorded expectations at ``path``: one
     message per changed verdict (but for a verdict that timings within their tolerances decide,
-    :func:`_timing_noise`), drifted value, or claim missing from either side."""
+    :func:`_timing_noise`), drifted value, or claim missing from either side.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from softshadows import claims
+    >>> ratio = 2.0
+    >>> @claims.claim("marrs18.example", where="Section 1", statement="Two is more than one.",
+    ...               paper_value="2 > 1", rule=claims.AtLeast("ratio", 1.5), ours="{ratio:.1f}x")
+    ... def _example(tier):
+    ...     return claims.Measured({"ratio": ratio})
+    >>> folder = tempfile.TemporaryDirectory()
+    >>> path = os.path.join(folder.name, "expected.csv")
+    >>> _ = claims.record_expected(claims.reproduce(ids=["marrs18.example"], progress=False), path)
+    >>> claims.compare_expected(claims.reproduce(ids=["marrs18.example"], progress=False), path)
+    []
+    >>> ratio = 1.0
+    >>> claims.compare_expected(claims.reproduce(ids=["marrs18.example"], progress=False), path)[0][:60]
+    "marrs18.example: verdict 'refuted' (measured {'ratio': 1.0},"
+    >>> del claims.CLAIMS["marrs18.example"]
+    """
     import pandas as pd
 
     recorded = pd.read_csv(path, comment="#")

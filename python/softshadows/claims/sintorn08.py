@@ -25,7 +25,7 @@ from .ledger import TIMING, WALL_CLOCK, AllOf, AtLeast, AtMost, Measured, Tol, c
 
 #: The paper's settings (section 5: 512² shadow maps; section 4.1: hexagons; section 4.3: the
 #: table, back-face culling of closed casters and the penumbra restriction).
-PAPER = {"resolution": 512, "lut": "auto", "hull_degree": 6, "casters": "backfacing", "restrict_to_penumbra": True}
+PAPER = {"resolution": 512, "lut": "auto", "hull_degree": 6, "caster_faces": "backfacing", "restrict_to_penumbra": True}
 
 #: A fit's R² re-measures within this (it is made of timings).
 FIT = Tol(atol=0.05)
@@ -103,7 +103,7 @@ def _hard_oracle(setup, gb):
     """Shadow rays to a point light, cast as the bias-free method casts (closed meshes' faces
     from the receiver itself, where it lies in front of them): the limit it must meet (the
     default offset moves a few boundary pixels)."""
-    return ray_traced(setup.scene, _point(setup), gb, samples=1, casters="backfacing")
+    return ray_traced(setup.scene, _point(setup), gb, samples=1, caster_faces="backfacing")
 
 
 # ----------------------------------------------------------------------------------------------
@@ -128,7 +128,7 @@ def _exact(tier):
         samples = _samples(setup.light, n)
         # Shadow rays cast as the paper's bias-free culling casts (section 3.3); the offset
         # oracle's agreement is recorded beside, not judged: the offset is not the limit.
-        rays = ray_traced(setup.scene, setup.light, gb, samples=samples, casters="backfacing")
+        rays = ray_traced(setup.scene, setup.light, gb, samples=samples, caster_faces="backfacing")
         exact, _ = _alias_free(setup, setup.light, gb, samples, lut=None)
         offset = ray_traced(setup.scene, setup.light, gb, samples=samples)
         values[f"identical_{name}_{kind}"] = identical_fraction(exact, rays, gb.mask)
@@ -137,7 +137,7 @@ def _exact(tier):
         penumbra.append(float(np.mean(((rays > 0) & (rays < 1))[gb.mask])))
     values["identical_fraction"] = min(v for k, v in values.items() if k.startswith("identical_"))
     return Measured(values, note=f"{size}x{size} receivers, {n} shared Poisson samples, exact plane tests (lut=None) "
-                                 f"against ray_traced(casters='backfacing'); columns (840 triangles) under a rect light and the 6K-triangle "
+                                 f"against ray_traced(caster_faces='backfacing'); columns (840 triangles) under a rect light and the 6K-triangle "
                                  f"torus knot under a sphere light, {min(penumbra):.0%}-{max(penumbra):.0%} of the hit "
                                  f"pixels in penumbra.")
 
@@ -202,8 +202,8 @@ def _no_bias(tier):
         setup, gb = staged(name, size)
         point, oracle = _point(setup), _hard_oracle(setup, gb)
         lit_occluder = gb.mask & (gb.face_ids >= len(setup.ground.faces)) & (oracle > 0)
-        back, _ = _alias_free(setup, point, gb, 1, casters="backfacing", bias=0.0)
-        every, _ = _alias_free(setup, point, gb, 1, casters="all", bias=0.0)
+        back, _ = _alias_free(setup, point, gb, 1, caster_faces="backfacing", bias=0.0)
+        every, _ = _alias_free(setup, point, gb, 1, caster_faces="all", bias=0.0)
         sm = shadow_map(setup.scene, point, gb, resolution=2048, bias=0.0)
         agree.append(identical_fraction(back, oracle, gb.mask))
         values[f"acne_all_casters_{name}"] = float(np.mean((every < oracle)[lit_occluder]))
@@ -382,7 +382,7 @@ def _versus_shadow_maps(tier):
     for n in counts:
         runs["alias_free", n] = _stage_timer(functools.partial(_alias_free, setup, setup.light, gb, sets[n]), _frame_seconds)
         runs["mvr", n] = _stage_timer(
-            functools.partial(mvr, setup.scene, setup.light, gb, views=sets[n], resolution=512, pcf=1, return_stats=True),
+            functools.partial(mvr, setup.scene, setup.light, gb, samples=sets[n], resolution=512, pcf=1, return_stats=True),
             lambda st: st["depth_maps_seconds"] + st["lighting_seconds"])
     rounds = tier.pick(1, 2)
     t = _fastest(rounds, runs)
@@ -519,7 +519,7 @@ def _optimizations(size: int, rounds: int) -> dict:
     for name in OPTIMIZATION_SCENES:
         setup, gb = staged(name, size)
         samples, stats = _samples(setup.light, 256), {}
-        variants = {"paper": {}, "unrestricted": {"restrict_to_penumbra": False}, "all_casters": {"casters": "all"}}
+        variants = {"paper": {}, "unrestricted": {"restrict_to_penumbra": False}, "all_casters": {"caster_faces": "all"}}
         runs = {k: _stage_timer(functools.partial(_alias_free, setup, setup.light, gb, samples, **o), _frame_seconds,
                                 stats if k == "paper" else None) for k, o in variants.items()}
         out[name] = {**_fastest(rounds, runs), "penumbra_texels_percent": stats["penumbra_texels_percent"]}
@@ -567,7 +567,7 @@ def _caster_culling(tier):
     values = {f"saving_{name}": 1 - s["paper"] / s["all_casters"] for name, s in t.items()}
     values["saving"] = max(values.values())
     return Measured(values, note=f"columns and 6K torus knot (closed), {size}x{size} receivers, 256 Poisson samples, "
-                                 f"lut='auto'; casters='backfacing' against 'all'; per-frame stage times, fastest of {rounds} "
+                                 f"lut='auto'; caster_faces='backfacing' against 'all'; per-frame stage times, fastest of {rounds} "
                                  f"interleaved rounds. Only the back-face part of the paper's two measures is an option "
                                  f"here. Saved: " + ", ".join(f"{k[7:]} {v:.0%}" for k, v in values.items() if k != "saving") + ".")
 

@@ -10,7 +10,7 @@ use softshadows_core::geometry::receivers::Receivers;
 use softshadows_core::light::lights::Light;
 use softshadows_core::light::sampling::{Pattern, Rng, SampleSet};
 use softshadows_core::methods::ray_traced::{auto_epsilon, ray_traced, RayTracedOptions};
-use softshadows_core::methods::Casters;
+use softshadows_core::methods::CasterFaces;
 use softshadows_core::Error;
 use std::f32::consts::PI;
 
@@ -693,14 +693,14 @@ fn bad_options_and_mismatched_bvh_are_refused() {
     let rx = ground_receivers(&[0.0]);
     let bad = RayTracedOptions {
         epsilon: f32::NAN,
-        casters: Casters::All,
+        caster_faces: CasterFaces::All,
     };
     assert!(
         matches!(ray_traced(&scene, &bvh, &light, &rx, &samples, &bad), Err(Error::InvalidInput { ref arg, .. }) if arg == "epsilon")
     );
     let ok = RayTracedOptions {
         epsilon: 1e-4,
-        casters: Casters::All,
+        caster_faces: CasterFaces::All,
     };
     assert!(
         matches!(ray_traced(&other, &bvh, &light, &rx, &samples, &ok), Err(Error::InvalidInput { ref arg, .. }) if arg == "bvh")

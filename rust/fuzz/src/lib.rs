@@ -26,7 +26,7 @@ use softshadows_core::geometry::receivers::Receivers;
 use softshadows_core::light::lights::{tangent_frame, EmissionTexture, Light};
 use softshadows_core::light::sampling::{Pattern, SampleSet};
 use softshadows_core::methods::alias_free::{AliasFreeOptions, TableSize};
-use softshadows_core::methods::Casters;
+use softshadows_core::methods::CasterFaces;
 use softshadows_core::methods::backprojection::{Acceleration, Accumulation, BackprojectionOptions, Budget, Occluder};
 use softshadows_core::methods::cssm::{CssmOptions, Prefilter};
 use softshadows_core::methods::envmap::FitOptions;
@@ -35,7 +35,7 @@ use softshadows_core::methods::pcss::PcssOptions;
 use softshadows_core::methods::ray_traced::{auto_epsilon, RayTracedOptions};
 use softshadows_core::methods::shadow_map::ShadowMapOptions;
 use softshadows_core::methods::stsv::{Opaque, StsvOptions};
-use softshadows_core::methods::vwss::{Mode, Parallel, Precision, VwssOptions};
+use softshadows_core::methods::vwss::{Mode, Parallel, Precision, SourceView, VwssOptions};
 use softshadows_core::raster::influence::ObjectOptions;
 use softshadows_core::Result;
 
@@ -473,7 +473,7 @@ impl FuzzRayTracedOptions {
     pub fn build(&self, scene: &Scene) -> RayTracedOptions {
         RayTracedOptions {
             epsilon: opt(self.epsilon).unwrap_or_else(|| auto_epsilon(scene)),
-            casters: if self.backfacing { Casters::Backfacing } else { Casters::All },
+            caster_faces: if self.backfacing { CasterFaces::Backfacing } else { CasterFaces::All },
         }
     }
 }
@@ -528,6 +528,7 @@ pub struct FuzzVwssOptions {
     pub cull_backfaces: bool,
     pub layered: bool,
     pub float16: bool,
+    pub paper_source_view: bool,
     pub point_density: Num,
     pub source_resolution: Option<u8>,
 }
@@ -542,6 +543,7 @@ impl FuzzVwssOptions {
             cull_backfaces: self.cull_backfaces,
             layered: self.layered,
             precision: if self.float16 { Precision::Float16 } else { Precision::Float32 },
+            source_view: if self.paper_source_view { SourceView::Paper } else { SourceView::Fitted },
             point_density: self.point_density.get(),
             source_resolution: self.source_resolution.map(side),
             // The CPU backend (the fuzz build has no `gpu` feature and CI no GPU).
@@ -607,7 +609,7 @@ impl FuzzCssmOptions {
 #[derive(Arbitrary, Debug, Clone)]
 pub struct FuzzAliasFreeOptions {
     pub resolution: u8,
-    pub all_casters: bool,
+    pub all_faces: bool,
     pub bias: Option<Num>,
     /// Raw bins (4..=256 are valid); `None`: exact tests; `Some(0)`: sized from the samples.
     pub lut: Option<u8>,
@@ -619,7 +621,7 @@ impl FuzzAliasFreeOptions {
     pub fn build(&self) -> AliasFreeOptions {
         AliasFreeOptions {
             resolution: side(self.resolution),
-            casters: if self.all_casters { Casters::All } else { Casters::Backfacing },
+            caster_faces: if self.all_faces { CasterFaces::All } else { CasterFaces::Backfacing },
             bias: opt(self.bias).unwrap_or(0.0),
             lut: match self.lut {
                 None => TableSize::Exact,

@@ -31,8 +31,10 @@ use softshadows_core::methods::shadow_map::{shadow_map as shadow_map_core, Shado
 use softshadows_core::methods::stsv::{
     stsv as stsv_core, stsv_volumes as stsv_volumes_core, Opaque, StsvOptions,
 };
-use softshadows_core::methods::vwss::{vwss as vwss_core, Mode, Parallel, Precision, VwssOptions};
-use softshadows_core::methods::Casters;
+use softshadows_core::methods::vwss::{
+    vwss as vwss_core, Mode, Parallel, Precision, SourceView, VwssOptions,
+};
+use softshadows_core::methods::CasterFaces;
 use softshadows_core::raster::influence::ObjectOptions;
 use softshadows_core::Error;
 use softshadows_core::Result as CoreResult;
@@ -57,12 +59,15 @@ fn parse_backend(backend: &str) -> CoreResult<Backend> {
     )
 }
 
-/// The `casters=` option of `alias_free` and `ray_traced`.
-fn parse_casters(casters: &str) -> CoreResult<Casters> {
+/// The `caster_faces=` option of `alias_free` and `ray_traced`.
+fn parse_caster_faces(caster_faces: &str) -> CoreResult<CasterFaces> {
     choice(
-        "casters",
-        casters,
-        &[("backfacing", Casters::Backfacing), ("all", Casters::All)],
+        "caster_faces",
+        caster_faces,
+        &[
+            ("backfacing", CasterFaces::Backfacing),
+            ("all", CasterFaces::All),
+        ],
     )
 }
 
@@ -75,11 +80,11 @@ fn ray_traced<'py>(
     receivers: &NativeReceivers,
     samples: &NativeSamples,
     epsilon: f32,
-    casters: &str,
+    caster_faces: &str,
 ) -> PyResult<Output<'py>> {
     let opts = RayTracedOptions {
         epsilon,
-        casters: parse_casters(casters).or_raise()?,
+        caster_faces: parse_caster_faces(caster_faces).or_raise()?,
     };
     let bvh = scene.bvh(py)?;
     let out = crate::threads::detached(py, || {
@@ -185,6 +190,7 @@ fn vwss<'py>(
     cull_backfaces: bool,
     layered: bool,
     precision: &str,
+    source_view: &str,
     point_density: f32,
     source_resolution: Option<usize>,
     backend: &str,
@@ -225,6 +231,12 @@ fn vwss<'py>(
                 ("float32", Precision::Float32),
                 ("float16", Precision::Float16),
             ],
+        )
+        .or_raise()?,
+        source_view: choice(
+            "source_view",
+            source_view,
+            &[("fitted", SourceView::Fitted), ("paper", SourceView::Paper)],
         )
         .or_raise()?,
         point_density,
@@ -378,7 +390,7 @@ fn alias_free<'py>(
     receivers: &NativeReceivers,
     samples: &NativeSamples,
     resolution: usize,
-    casters: &str,
+    caster_faces: &str,
     bias: f32,
     lut: Option<LutArg>,
     hull_degree: usize,
@@ -392,10 +404,9 @@ fn alias_free<'py>(
             choice("lut", &name, &[("auto", TableSize::FromSamples)]).or_raise()?
         }
     };
-    let casters = parse_casters(casters).or_raise()?;
     let opts = AliasFreeOptions {
         resolution,
-        casters,
+        caster_faces: parse_caster_faces(caster_faces).or_raise()?,
         bias,
         lut,
         hull_degree,

@@ -328,7 +328,7 @@ impl Bvh {
     }
 
     /// [`Bvh::occluded`] counting only the faces for which `casts(face id)` holds (one traversal,
-    /// no leaf cache): the oracle of culled casters, `ray_traced(casters="backfacing")`.
+    /// no leaf cache): the oracle of culled casters, `ray_traced(caster_faces="backfacing")`.
     pub fn occluded_by_faces(
         &self,
         scene: &Scene,

@@ -2,7 +2,7 @@
 //! closed casters (Sintorn, Eisemann and Assarsson 2008, section 3.3: only light back-facing
 //! triangles cast) does not hold. A segment from outside a closed mesh that crosses it enters
 //! through a triangle it meets from the front; from inside, it first leaves through one it meets
-//! from the back, which culling drops. `alias_free` and `ray_traced(casters="backfacing")` test
+//! from the back, which culling drops. `alias_free` and `ray_traced(caster_faces="backfacing")` test
 //! the receivers found here against every triangle, from their moved point.
 
 use crate::error::Result;

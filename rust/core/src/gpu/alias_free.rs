@@ -874,7 +874,7 @@ mod tests {
     use crate::light::lights::Light;
     use crate::light::sampling::{Pattern, Rng, SampleSet};
     use crate::methods::alias_free::{sample_masks, AliasFreeOptions, TableSize};
-    use crate::methods::Casters;
+    use crate::methods::CasterFaces;
     use crate::stats::Stats;
     use glam::{Vec2, Vec3};
     use std::sync::Mutex;
@@ -1069,7 +1069,7 @@ mod tests {
             }
         }
         let all = AliasFreeOptions {
-            casters: Casters::All,
+            caster_faces: CasterFaces::All,
             restrict_to_penumbra: false,
             hull_degree: 5,
             ..base

@@ -10,7 +10,7 @@
 //!    view samples' projected bounding box and depth range.
 //! 3. **Lists** (section 3.1): each view sample goes to the list of the texel it projects to, by
 //!    count, prefix sum and scatter ([`crate::raster::influence::ReceiverLists`]).
-//! 4. **Casters**: with `Casters::Backfacing` (the default), closed meshes cast with their light
+//! 4. **Casters**: with `CasterFaces::Backfacing` (the default), closed meshes cast with their light
 //!    back-facing triangles only, which never shadow the front-facing surface they belong to, so
 //!    no bias is needed (section 3.3); open meshes cast with every triangle. Culling holds for
 //!    receivers outside every closed mesh, the paper's view samples, seen by an eye outside the
@@ -19,7 +19,7 @@
 //!    into it) a segment first leaves through a light front-facing triangle, which culling drops.
 //!    So a view sample whose moved point lies inside a closed mesh ([`mark_inside_closed_meshes`])
 //!    is tested from its moved point against every triangle of the closed meshes. With
-//!    `Casters::All` every triangle casts. A caster that can be its own receiver's surface (every
+//!    `CasterFaces::All` every triangle casts. A caster that can be its own receiver's surface (every
 //!    triangle of an open mesh, every triangle with `All`) tests the receiver moved `bias` along
 //!    its normal, as the ray tracer does.
 //! 5. **Influence regions** (section 4.1, [`crate::raster::influence`]): the union of the
@@ -64,7 +64,7 @@ use crate::gpu::{self, Backend};
 use crate::light::lights::{Light, Shape};
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, object_work, Peak};
-use crate::methods::Casters;
+use crate::methods::CasterFaces;
 use crate::raster::depth::{
     band_rows, casters, Caster, FaceFilter, LightFrustum, RasterMode, RasterOptions,
 };
@@ -138,7 +138,7 @@ pub fn table_bins_for(samples: usize) -> usize {
 pub struct AliasFreeOptions {
     /// Side of the light's list map in texels (default 512, the paper's).
     pub resolution: usize,
-    pub casters: Casters,
+    pub caster_faces: CasterFaces,
     /// Receiver offset along its normal for casters that may be its own surface (world units).
     pub bias: f32,
     /// The plane-to-bitmask table's size, or exact tests (default: sized from the sample count).
@@ -160,7 +160,7 @@ impl Default for AliasFreeOptions {
     fn default() -> Self {
         Self {
             resolution: 512,
-            casters: Casters::Backfacing,
+            caster_faces: CasterFaces::Backfacing,
             bias: 0.0,
             lut: TableSize::FromSamples,
             hull_degree: 6,
@@ -205,7 +205,7 @@ pub(crate) struct ViewSample {
     pub n: DVec3,
     /// The transpose of its samples' rotation about the light's center (`rotate="per_receiver"`).
     pub rotation: Option<DMat3>,
-    /// Whether its moved point lies inside a closed mesh under `Casters::Backfacing`: it is listed
+    /// Whether its moved point lies inside a closed mesh under `CasterFaces::Backfacing`: it is listed
     /// at its moved point and tested from there against every closed triangle, culled or not.
     pub inside: bool,
     /// Whether its planes are tested exactly although a table was asked for: the light looks too
@@ -417,7 +417,7 @@ pub(crate) struct Prepared {
     pub normal: DVec3,
     pub alpha: bool,
     pub moved: bool,
-    /// A closed mesh's triangle under `Casters::Backfacing`: it blocks only samples it is back-facing
+    /// A closed mesh's triangle under `CasterFaces::Backfacing`: it blocks only samples it is back-facing
     /// to, from receivers in front of it (so never its own surface).
     pub front_only: bool,
     /// A closed triangle that culling leaves out (facing every sample, or a point light's front
@@ -732,7 +732,7 @@ pub(crate) fn sample_masks(
     if view.is_empty() {
         return Ok(out);
     }
-    let inside = if opts.casters == Casters::Backfacing {
+    let inside = if opts.caster_faces == CasterFaces::Backfacing {
         stats.time_add("list_build", || {
             mark_inside_closed_meshes(scene, &mut view, opts.bias)
         })?
@@ -1026,8 +1026,8 @@ impl CasterSet {
         any_inside: bool,
     ) -> CasterSet {
         let point = matches!(bounds.light.shape, Shape::Point { .. });
-        let filter = match opts.casters {
-            Casters::Backfacing if point => FaceFilter::BackFacingIfClosed,
+        let filter = match opts.caster_faces {
+            CasterFaces::Backfacing if point => FaceFilter::BackFacingIfClosed,
             _ => FaceFilter::All,
         };
         let gathered = if any_inside { FaceFilter::All } else { filter };
@@ -1040,8 +1040,9 @@ impl CasterSet {
             },
             frustum.eye,
         );
-        let front_only =
-            |id: u32| opts.casters == Casters::Backfacing && !point && scene.is_closed_face(id);
+        let front_only = |id: u32| {
+            opts.caster_faces == CasterFaces::Backfacing && !point && scene.is_closed_face(id)
+        };
         // A closed triangle facing every point of the light and every sample is back-facing to no
         // sample: it casts nothing, but for the view samples inside a closed mesh.
         let culled = |id: u32, t: &[Vec3; 3]| {
@@ -1060,7 +1061,7 @@ impl CasterSet {
                 // Closed casters under culling skip the offset (section 3.3), for area lights too:
                 // a closed triangle blocks only from receivers strictly in front of its plane
                 // (`front_only`), so never the surface a receiver lies on.
-                let moved = opts.casters == Casters::All || !scene.is_closed_face(*id);
+                let moved = opts.caster_faces == CasterFaces::All || !scene.is_closed_face(*id);
                 let near_depth = t
                     .iter()
                     .map(|p| f64::from(frustum.to_view(*p).z))

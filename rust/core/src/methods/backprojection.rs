@@ -52,7 +52,7 @@ use crate::raster::depth::{
     raster_peak, raster_work, rasterize_depth, LightFrustum, RasterOptions,
 };
 use crate::raster::influence::light_polytope;
-use crate::raster::pcf::{DepthBias, ReceiverDepth, RASTERIZED_SLACK};
+use crate::raster::pcf::{DepthBias, ReceiverDepth};
 use crate::raster::pyramid::{MinMaxPyramid, MultiScaleMap};
 use crate::stats::Stats;
 use glam::{DVec2, DVec3, Vec3};
@@ -1146,7 +1146,7 @@ pub fn backprojection_levels(
         levels: &levels,
         light: &plane,
         opts,
-        bias: DepthBias::new(opts.bias, RASTERIZED_SLACK)?,
+        bias: DepthBias::new(opts.bias)?,
         near,
     };
     let budget = |i: usize| match &opts.budget {

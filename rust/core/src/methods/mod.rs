@@ -15,9 +15,9 @@ pub mod vwss;
 use crate::error::{Error, Result};
 use crate::light::lights::Light;
 
-/// Which triangles cast shadows (`alias_free`, `ray_traced`, `stsv`'s bitmasks).
+/// Which triangles of closed meshes cast shadows (`alias_free`, `ray_traced`, `stsv`'s bitmasks).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Casters {
+pub enum CasterFaces {
     /// Closed meshes: light back-facing triangles only, from the receiver itself with no offset
     /// (bias-free; Sintorn, Eisemann and Assarsson 2008, section 3.3), but every triangle, from
     /// the moved receiver, for the receivers inside one ([`crate::geometry::inside`]); open

@@ -20,7 +20,7 @@ use crate::light::sampling::SampleSet;
 use crate::limits::{Peak, Work};
 use crate::raster::depth::{raster_peak, rasterize_depth, RasterOptions};
 use crate::raster::multiview::{accumulate, resolve, ViewSet};
-use crate::raster::pcf::{DepthBias, PcfKernel, RASTERIZED_SLACK};
+use crate::raster::pcf::{DepthBias, PcfKernel};
 use crate::stats::Stats;
 
 /// Options shared by [`mvr`] and `vwss`'s lighting stage.
@@ -58,9 +58,9 @@ impl MultiViewOptions {
             .loop_of(&[views as u64, receivers as u64, (self.pcf as u64).pow(2)])
     }
 
-    /// Checks the options and returns the PCF kernel and the depth bias for maps whose texels
-    /// hold depths with `slack` (see [`crate::raster::pcf`]).
-    pub fn shadow_test(&self, slack: f32) -> Result<(PcfKernel, DepthBias)> {
+    /// Checks the options and returns the PCF kernel and the depth bias (see
+    /// [`crate::raster::pcf`]).
+    pub fn shadow_test(&self) -> Result<(PcfKernel, DepthBias)> {
         if !(1..=crate::raster::depth::MAX_RESOLUTION).contains(&self.resolution) {
             return Err(Error::invalid(
                 "resolution",
@@ -71,10 +71,7 @@ impl MultiViewOptions {
                 ),
             ));
         }
-        Ok((
-            PcfKernel::with_taps(self.pcf)?,
-            DepthBias::new(self.bias, slack)?,
-        ))
+        Ok((PcfKernel::with_taps(self.pcf)?, DepthBias::new(self.bias)?))
     }
 }
 
@@ -104,7 +101,7 @@ pub fn mvr(
     samples: &SampleSet,
     opts: &MultiViewOptions,
 ) -> Result<(Vec<f32>, Stats)> {
-    let (kernel, bias) = opts.shadow_test(RASTERIZED_SLACK)?;
+    let (kernel, bias) = opts.shadow_test()?;
     let eyes = shared_eyes(samples)?;
     let mut stats = Stats::default();
     for name in ["depth_maps_seconds", "lighting_seconds", "fragments"] {

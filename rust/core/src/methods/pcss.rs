@@ -39,7 +39,7 @@ use crate::raster::depth::{
     MAX_RESOLUTION,
 };
 use crate::raster::footprint::LightFootprint;
-use crate::raster::pcf::{DepthBias, ReceiverDepth, RASTERIZED_SLACK};
+use crate::raster::pcf::{DepthBias, ReceiverDepth};
 use crate::stats::Stats;
 use glam::{Vec2, Vec3};
 
@@ -100,7 +100,7 @@ impl PcssOptions {
                 ));
             }
         }
-        DepthBias::new(self.bias, RASTERIZED_SLACK)?;
+        DepthBias::new(self.bias)?;
         if let Some(z) = self.near {
             if !(z.is_finite() && z > 0.0) {
                 return Err(Error::invalid(
@@ -253,7 +253,7 @@ pub fn pcss(
             opts.filter_samples,
             opts.seed ^ 0x5EED_F117,
         ),
-        bias: DepthBias::new(opts.bias, RASTERIZED_SLACK)?,
+        bias: DepthBias::new(opts.bias)?,
     };
     if opts.backend == Backend::Gpu {
         let gpu_lookup = GpuLookup {

@@ -26,7 +26,7 @@ use crate::interrupt;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, Peak, Work};
-use crate::methods::Casters;
+use crate::methods::CasterFaces;
 use crate::stats::Stats;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -41,11 +41,11 @@ pub struct RayTracedOptions {
     /// Offset of the shadow-ray origins along the receiver normal (world units, >= 0); see
     /// [`auto_epsilon`] for the default.
     pub epsilon: f32,
-    /// `Casters::All` (the default): every triangle, from `p + epsilon n`, the definition.
-    /// `Casters::Backfacing`: closed meshes' triangles block only from receivers strictly in
+    /// `CasterFaces::All` (the default): every triangle, from `p + epsilon n`, the definition.
+    /// `CasterFaces::Backfacing`: closed meshes' triangles block only from receivers strictly in
     /// front of their plane, from `p` itself, as `alias_free` culls them; so `alias_free` has an
     /// oracle on its default, and the definition's limit for epsilon -> 0 on closed meshes.
-    pub casters: Casters,
+    pub caster_faces: CasterFaces,
 }
 
 impl RayTracedOptions {
@@ -53,7 +53,7 @@ impl RayTracedOptions {
     pub fn for_scene(scene: &Scene) -> Self {
         Self {
             epsilon: auto_epsilon(scene),
-            casters: Casters::All,
+            caster_faces: CasterFaces::All,
         }
     }
 }
@@ -120,7 +120,7 @@ pub fn ray_traced(
     Ok((out, stats))
 }
 
-/// With `Casters::Backfacing` on a scene with a closed mesh, per receiver whether the culling of
+/// With `CasterFaces::Backfacing` on a scene with a closed mesh, per receiver whether the culling of
 /// closed casters holds for it: it lies outside every closed mesh (see
 /// [`crate::geometry::inside`]). `None` when every triangle casts from the moved receiver.
 fn culled_receivers(
@@ -129,7 +129,7 @@ fn culled_receivers(
     receivers: &Receivers,
     opts: &RayTracedOptions,
 ) -> Result<Option<Vec<bool>>> {
-    if opts.casters == Casters::All || !scene.meshes.iter().any(|m| m.closed) {
+    if opts.caster_faces == CasterFaces::All || !scene.meshes.iter().any(|m| m.closed) {
         return Ok(None);
     }
     let points: Vec<(DVec3, DVec3)> = (0..receivers.len())
@@ -695,7 +695,7 @@ mod tests {
         let rx = grid();
         let opts = RayTracedOptions {
             epsilon: 1e-4,
-            casters: Casters::All,
+            caster_faces: CasterFaces::All,
         };
         let variants = [(1, false), (1, true), (3, false)];
         for (interleave, rotate) in variants {

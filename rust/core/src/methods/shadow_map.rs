@@ -33,7 +33,7 @@ use crate::limits::Peak;
 use crate::raster::depth::{
     raster_peak, raster_work, rasterize_depth, DepthMap, LightFrustum, RasterOptions,
 };
-use crate::raster::pcf::{DepthBias, PcfKernel, RASTERIZED_SLACK};
+use crate::raster::pcf::{DepthBias, PcfKernel};
 use crate::stats::Stats;
 
 /// Options of [`shadow_map`].
@@ -77,7 +77,7 @@ impl ShadowMapOptions {
                 ),
             ));
         }
-        DepthBias::new(self.bias, RASTERIZED_SLACK)?;
+        DepthBias::new(self.bias)?;
         PcfKernel::square(self.pcf)?;
         match &self.frustum {
             Some(f) => f.validate(),
@@ -148,7 +148,7 @@ fn lookup_all(
     opts: &ShadowMapOptions,
 ) -> Result<Vec<f32>> {
     let kernel = PcfKernel::square(opts.pcf)?;
-    let bias = DepthBias::new(opts.bias, RASTERIZED_SLACK)?;
+    let bias = DepthBias::new(opts.bias)?;
     if opts.backend == Backend::Gpu {
         // The lighting pass with one view of weight 1: sums are the lit fractions themselves.
         let lighting = Lighting::new(rx, &kernel, bias)?;

@@ -44,7 +44,7 @@ use crate::limits::{self, object_work, Peak};
 use crate::methods::alias_free::{masks_peak, sample_masks, AliasFreeOptions, TableSize};
 use crate::methods::dcs::{depth_complexity, depth_complexity_peak, visible_fraction};
 use crate::methods::penumbra_wedge::{wedge_occlusion, wedge_occlusion_peak};
-use crate::methods::Casters;
+use crate::methods::CasterFaces;
 use crate::raster::influence::{
     by_light_face, check_hull_degree, LightBounds, ObjectOptions, Origins,
 };
@@ -498,7 +498,7 @@ fn stsv_in_one_frustum(
     // frameworks give the same bits: `ray_traced`'s.
     let af = AliasFreeOptions {
         resolution: opts.object.resolution,
-        casters: Casters::All,
+        caster_faces: CasterFaces::All,
         bias: opts.object.epsilon,
         lut: TableSize::Exact,
         hull_degree: opts.object.hull_degree,

@@ -25,7 +25,14 @@
 //!    fewer points still, so the maps have holes that leak light (measured: +0.01 to +0.02 mean
 //!    visibility against `mvr` on the columns and bunny scenes); at 2 the holes are gone and the
 //!    slight bloat of Figure 6 remains. The scale is capped at 8 (a CPU memory guard;
-//!    `source_resolution` overrides all of this).
+//!    `source_resolution` overrides all of this). [`SourceView::Paper`] sizes the view by the
+//!    equations as printed instead: `d` from the light's width and height (eq. 1, its extents
+//!    along the views' axes, which are the paper's `l_w` and `l_h` when the views are aligned with
+//!    its edges; undefined for volume lights), `z_n` the light-sample views' near plane
+//!    as in Listing 1 (Python's `vwss` then defaults `point_density` to 1, the equation as
+//!    printed). Our views' near plane lies at 1/1000 of
+//!    the receivers' nearest depth (for depth precision, not as a statement about the occluders),
+//!    so eq. 3 then asks for about a thousand times the side and the cap decides.
 //! 2. **Point generation** (section 3.1). The source view is rasterized with no depth test:
 //!    every front-facing fragment along each ray becomes a point (back faces too when
 //!    `cull_backfaces` is off; perforated meshes alpha-tested), its world position at the texel
@@ -43,8 +50,9 @@
 //!    minimum does not depend on the order of the writes, so the maps (and the result) are the same
 //!    for every mode, pass size and thread count.
 //! 4. **Lighting**: the PCF shadow test on every map and the weighted average, as in `mvr`, with
-//!    the receiver-plane slack of warped maps ([`WARPED_SLACK`]): a texel keeps the nearest point
-//!    anywhere inside it rather than the surface's depth at its center.
+//!    its depth bias ([`SLACK`](crate::raster::pcf::SLACK)). A texel keeps the nearest point
+//!    anywhere inside it rather than the surface's depth at its center, so at the same bias the
+//!    occluders shadow themselves more than under `mvr` (the self-shadowing of section 5.1).
 
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
@@ -53,7 +61,7 @@ use crate::gpu::multiview::Lighting;
 use crate::gpu::vwss::Warper;
 use crate::gpu::Backend;
 use crate::interrupt;
-use crate::light::lights::Light;
+use crate::light::lights::{Light, Shape};
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, Peak};
 use crate::methods::mvr::{shared_eyes, MultiViewOptions};
@@ -62,7 +70,6 @@ use crate::raster::depth::{
     RasterMode, RasterOptions, Rasterizer, TexelRect, MAX_RESOLUTION, NEAR_FRACTION,
 };
 use crate::raster::multiview::{accumulate, resolve, ViewSet};
-use crate::raster::pcf::WARPED_SLACK;
 use crate::stats::Stats;
 use glam::Vec3;
 use half::f16;
@@ -99,6 +106,19 @@ pub enum Precision {
     Float16,
 }
 
+/// How the source view of section 3.1 is sized.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SourceView {
+    /// Pulled back just far enough to contain the actual light samples, with `z_n` of eq. 3 the
+    /// nearest occluder's depth (see the module doc).
+    #[default]
+    Fitted,
+    /// Equations 1–3 as printed: `d` from the light's width and height (along the views' axes)
+    /// and the views' field of view, `z_n` the light-sample views' near plane (Listing 1's
+    /// `nearZ`).
+    Paper,
+}
+
 /// Options of [`vwss`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct VwssOptions {
@@ -114,7 +134,8 @@ pub struct VwssOptions {
     /// naive single-layer warping, for comparison).
     pub layered: bool,
     pub precision: Precision,
-    /// Points per target texel at the nearest occluder's depth (default 2; see the module doc).
+    pub source_view: SourceView,
+    /// Points per target texel at depth `z_n` (default 2; see the module doc).
     pub point_density: f32,
     /// Source-view side in texels; `None` scales the target resolution by eq. 3 and
     /// `point_density`.
@@ -131,6 +152,7 @@ impl Default for VwssOptions {
             cull_backfaces: true,
             layered: true,
             precision: Precision::Float32,
+            source_view: SourceView::Fitted,
             point_density: 2.0,
             source_resolution: None,
         }
@@ -207,7 +229,7 @@ const MIN_OCCLUDER_FRACTION: f32 = 0.05;
 
 /// The source view of section 3.1: the light-sample views' shape with the eye pulled back so its
 /// frustum contains all of them (eq. 1–2) and the resolution of eq. 3 with `opts.point_density`
-/// (or `opts.source_resolution`).
+/// (or `opts.source_resolution`), sized as `opts.source_view` says.
 pub fn source_view(
     scene: &Scene,
     light: &Light,
@@ -222,10 +244,13 @@ pub fn source_view(
         .map(|v| v0.to_view(v.eye) - v0.to_view(center))
         .collect();
     let tan = v0.tan_half_x;
-    let pull_back = offsets
-        .iter()
-        .map(|o| o.x.abs().max(o.y.abs()) / tan - o.z)
-        .fold(0.0f32, f32::max);
+    let pull_back = match opts.source_view {
+        SourceView::Fitted => offsets
+            .iter()
+            .map(|o| o.x.abs().max(o.y.abs()) / tan - o.z)
+            .fold(0.0f32, f32::max),
+        SourceView::Paper => paper_pull_back(light, &v0)?,
+    };
     let eye = center - v0.forward * pull_back;
     let nearest_sample = offsets.iter().map(|o| o.z).fold(f32::INFINITY, f32::min);
     let farthest_sample = offsets
@@ -237,10 +262,15 @@ pub fn source_view(
     let resolution = match opts.source_resolution {
         Some(r) => r,
         None => {
-            let receivers_near = v0.near / NEAR_FRACTION;
-            let z_n = nearest_occluder(scene, eye, v0.forward, v0.right, v0.up, tan, pull_back)
-                .unwrap_or(receivers_near)
-                .max(MIN_OCCLUDER_FRACTION * receivers_near);
+            let z_n = match opts.source_view {
+                SourceView::Fitted => {
+                    let receivers_near = v0.near / NEAR_FRACTION;
+                    nearest_occluder(scene, eye, v0.forward, v0.right, v0.up, tan, pull_back)
+                        .unwrap_or(receivers_near)
+                        .max(MIN_OCCLUDER_FRACTION * receivers_near)
+                }
+                SourceView::Paper => v0.near,
+            };
             let scale = (opts.point_density.sqrt() * (z_n + pull_back) / z_n).min(MAX_SOURCE_SCALE);
             ((v0.width as f32 * scale).ceil() as usize).min(MAX_RESOLUTION)
         }
@@ -256,6 +286,26 @@ pub fn source_view(
         resolution,
         resolution,
     )
+}
+
+/// `d` of eq. 1, `max(l_w, l_h) / (2 tan(fov / 2))`, for views of half-angle tangent `tan`
+/// (square, so the larger of the two fields of view is either). `l_w` and `l_h` are the light's
+/// extents along the views' `right` and `up` axes: its width and height when, as in the paper,
+/// the views are aligned with its edges. The equation is written for planar lights facing along
+/// the views.
+fn paper_pull_back(light: &Light, view: &LightFrustum) -> Result<f32> {
+    if matches!(light.shape, Shape::Sphere { .. } | Shape::Ellipsoid { .. }) {
+        return Err(Error::invalid(
+            "source_view",
+            "equation 1 is written for planar lights (width and height); for a sphere or \
+             ellipsoid light use source_view='fitted', which contains every light sample",
+        ));
+    }
+    let largest_side = 2.0
+        * light
+            .half_extent_along(view.right)
+            .max(light.half_extent_along(view.up));
+    Ok(largest_side / (2.0 * view.tan_half_x))
 }
 
 /// The depth beyond the light's center (along `forward`) of the nearest scene vertex inside the
@@ -556,7 +606,7 @@ pub fn vwss(
     samples: &SampleSet,
     opts: &VwssOptions,
 ) -> Result<(Vec<f32>, Stats)> {
-    let (kernel, bias) = opts.multiview.shadow_test(WARPED_SLACK)?;
+    let (kernel, bias) = opts.multiview.shadow_test()?;
     opts.validate()?;
     let eyes = shared_eyes(samples)?;
     let mut stats = Stats::default();

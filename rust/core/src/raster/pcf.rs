@@ -12,8 +12,7 @@
 //! `forward`), and on a plane `1/z` is an affine function of the texel coordinates: with `v` the
 //! receiver's view-space position, `n_v` its view-space normal and `k = width / (2 tan_half_x)`
 //! texels per unit of `x/z`, `∂(1/z)/∂sx = n_v.x / (k_x (n_v · v))` and
-//! `∂(1/z)/∂sy = −n_v.y / (k_y (n_v · v))`. The slack is [`RASTERIZED_SLACK`] (or, for maps of
-//! warped points, [`WARPED_SLACK`]) texels of the plane's depth gradient
+//! `∂(1/z)/∂sy = −n_v.y / (k_y (n_v · v))`. The slack is [`SLACK`] texels of the plane's depth gradient
 //! `g = z² (|∂(1/z)/∂sx| + |∂(1/z)/∂sy|)`, capped at 10 texels of world size, plus
 //! `1e-4 · z` for the round-off of the receiver positions; the predicted depth is kept within
 //! `20 · (r + 1)` texels of world size of the receiver's own depth (`r` the tap's distance in
@@ -29,12 +28,13 @@ use glam::{Vec2, Vec3};
 /// The largest square PCF kernel side accepted.
 pub const MAX_PCF_SIDE: usize = 63;
 
-/// Slack of the receiver plane for maps rasterized at texel centers, in texels of the plane's
-/// depth gradient: a stored depth is the plane's own depth at the texel center.
-pub const RASTERIZED_SLACK: f32 = 0.5;
-/// Slack for maps of warped points (`vwss`): a texel keeps the nearest point anywhere inside it,
-/// up to half a texel of gradient nearer than its center, so the slack doubles.
-pub const WARPED_SLACK: f32 = 1.0;
+/// Slack of the receiver plane, in texels of the plane's depth gradient, one for every depth-map
+/// method so that their errors differ by method and not by bias. A rasterized map stores the
+/// surface's depth at the texel center, leaving the slack to curvature; a map of warped points
+/// (`vwss`) keeps the nearest point anywhere in the texel, up to half a texel of gradient nearer,
+/// and self-shadows the occluders more at the same slack, as Marrs et al. 2018 (section 5.1)
+/// observe.
+pub const SLACK: f32 = 0.5;
 
 /// How shadow tests offset the receiver's depth.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -46,10 +46,10 @@ pub enum DepthBias {
 }
 
 impl DepthBias {
-    /// `Some(b)`: a constant bias `b >= 0`; `None`: the receiver plane with `slack`.
-    pub fn new(bias: Option<f32>, slack: f32) -> Result<Self> {
+    /// `Some(b)`: a constant bias `b >= 0`; `None`: the receiver plane with [`SLACK`].
+    pub fn new(bias: Option<f32>) -> Result<Self> {
         match bias {
-            None => Ok(DepthBias::ReceiverPlane { slack }),
+            None => Ok(DepthBias::ReceiverPlane { slack: SLACK }),
             Some(b) if b.is_finite() && b >= 0.0 => Ok(DepthBias::Constant(b)),
             Some(b) => Err(Error::invalid(
                 "bias",
