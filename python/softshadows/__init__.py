@@ -22,7 +22,7 @@ from .envmap import environment
 from .evaluation import evaluate, sweep
 from .gpu import gpu_info
 from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight
-from .methods import METHODS, alias_free, backprojection, cssm, dcs, mvr, pcss, penumbra_wedge, ray_traced, resolve_msaa, shadow_map, stsv, vwss
+from .methods import METHODS, SetupWarning, alias_free, backprojection, cssm, dcs, mvr, pcss, penumbra_wedge, ray_traced, resolve_msaa, shadow_map, stsv, vwss
 from .scene import Mesh, Scene
 
 __version__ = "0.1.0"
@@ -185,6 +185,7 @@ __all__ = [
     "DiskLight",
     "GBuffer",
     "METHODS",
+    "SetupWarning",
     "Mesh",
     "PointLight",
     "Receivers",

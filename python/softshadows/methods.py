@@ -17,17 +17,19 @@ al. 2009 (section 4.1) always sample; every other method shares one pattern by d
 from __future__ import annotations
 
 import time
+import warnings
+import weakref
 
 import numpy as np
 
 from . import _core
 from . import _validate as v
-from .camera import GBuffer, as_receivers
+from .camera import GBuffer, Receivers, as_receivers
 from .gpu import resolve_backend
-from .lights import _Light, _pattern
+from .lights import DiskLight, RectLight, _Light, _pattern
 from .scene import Scene
 
-__all__ = ["ray_traced", "shadow_map", "mvr", "vwss", "pcss", "cssm", "alias_free", "dcs", "penumbra_wedge", "stsv", "stsv_volumes", "backprojection", "resolve_msaa", "METHODS"]
+__all__ = ["SetupWarning", "ray_traced", "shadow_map", "mvr", "vwss", "pcss", "cssm", "alias_free", "dcs", "penumbra_wedge", "stsv", "stsv_volumes", "backprojection", "resolve_msaa", "METHODS"]
 
 ROTATIONS = (None, "per_receiver")
 
@@ -86,10 +88,71 @@ _CASTERS_PARAMETER = """casters : sequence of int or str, optional
         casters they test."""
 
 
+class SetupWarning(UserWarning):
+    """A scene and light that cannot mean what they say: a one-sided light that faces away from
+    every receiver (every method's visibility looks normal, every shaded image is black), or a
+    light whose center no receiver sees, as under the floor (the depth-map methods then leak
+    light through the floor: ``pcss`` and ``cssm`` up to 0.5).
+
+    Examples
+    --------
+    >>> import warnings
+    >>> import softshadows as ss
+    >>> setup = ss.scenes.get("columns", width=16, height=16)
+    >>> gb = ss.gbuffer(setup.scene, setup.camera)
+    >>> light = ss.RectLight((0, 3, 0), (0.5, 0, 0), (0, 0, -0.5))  # faces up (u x v), away from all
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     _ = ss.shadow_map(setup.scene, light, gb, resolution=64)
+    >>> [type(w.message).__name__ for w in caught]
+    ['SetupWarning']
+    """
+
+
+#: Receivers the set-up check looks at, evenly spread over the hit ones.
+SETUP_CHECK_RECEIVERS = 4096
+
+#: The set-ups already checked, receivers -> scene -> lights (their reprs): a method run again on
+#: them (the evaluation's repeated runs) does not pay the check's shadow rays again.
+_CHECKED = weakref.WeakKeyDictionary()
+
+
+def _warn_impossible_setup(scene, light, receivers) -> None:
+    """Warns (:class:`SetupWarning`) when ``light`` cannot light any receiver: a one-sided light
+    with every receiver behind it, or a light center that no receiver sees (one shadow ray per
+    receiver of up to :data:`SETUP_CHECK_RECEIVERS`, through every mesh). Once per set-up."""
+    lights = _CHECKED.setdefault(receivers, weakref.WeakKeyDictionary()).setdefault(scene, set())
+    if repr(light) in lights:
+        return
+    lights.add(repr(light))
+    points, normals, mask, _, _ = receivers._flat()
+    hit = np.flatnonzero(mask)
+    if hit.size == 0:
+        return
+    pick = hit[np.linspace(0, hit.size - 1, min(hit.size, SETUP_CHECK_RECEIVERS)).round().astype(np.int64)]
+    points, normals = points[pick], normals[pick]
+    name = type(light).__name__
+    if isinstance(light, (RectLight, DiskLight)) and np.all((points - light.center) @ light.normal.astype(np.float64) <= 0):
+        flipped = ("RectLight(center, u, -v)" if isinstance(light, RectLight) else "DiskLight(center, -normal, radius)")
+        warnings.warn(f"light: the {name} emits towards {np.round(light.normal, 3).tolist()} and every receiver lies "
+                      f"behind it, so every shaded image is black; to light them, flip it: {flipped}",
+                      SetupWarning, stacklevel=4)
+        return
+    sampled = _core.NativeSamples.explicit(v.light_points("samples", light.center[None, :]), None)
+    check = Receivers(points, normals)
+    seen, _ = _core.ray_traced(scene.native(), light.native(), _native_receivers(check), sampled, scene.epsilon, "all")
+    if not np.any(seen):
+        warnings.warn(f"light: no receiver sees the {name}'s center {light.center.tolist()}: it lies behind every "
+                      "receiver's surface or an occluder hides it from all of them (a light under the floor?), where "
+                      "the depth-map methods leak light; move it in front of the surfaces it should light",
+                      SetupWarning, stacklevel=4)
+
+
 def _inputs(scene, light, receivers, casters=None):
     """Checks the common arguments; returns the receivers and the core's (scene, light, receivers)."""
     _check(scene, light)
     receivers = as_receivers(receivers)
+    _warn_impossible_setup(scene, light, receivers)
     return receivers, (_casting(scene, casters).native(), light.native(), _native_receivers(receivers))
 
 
