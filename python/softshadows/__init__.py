@@ -23,7 +23,7 @@ from .evaluation import evaluate, sweep
 from .gpu import gpu_info
 from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight
 from .methods import METHODS, SetupWarning, alias_free, backprojection, cssm, dcs, mvr, pcss, penumbra_wedge, ray_traced, resolve_msaa, shadow_map, stsv, vwss
-from .scene import Mesh, Scene
+from .scene import Mesh, Scene, load
 
 __version__ = "0.1.0"
 
@@ -191,6 +191,7 @@ __all__ = [
     "Receivers",
     "RectLight",
     "Scene",
+    "load",
     "SphereLight",
     "EllipsoidLight",
     "gbuffer",

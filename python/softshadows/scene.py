@@ -2,12 +2,18 @@
 
 from __future__ import annotations
 
+import os
+import warnings
+from pathlib import Path
 
 import numpy as np
 
 from . import _validate as v
 
-__all__ = ["Mesh", "Scene"]
+__all__ = ["Mesh", "Scene", "load"]
+
+#: The formats :func:`load` reads, by extension (all through trimesh).
+FORMATS = (".obj", ".ply", ".stl", ".off", ".gltf", ".glb")
 
 
 class Mesh:
@@ -104,8 +110,16 @@ class Scene:
         self._bounds = None
 
     @classmethod
-    def from_trimesh(cls, mesh, *, alpha=None, closed: bool | None = None) -> "Scene":
-        """Builds a scene from a ``trimesh.Trimesh`` or ``trimesh.Scene``.
+    def from_trimesh(cls, mesh, *, alpha=None, closed: bool | None = None, folder=None) -> "Scene":
+        """Builds a scene from a ``trimesh.Trimesh`` or ``trimesh.Scene``, alpha-tested materials
+        becoming perforated meshes.
+
+        A glTF material with ``alphaMode: MASK`` keeps the texels whose base-colour alpha times
+        the factor's reaches ``alphaCutoff`` (default 0.5); ``BLEND`` is cut out at 0.5, with a
+        :class:`SetupWarning` (a blended surface has no binary coverage). An OBJ material's
+        ``map_d`` (its alpha channel, or its grey level) times ``d`` is cut out at 0.5. The
+        textures are turned to this library's convention (row 0 at v = 0; image files put the
+        top row, v = 1, first).
 
         Parameters
         ----------
@@ -113,9 +127,20 @@ class Scene:
             A scene is flattened with its node transforms applied (``Scene.dump``); its paths and
             point clouds are left out.
         alpha : array_like, shape (H, W), optional
-            An alpha texture for every mesh, which then needs uvs (``mesh.visual.uv``).
+            An alpha texture for every mesh, which then needs uvs (``mesh.visual.uv``), instead
+            of the materials'.
         closed : bool, optional
             Overrides the default of ``mesh.is_watertight`` per mesh.
+        folder : str or os.PathLike, optional
+            Where the texture files named by OBJ materials (``map_d``) lie; :func:`load` passes
+            the file's folder. Without it an OBJ ``map_d`` is an error.
+
+        Examples
+        --------
+        >>> import trimesh
+        >>> from softshadows import Scene
+        >>> Scene.from_trimesh(trimesh.creation.box())
+        Scene(1 mesh [None], 12 faces)
         """
         import trimesh
 
@@ -129,12 +154,13 @@ class Scene:
         meshes = []
         for part in parts:
             uvs = getattr(part.visual, "uv", None)
+            texture = alpha if alpha is not None else _material_alpha(part, folder)
             meshes.append(
                 Mesh(
                     part.vertices,
                     part.faces,
-                    uvs=None if alpha is None else uvs,
-                    alpha=alpha,
+                    uvs=None if texture is None else uvs,
+                    alpha=texture,
                     closed=bool(part.is_watertight) if closed is None else closed,
                     name=getattr(part.metadata, "get", lambda k: None)("name"),
                 )
@@ -212,3 +238,118 @@ _NAMES_SHOWN = 4
 def _count(n: int, one: str, many: str) -> str:
     """``n`` with the noun in the singular or plural: "1 face", "12 faces"."""
     return f"{n} {one if n == 1 else many}"
+
+
+def load(path, *, closed: bool | None = None) -> Scene:
+    """Reads a scene from a mesh file: OBJ (with its MTL), PLY, STL, OFF, glTF or GLB, through
+    trimesh, node transforms applied, meshes named as in the file, alpha-tested materials as
+    perforated meshes (see :meth:`Scene.from_trimesh`).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; its extension names the format (one of :data:`FORMATS`).
+    closed : bool, optional
+        Overrides, for every mesh, whether it is closed (default: watertight meshes are).
+
+    Returns
+    -------
+    Scene
+
+    Raises
+    ------
+    FileNotFoundError
+        When ``path`` does not exist.
+    ValueError
+        When its extension is not one of :data:`FORMATS`, or trimesh cannot read it (the
+        message names the path and trimesh's reason), or it holds no triangles.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> import trimesh
+    >>> import softshadows as ss
+    >>> folder = tempfile.TemporaryDirectory()
+    >>> path = os.path.join(folder.name, "box.glb")
+    >>> _ = trimesh.Scene({"box": trimesh.creation.box()}).export(path)
+    >>> scene = ss.load(path)
+    >>> scene, scene.meshes[0].closed
+    (Scene(1 mesh ['box'], 12 faces), True)
+    """
+    import trimesh
+
+    path = Path(os.fspath(path))
+    if not path.exists():
+        raise FileNotFoundError(f"path: {path} does not exist")
+    if path.suffix.lower() not in FORMATS:
+        raise ValueError(f"path: {path} has the extension {path.suffix!r}; load reads {', '.join(FORMATS)}")
+    try:
+        loaded = trimesh.load(path, force="scene")
+    except Exception as err:  # trimesh raises what its parsers raise
+        raise ValueError(f"path: trimesh could not read {path}: {type(err).__name__}: {err}") from None
+    if not any(isinstance(g, trimesh.Trimesh) and len(g.faces) for g in loaded.geometry.values()):
+        raise ValueError(f"path: {path} holds no triangles (point clouds and lines cast no shadows)")
+    return Scene.from_trimesh(loaded, closed=closed, folder=path.parent)
+
+
+def _material_alpha(part, folder) -> np.ndarray | None:
+    """The binary alpha texture (this library's orientation) of a trimesh part's alpha-tested
+    material, or None for an opaque one."""
+    from trimesh.visual.material import PBRMaterial, SimpleMaterial
+
+    material = getattr(part.visual, "material", None)
+    if getattr(part.visual, "uv", None) is None:
+        return None
+    if isinstance(material, PBRMaterial):
+        return _gltf_alpha(material)
+    if isinstance(material, SimpleMaterial) and "map_d" in material.kwargs:
+        return _obj_alpha(material, folder)
+    return None
+
+
+def _gltf_alpha(material) -> np.ndarray | None:
+    """glTF 2.0's alpha coverage: the base-colour texture's alpha times the factor's, against
+    ``alphaCutoff`` under ``MASK`` and 0.5 under ``BLEND``."""
+    mode = material.alphaMode
+    if mode not in ("MASK", "BLEND"):
+        return None
+    from .methods import SetupWarning
+
+    if mode == "BLEND":
+        warnings.warn(f"material {material.name!r}: alphaMode BLEND has no binary coverage; cut out at alpha 0.5",
+                      SetupWarning, stacklevel=5)
+    cutoff = 0.5 if mode == "BLEND" or material.alphaCutoff is None else float(material.alphaCutoff)
+    factor = 1.0 if material.baseColorFactor is None else float(material.baseColorFactor[3]) / 255.0
+    texture = material.baseColorTexture
+    coverage = np.ones((1, 1)) if texture is None else _image_alpha(texture)
+    return _cut(coverage * factor, cutoff)
+
+
+def _obj_alpha(material, folder) -> np.ndarray:
+    """An OBJ material's ``map_d`` times its ``d``, cut out at 0.5."""
+    from PIL import Image
+
+    name = " ".join(material.kwargs["map_d"])
+    if folder is None:
+        raise ValueError(f"folder: material {material.name!r} names the map_d texture {name!r}; pass the folder it "
+                         "lies in (softshadows.load passes the file's)")
+    try:
+        image = Image.open(Path(folder) / name)
+    except OSError as err:
+        raise ValueError(f"path: the map_d texture {name!r} of material {material.name!r} cannot be read: {err}") from None
+    dissolve = float(material.kwargs.get("d", ["1"])[0])
+    return _cut(_image_alpha(image, grey=True) * dissolve, 0.5)
+
+
+def _image_alpha(image, *, grey: bool = False) -> np.ndarray:
+    """A PIL image's alpha channel in [0, 1] (with ``grey``, its grey level when it has none)."""
+    if "A" in image.getbands():
+        return np.asarray(image.getchannel("A"), dtype=np.float64) / 255.0
+    if grey:
+        return np.asarray(image.convert("L"), dtype=np.float64) / 255.0
+    return np.ones((image.height, image.width))
+
+
+def _cut(coverage: np.ndarray, cutoff: float) -> np.ndarray:
+    """Binary alpha from ``coverage`` (image rows, top first) in this library's orientation."""
+    return np.ascontiguousarray(np.flipud(coverage >= cutoff), dtype=np.float32)
