@@ -66,6 +66,30 @@ class Camera:
         cam.native()  # validates eye != target and up not parallel to the view direction
         return cam
 
+    @classmethod
+    def from_matrix(cls, world_from_camera, *, fov_y: float = 45.0, width: int = 512, height: int = 512) -> "Camera":
+        """A camera from its 4 x 4 world-from-camera transform, looking down its -z axis with
+        +y up (the glTF and OpenGL convention, as a glTF camera node's world matrix gives it).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import softshadows as ss
+        >>> m = np.eye(4)
+        >>> m[:3, 3] = (0, 1, 5)  # 5 units along +z, looking back down -z
+        >>> camera = ss.Camera.from_matrix(m, fov_y=40.0, width=64, height=48)
+        >>> camera.eye.tolist(), camera.target.tolist()
+        ([0.0, 1.0, 5.0], [0.0, 1.0, 4.0])
+        """
+        m = v.array("world_from_camera", world_from_camera, np.float64, (4, 4))
+        if not np.allclose(m[3], [0, 0, 0, 1]):
+            raise ValueError(f"world_from_camera: expected an affine transform (last row 0 0 0 1), got {m[3].tolist()}")
+        forward = -m[:3, 2]
+        if not np.linalg.norm(forward) > 0:
+            raise ValueError("world_from_camera: its z axis is zero")
+        eye = m[:3, 3]
+        return cls.look_at(eye, eye + forward / np.linalg.norm(forward), m[:3, 1], fov_y, width, height)
+
     def native(self):
         """The core camera."""
         from . import _core

@@ -101,6 +101,23 @@ def _tangent_frame(normal) -> tuple[np.ndarray, np.ndarray]:
     return t, np.cross(n, t)
 
 
+def _facing_axes(center, target) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The unit direction ``d`` from ``center`` to ``target`` and two unit axes ``e1, e2``
+    across it with ``e1 x e2 = d`` (float64): a rect light on them faces the target, with ``e1``
+    level (across world +y, or +x when ``d`` is nearly vertical)."""
+    _validate.vec3("center", center), _validate.vec3("target", target)
+    center = np.asarray(center, np.float64)  # unrounded: the built-in scenes' lights keep their bits
+    d = np.asarray(target, np.float64) - center
+    length = np.linalg.norm(d)
+    if not length > 0:
+        raise ValueError(f"target: must differ from center {center.tolist()}")
+    d /= length
+    helper = np.array([0.0, 1.0, 0.0]) if abs(d[1]) < 0.99 else np.array([1.0, 0.0, 0.0])
+    e1 = np.cross(d, helper)
+    e1 /= np.linalg.norm(e1)
+    return d, e1, np.cross(d, e1)
+
+
 def _emission(emission):
     if emission is None:
         return None
@@ -176,6 +193,23 @@ class RectLight(_Light):
         self.emission = _emission(emission)
         self.native()  # the core works in float32: it refuses an area that underflows there
 
+    @classmethod
+    def look_at(cls, center, target, size, *, emission=None) -> "RectLight":
+        """A rect light at ``center`` facing ``target``, ``size`` wide (a square) or ``(width,
+        height)``, its width level.
+
+        Examples
+        --------
+        >>> import softshadows as ss
+        >>> light = ss.RectLight.look_at((0, 4, 0), (0, 0, 0), (1.0, 0.5))
+        >>> light.normal.tolist(), light.area
+        ([0.0, -1.0, 0.0], 0.5)
+        """
+        width, height = (size, size) if np.ndim(size) == 0 else size
+        width, height = _validate.positive("size", width), _validate.positive("size", height)
+        _, e1, e2 = _facing_axes(center, target)
+        return cls(center, width / 2 * e1, height / 2 * e2, emission=emission)
+
     @property
     def normal(self) -> np.ndarray:
         n = np.cross(self.u.astype(np.float64), self.v.astype(np.float64))  # float32 u x v overflows for sides ~1e19
@@ -227,6 +261,19 @@ class DiskLight(_Light):
         self.radius = _validate.positive("radius", radius)
         self.emission = _emission(emission)
         self.native()  # the core works in float32: it refuses a radius that is 0 or inf there
+
+    @classmethod
+    def look_at(cls, center, target, radius, *, emission=None) -> "DiskLight":
+        """A disk light at ``center`` facing ``target``.
+
+        Examples
+        --------
+        >>> import softshadows as ss
+        >>> ss.DiskLight.look_at((0, 4, 0), (0, 0, 0), 0.5).normal.tolist()
+        [0.0, -1.0, 0.0]
+        """
+        d, _, _ = _facing_axes(center, target)
+        return cls(center, d, radius, emission=emission)
 
     @property
     def area(self) -> float:

@@ -59,7 +59,7 @@ import numpy as np
 
 from . import _validate as _v
 from .camera import Camera
-from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight
+from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight, _facing_axes
 from .scene import Mesh, Scene
 
 __all__ = [
@@ -1180,19 +1180,14 @@ def _direction(azimuth: float, elevation: float) -> np.ndarray:
 
 def _make_light(kind, center, target, size):
     """The light and a few of its extreme points (for framing its penumbra)."""
-    d = target - center
-    d /= np.linalg.norm(d)
-    helper = np.array([0.0, 1.0, 0.0]) if abs(d[1]) < 0.99 else np.array([1.0, 0.0, 0.0])
-    e1 = np.cross(d, helper)
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(d, e1)  # e1 x e2 = d: a rect light built on (e1, e2) faces the target
+    d, e1, e2 = _facing_axes(center, target)
     h = size / 2
     if kind == "point":
         return PointLight(center), [center]
     if kind == "rect":
-        lamp = RectLight(center, h * e1, h * e2)
+        lamp = RectLight.look_at(center, target, size)
     elif kind == "disk":
-        lamp = DiskLight(center, d, h)
+        lamp = DiskLight.look_at(center, target, h)
     elif kind == "ellipsoid":
         lamp = EllipsoidLight(center, [h * e1, 0.35 * h * e2, 0.35 * h * d])
     else:
