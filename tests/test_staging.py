@@ -53,3 +53,60 @@ def test_a_camera_matrix_must_be_affine():
     m[3, 2] = 1
     with pytest.raises(ValueError, match="world_from_camera: expected an affine"):
         ss.Camera.from_matrix(m)
+
+
+def boxes(offset=(0.0, 0.0, 0.0)):
+    """Two boxes side by side, the pair moved by ``offset``: a scene away from the origin."""
+    import trimesh
+
+    parts = [trimesh.creation.box(extents=(1, 1, 1)), trimesh.creation.box(extents=(0.5, 2, 0.5))]
+    parts[1].apply_translation((1.5, 0.5, 0))
+    for p in parts:
+        p.apply_translation(offset)
+    return ss.Scene.from_trimesh(trimesh.Scene(parts))
+
+
+@pytest.mark.parametrize("offset", [(0, 0, 0), (10, 5, -3)])
+def test_stage_frames_the_scene_and_its_shadow_on_a_ground_under_it(offset):
+    scene = boxes(offset)
+    setup = ss.scenes.stage(scene, width=48, height=48)
+    lo, hi = scene.bounds
+    assert setup.has_ground and setup.occluders == scene.meshes
+    assert np.allclose(setup.ground.vertices[:, 1], lo[1])
+    ground_lo, ground_hi = setup.ground.vertices.min(axis=0), setup.ground.vertices.max(axis=0)
+    assert np.all(ground_lo[[0, 2]] < lo[[0, 2]]) and np.all(ground_hi[[0, 2]] > hi[[0, 2]])
+    # The light faces the scene's centre from above.
+    center = (lo + hi) / 2
+    to_scene = (center - setup.light.center) / np.linalg.norm(center - setup.light.center)
+    assert setup.light.normal @ to_scene > 0.999 and setup.light.center[1] > hi[1]
+    gb = ss.gbuffer(setup.scene, setup.camera)
+    vis = ss.ray_traced(setup.scene, setup.light, gb, samples=32)
+    on_ground = gb.mask & (gb.face_ids < 2)
+    assert gb.mask.mean() > 0.5 and np.sum(vis[on_ground] < 0.5) > 30, "the shadows must be in view"
+
+
+def test_stage_reads_a_file_and_names_the_set_up_after_it(tmp_path):
+    import trimesh
+
+    path = tmp_path / "crate.glb"
+    trimesh.Scene({"crate": trimesh.creation.box()}).export(path)
+    setup = ss.scenes.stage(path, light="disk", width=16, height=16)
+    assert setup.name == "crate" and [m.name for m in setup.scene.meshes] == ["ground", "crate"]
+    assert isinstance(setup.light, ss.DiskLight)
+
+
+def test_stage_leaves_a_room_with_its_own_floor_and_a_lamp_inside_it():
+    """A closed box seen from inside (its faces turned inward) with the lamp under its ceiling."""
+    import trimesh
+
+    room = trimesh.creation.box(extents=(4, 3, 4))
+    room.invert()
+    table = trimesh.creation.box(extents=(1, 0.8, 1))
+    table.apply_translation((0, -1.1, 0))
+    scene = ss.Scene.from_trimesh(trimesh.Scene([room, table]))
+    setup = ss.scenes.stage(scene, ground=False, light="sphere", light_size=0.2, light_position=(0, 1.2, 0),
+                            width=24, height=24)
+    assert not setup.has_ground and setup.ground is None and setup.occluders == scene.meshes
+    rx = ss.Receivers([[0, -1.5, 0], [1.8, -1.5, 1.8]], [[0, 1, 0], [0, 1, 0]])  # under the table, in a corner
+    vis = ss.ray_traced(setup.scene, setup.light, rx, samples=64)
+    assert vis[0] == 0 and vis[1] > 0.9

@@ -76,6 +76,7 @@ __all__ = [
     "hairball",
     "sword",
     "load_model",
+    "stage",
     "fence_texture",
     "leaf_texture",
 ]
@@ -122,16 +123,19 @@ class Setup:
     light: object
     camera: Camera
     description: str = ""
+    #: Whether ``scene.meshes[0]`` is a ground added under the occluders (:func:`stage` can leave
+    #: a scene with a floor of its own as it is).
+    has_ground: bool = True
 
     @property
-    def ground(self) -> Mesh:
-        """The ground mesh (``scene.meshes[0]``)."""
-        return self.scene.meshes[0]
+    def ground(self) -> Mesh | None:
+        """The ground mesh (``scene.meshes[0]``), or None when the set-up added none."""
+        return self.scene.meshes[0] if self.has_ground else None
 
     @property
     def occluders(self) -> list:
         """The occluder meshes (every mesh but the ground)."""
-        return self.scene.meshes[1:]
+        return self.scene.meshes[1:] if self.has_ground else list(self.scene.meshes)
 
     @property
     def occluder_bounds(self) -> np.ndarray:
@@ -984,6 +988,85 @@ def load_model(
     )
 
 
+def stage(
+    scene,
+    *,
+    light: str = "rect",
+    light_size: float | None = None,
+    light_position=None,
+    light_distance: float | None = None,
+    ground: bool = True,
+    width: int = 256,
+    height: int = 256,
+    fov_y: float = 40.0,
+    name: str | None = None,
+) -> Setup:
+    """Frames a light and a camera around any scene, as the built-in scenes are framed.
+
+    The light faces the scene's centre from above and to the -x side (as :func:`load_model`'s),
+    and the camera is moved back until the scene and its shadows, penumbrae included, fill the
+    central 90% of the image. By default a ground square is added under the scene's lowest
+    point, wide enough for the shadows. y is up.
+
+    Parameters
+    ----------
+    scene : Scene or str or os.PathLike
+        The scene, or a mesh file that :func:`softshadows.load` reads.
+    light : {"rect", "disk", "sphere", "ellipsoid", "point"}
+    light_size : float, optional
+        As in the module docstring; default the scene's largest extent.
+    light_position : array_like, shape (3,), optional
+        The light's centre, anywhere (among the geometry too: a lamp in a room); default
+        ``light_distance`` from the scene's centre.
+    light_distance : float, optional
+        Default three times the scene's largest extent.
+    ground : bool
+        Add the ground square (``Setup.ground``); False for a scene with a floor of its own.
+    width, height, fov_y
+        The camera's image size and vertical field of view in degrees.
+    name : str, optional
+        The set-up's name; default the file's stem, or ``"scene"``.
+
+    Returns
+    -------
+    Setup
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> import softshadows as ss
+    >>> box = ss.Scene.from_trimesh(trimesh.creation.box(extents=(1, 1, 1)))
+    >>> setup = ss.scenes.stage(box, width=32, height=32)
+    >>> [m.name for m in setup.scene.meshes], float(setup.ground.vertices[:, 1].max())  # under the box
+    (['ground', None], -0.5)
+    >>> gb = ss.gbuffer(setup.scene, setup.camera)
+    >>> vis = ss.ray_traced(setup.scene, setup.light, gb, samples=16)
+    >>> bool((vis[gb.mask] < 0.5).any())  # the box's shadow is in view
+    True
+    """
+    from pathlib import Path
+
+    from .scene import load
+
+    if not isinstance(scene, Scene):
+        name = name or Path(os.fspath(scene)).stem
+        scene = load(scene)
+    lo, hi = scene.bounds.astype(np.float64)
+    extent = float(np.max(hi - lo))
+    if not extent > 0:
+        raise ValueError(f"scene: its bounds {lo.tolist()}..{hi.tolist()} have no extent to frame")
+    return _assemble(
+        name or "scene",
+        scene.meshes,
+        f"a user scene of {sum(len(m.faces) for m in scene.meshes)} triangles in {len(scene.meshes)} meshes",
+        light=light, light_size=extent if light_size is None else light_size, light_position=light_position,
+        light_distance=3 * extent if light_distance is None else light_distance,
+        light_dir=(-60.0, 55.0), camera_dir=(25.0, 30.0), width=width, height=height, fov_y=fov_y, ground_size=None,
+        floor=float(lo[1]), center_xz=(float(lo[0] + hi[0]) / 2, float(lo[2] + hi[2]) / 2), margin=0.5 * extent,
+        ground=_v.flag("ground", ground), light_above=False,
+    )
+
+
 def _model_factory(model: str):
     def factory(**options) -> Setup:
         return load_model(model, **options)
@@ -1106,12 +1189,15 @@ def leaf_texture(size: int = 32) -> np.ndarray:
 
 def _assemble(
     name, occluders, description, *, light, light_size, light_position, light_distance, light_dir, camera_dir,
-    width, height, fov_y, ground_size, frame_by=None,
+    width, height, fov_y, ground_size, frame_by=None, floor=0.0, center_xz=(0.0, 0.0), margin=0.5, ground=True,
+    light_above=True,
 ) -> Setup:
     """Adds the ground, places the light and frames the camera around occluders and shadow.
 
     ``frame_by``: meshes that stand in for the occluders when placing the light and the camera
-    (``fence_mesh`` uses the textured fence's quads so that both get the same setup).
+    (``fence_mesh`` uses the textured fence's quads so that both get the same setup). The ground
+    lies at height ``floor``, centred on ``center_xz``, ``margin`` wider than the shadows
+    (``ground=False``: none is added); ``light_above`` refuses a light below the occluders' top.
     """
     meshes = list(occluders)
     framed = meshes if frame_by is None else list(frame_by)
@@ -1134,7 +1220,7 @@ def _assemble(
         center = _v.vec3("light_position", light_position).astype(np.float64)
         if np.abs(center).max() > MAX_LENGTH:
             raise ValueError(f"light_position: coordinates must be within +-{MAX_LENGTH:g} world units, got {center.tolist()}")
-    if center[1] <= hi[1]:
+    if light_above and center[1] <= hi[1]:
         raise ValueError(
             f"light_position: the light must be above the occluders (y > {hi[1]:.4g}) to cast a shadow on the "
             f"ground, got y = {center[1]:.4g}"
@@ -1151,24 +1237,28 @@ def _assemble(
     pts = np.concatenate([pts[:: max(1, len(pts) // 4096)], pts[extreme]])
     shadow = []
     for e in extremes:
-        below = pts[pts[:, 1] < e[1] - 1e-6]
-        t = e[1] / (e[1] - below[:, 1])  # e + t (point - e) reaches y = 0
+        below = pts[(pts[:, 1] < e[1] - 1e-6) & (e[1] > floor)]
+        t = (e[1] - floor) / (e[1] - below[:, 1])  # e + t (point - e) reaches y = floor
         shadow.append(e + t[:, None] * (below - e))
     shadow = np.concatenate(shadow)
-    shadow[:, 1] = 0.0
+    shadow[:, 1] = floor
     poi = np.concatenate([pts, shadow])
+    camera = _frame(poi, _direction(*camera_dir), fov_y, width, height)
+    if not ground:
+        return Setup(name, Scene(meshes), lamp, camera, description, has_ground=False)
 
+    cx, cz = center_xz
     if ground_size is None:
-        half = 1.25 * float(np.max(np.abs(poi[:, [0, 2]]))) + 0.5
-        half = float(np.ceil(half * 2) / 2)
+        half = 1.25 * float(np.max(np.abs(poi[:, [0, 2]] - [cx, cz]))) + margin
+        half = float(np.ceil(half / margin) * margin)
     else:
         half = _length("ground_size", ground_size)
     ground = Mesh(
-        np.array([[-half, 0, -half], [half, 0, -half], [half, 0, half], [-half, 0, half]], dtype=np.float32),
+        np.array([[cx - half, floor, cz - half], [cx + half, floor, cz - half], [cx + half, floor, cz + half],
+                  [cx - half, floor, cz + half]], dtype=np.float32),
         np.array([[0, 2, 1], [0, 3, 2]], dtype=np.uint32),
         name="ground",
     )
-    camera = _frame(poi, _direction(*camera_dir), fov_y, width, height)
     return Setup(name, Scene([ground, *meshes]), lamp, camera, description)
 
 
