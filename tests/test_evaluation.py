@@ -164,3 +164,52 @@ def test_shaded_images_against_the_path_traced_reference(cache):
     frame = ss.evaluate(["columns"], ["ray_traced", "shadow_map"], size=32, reference_samples=64, shaded=True, render_spp=16,
                         progress=False, repeat=1)
     assert frame["shaded.rmse"].gt(0).all() and frame["shaded.flip"].between(0, 1).all()
+
+
+def my_shadows(scene, light, receivers, *, samples):
+    """A user's method: here the oracle itself, so its rows must equal ray_traced's."""
+    return ss.ray_traced(scene, light, receivers, samples=samples)
+
+
+def user_setup():
+    trimesh = pytest.importorskip("trimesh")
+    box = ss.Scene.from_trimesh(trimesh.creation.box(extents=(0.6, 0.6, 0.6)))
+    return ss.scenes.stage(box, light="disk", width=32, height=32, name="box")
+
+
+def test_evaluate_takes_a_user_setup_a_mesh_file_and_a_user_callable(cache, tmp_path):
+    import trimesh
+
+    path = tmp_path / "crate.glb"
+    trimesh.Scene({"crate": trimesh.creation.box(extents=(0.5, 1.0, 0.5))}).export(path)
+    frame = ss.evaluate([user_setup(), path], ["ray_traced", my_shadows], lights=("rect", "sphere"), size=32,
+                        reference_samples=64, progress=False, repeat=1)
+    # The Setup runs under its own light, the file under each kind asked for.
+    assert sorted(zip(frame["scene"], frame["light"], frame["method"])) == sorted(
+        [("box", "disk", "ray_traced"), ("box", "disk", "my_shadows")]
+        + [("crate", k, m) for k in ("rect", "sphere") for m in ("ray_traced", "my_shadows")])
+    assert frame["error"].isna().all()
+    rows = frame.set_index(["scene", "light", "method"])
+    for scene, light in [("box", "disk"), ("crate", "rect"), ("crate", "sphere")]:
+        assert rows.loc[(scene, light, "my_shadows"), "rmse"] == rows.loc[(scene, light, "ray_traced"), "rmse"]
+    with pytest.raises(ValueError, match="needs a name of its own"):
+        ss.evaluate(["columns"], [lambda *a, **k: None, lambda *a, **k: None], progress=False)
+    with pytest.raises(ValueError, match="scenes: unknown"):
+        ss.evaluate([tmp_path / "missing.glb"], progress=False)
+
+
+def test_sweep_runs_a_user_callable_on_a_user_setup_in_a_process_pool_and_on_dask(cache):
+    import functools
+
+    distributed = pytest.importorskip("distributed", reason='needs pip install "softshadows[test]" (dask.distributed)')
+    method = functools.partial(ss.ray_traced, pattern="poisson")
+    grid = {"rotate": [None, "per_receiver"]}
+    options = dict(scenes=[user_setup()], size=32, reference_samples=64, progress=False, name="rt")
+    local = ss.sweep(method, grid, **options)
+    assert list(zip(local["scene"], local["light"], local["method"])) == [("box", "disk", "rt")] * 2
+    assert local["error"].isna().all() and local["rmse"].between(0, 1).all()
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        with distributed.Client(cluster) as client:
+            remote = ss.sweep(method, grid, executor=client.get_executor(), **options)
+    columns = [c for c in local.columns if c != "seconds"]
+    pd.testing.assert_frame_equal(local[columns], remote[columns])

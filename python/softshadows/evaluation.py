@@ -17,6 +17,7 @@ so a second evaluation of the same setups does not call Mitsuba again.
 
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 
@@ -62,12 +63,17 @@ def evaluate(
 
     Parameters
     ----------
-    scenes : sequence of str
-        Names from ``softshadows.scenes.SCENES``.
-    methods : sequence of str, optional
-        Names from ``softshadows.METHODS``; default all of them.
+    scenes : sequence of str, Setup or path
+        Names from ``softshadows.scenes.SCENES`` and mesh files (staged by
+        :func:`softshadows.scenes.stage`), each under every kind of ``lights``; and
+        :class:`~softshadows.scenes.Setup` objects, each under its own light.
+    methods : sequence or dict, optional
+        Names from ``softshadows.METHODS`` and user callables ``f(scene, light, receivers, *,
+        samples, **options) -> visibility`` (labelled by ``__name__``, or by their keys in a
+        dict of label to callable or name); default every built-in method. A callable gets the
+        shared light samples and ``options`` under its label.
     lights : sequence of {"rect", "disk", "sphere", "ellipsoid", "point"}
-        Light kinds, each at the scene's default placement and size.
+        Light kinds, each at the scene's default placement and size (not for Setups).
     size : int
         Image width and height in pixels.
     samples : int
@@ -111,7 +117,7 @@ def evaluate(
     >>> ss.evaluate(["columns"], ["ray_trace"])
     Traceback (most recent call last):
     ...
-    ValueError: methods: unknown ['ray_trace']; expected names from ['ray_traced', ...]
+    ValueError: methods: unknown ['ray_trace']; expected callables or names from ['ray_traced', ...]
     """
     pd = require("pandas", extra="evaluation", for_="softshadows.evaluate")
     from tqdm.auto import tqdm
@@ -119,23 +125,24 @@ def evaluate(
     from . import metrics, reference, shading
     from . import scenes as scene_library
     from .camera import gbuffer
-    from .methods import METHODS, SAMPLED
 
-    names = list(METHODS) if methods is None else _names("methods", methods, METHODS)
     # Everything is checked before the first Mitsuba reference, which can take minutes.
-    scenes = _names("scenes", scenes, scene_library.SCENES)
+    chosen = _methods(methods)
+    names = list(chosen)
+    scenes = _scene_items(scenes)
     lights = _names("lights", lights, scene_library.LIGHT_KINDS)
     size, samples = v.positive_int("size", size), v.positive_int("samples", samples)
     reference_samples = v.positive_int("reference_samples", reference_samples)
     repeat, render_spp = v.positive_int("repeat", repeat), v.positive_int("render_spp", render_spp)
-    options = _options(options, METHODS)
+    options = _options(options, chosen)
     rows, images = [], {}
-    setups = [(s, k) for s in scenes for k in lights]
+    setups = [(item, k) for item in scenes for k in _lights_of(item, lights)]
     # disable=None: tqdm draws only on a terminal.
     with tqdm(total=len(setups) * (len(names) + 1), desc="evaluate", unit="run", disable=None if progress else True) as bar:
-        for scene_name, kind in setups:
+        for item, kind in setups:
+            scene_name = _scene_label(item)
             bar.set_description(f"{scene_name}/{kind}: reference")
-            setup = scene_library.get(scene_name, light=kind, width=size, height=size)
+            setup = _build(item, kind, size)
             gb = gbuffer(setup.scene, setup.camera)
             ref_samples = setup.light.samples(reference_samples, pattern="sobol", seed=1)
             # Its own bar would nest in this one: one bar per run.
@@ -146,14 +153,12 @@ def evaluate(
             kept = {"reference": ref, "mask": gb.mask}
             for name in names:
                 bar.set_description(f"{scene_name}/{kind}: {name}")
-                kwargs = {"samples": shared} if name in SAMPLED else {}
-                kwargs.update(options.get(name, {}))
                 row = {"scene": scene_name, "light": kind, "method": name, "error": None}
                 try:
                     seconds = []
                     for _ in range(max(1, repeat)):
                         start = time.perf_counter()
-                        vis, stats = METHODS[name](setup.scene, setup.light, gb, return_stats=True, **kwargs)
+                        vis, stats = _run(chosen[name], setup, gb, shared, options.get(name, {}))
                         seconds.append(time.perf_counter() - start)
                 except ValueError as refusal:
                     row.update(dict.fromkeys(metrics.SUMMARY_KEYS, np.nan), seconds=np.nan, error=str(refusal))
@@ -179,15 +184,18 @@ def evaluate(
 SETUP_PARAMETERS = ("light_size", "samples")
 
 
-def sweep(method: str, parameters: dict, *, scenes=("columns",), lights=("rect",), size: int = 96,
-          samples: int = 64, reference_samples: int = 1024, executor=None, progress: bool = True):
+def sweep(method, parameters: dict, *, scenes=("columns",), lights=("rect",), size: int = 96,
+          samples: int = 64, reference_samples: int = 1024, executor=None, progress: bool = True,
+          name: str | None = None):
     """One method over a grid of parameters, every combination on every scene and light, run on
     any :class:`concurrent.futures.Executor`.
 
     Parameters
     ----------
-    method : str
-        A name from ``softshadows.METHODS``.
+    method : str or callable
+        A name from ``softshadows.METHODS``, or a callable ``f(scene, light, receivers, *,
+        samples, **parameters) -> visibility`` that pickles to the workers (a module-level
+        function, or a ``functools.partial`` of one).
     parameters : dict of str to sequence
         The values of each parameter; every combination is one task. The method's keyword
         options (``budget``, ``order``, ``lut``, ...), plus ``samples`` (the number of light
@@ -200,6 +208,8 @@ def sweep(method: str, parameters: dict, *, scenes=("columns",), lights=("rect",
         the on-disk reference cache when they share a file system.
     progress : bool
         Show a progress bar over the tasks, only when stderr is a terminal.
+    name : str, optional
+        The ``method`` column of a callable; default its ``__name__``.
 
     Returns
     -------
@@ -220,40 +230,39 @@ def sweep(method: str, parameters: dict, *, scenes=("columns",), lights=("rect",
     """
     import itertools
     import multiprocessing
-    import os
     from concurrent.futures import ProcessPoolExecutor
 
     pd = require("pandas", extra="evaluation", for_="softshadows.sweep")
     from tqdm.auto import tqdm
 
-    from .methods import METHODS
-
     from . import scenes as scene_library
 
-    if not isinstance(method, str) or method not in METHODS:
-        raise ValueError(f"method: expected a name from {list(METHODS)}, got {method!r}")
+    (label, method), = _methods({name: method} if name is not None else [method]).items()
     # Checked here: a bad value would otherwise surface from a worker process, after the spawn.
     if not isinstance(parameters, dict) or not all(isinstance(k, str) for k in parameters):
         raise ValueError(f"parameters: expected a dict of option name to a sequence of values, got {parameters!r}")
     for key, values in parameters.items():
         if isinstance(values, (str, bytes, dict)) or not hasattr(values, "__iter__"):
             raise ValueError(f"parameters: {key!r} needs a sequence of values, got {values!r}")
-    scenes = _names("scenes", scenes, scene_library.SCENES)
+    scenes = _scene_items(scenes)
     lights = _names("lights", lights, scene_library.LIGHT_KINDS)
+    if "light_size" in parameters and any(isinstance(item, scene_library.Setup) for item in scenes):
+        raise ValueError("parameters: light_size re-stages a scene, which a Setup given as it is cannot be; pass the "
+                         "scene's name or file instead")
     size, samples = v.positive_int("size", size), v.positive_int("samples", samples)
     reference_samples = v.positive_int("reference_samples", reference_samples)
     if executor is not None and not callable(getattr(executor, "map", None)):
         raise ValueError(f"executor: expected a concurrent.futures.Executor, got {type(executor).__name__}")
     keys = list(parameters)
     grid = list(itertools.product(*(list(parameters[k]) for k in keys)))
-    tasks = [(scene, light, method, dict(zip(keys, values)), size, samples, reference_samples)
-             for scene in scenes for light in lights for values in grid]
+    tasks = [(scene, light, label, method, dict(zip(keys, values)), size, samples, reference_samples)
+             for scene in scenes for light in _lights_of(scene, lights) for values in grid]
     own = executor is None
     if own:
         # Spawned, not forked: a forked child would inherit a thread pool without its threads.
         executor = ProcessPoolExecutor(max_workers=os.cpu_count(), mp_context=multiprocessing.get_context("spawn"))
     try:
-        records = list(tqdm(executor.map(_sweep_task, tasks), total=len(tasks), desc=f"sweep {method}",
+        records = list(tqdm(executor.map(_sweep_task, tasks), total=len(tasks), desc=f"sweep {label}",
                             disable=None if progress else True))
     finally:
         if own:
@@ -263,28 +272,114 @@ def sweep(method: str, parameters: dict, *, scenes=("columns",), lights=("rect",
 
 def _sweep_task(task) -> dict:
     """One sweep task (a top-level function, so that it pickles to any executor's workers)."""
-    from . import metrics, reference, shading
-    from . import scenes as scene_library
+    from . import metrics, reference
     from .camera import gbuffer
-    from .methods import METHODS, SAMPLED
 
-    scene_name, light, method, params, size, samples, reference_samples = task
-    setup_options = {k: v for k, v in params.items() if k == "light_size"}
-    setup = scene_library.get(scene_name, light=light, width=size, height=size, **setup_options)
+    item, light, label, method, params, size, samples, reference_samples = task
+    setup = _build(item, light, size, **{k: v for k, v in params.items() if k == "light_size"})
     gb = gbuffer(setup.scene, setup.camera)
     ref = reference.mitsuba_visibility(setup.scene, setup.light, gb, setup.light.samples(reference_samples, pattern="sobol", seed=1),
                                        progress=False)
+    shared = setup.light.samples(params.get("samples", samples), pattern="poisson", seed=0)
     kwargs = {k: v for k, v in params.items() if k not in SETUP_PARAMETERS}
-    if method in SAMPLED:
-        kwargs["samples"] = setup.light.samples(params.get("samples", samples), pattern="poisson", seed=0)
-    record = {"scene": scene_name, "light": light, "method": method, **params, "error": None}
+    record = {"scene": _scene_label(item), "light": light, "method": label, **params, "error": None}
     start = time.perf_counter()
     try:
-        vis = METHODS[method](setup.scene, setup.light, gb, **kwargs)
+        vis, _ = _run(method, setup, gb, shared, kwargs)
     except ValueError as refusal:
         return {**record, **dict.fromkeys(metrics.SUMMARY_KEYS, np.nan), "seconds": np.nan, "error": str(refusal)}
     seconds = time.perf_counter() - start
     return {**record, **metrics.summary(vis, ref, gb.mask), "seconds": seconds}
+
+
+def _methods(methods) -> dict:
+    """The methods to run by label: built-in names (their functions), and user callables
+    ``f(scene, light, receivers, *, samples, **options) -> visibility``, labelled by their
+    ``__name__`` in a sequence or by their key in a mapping."""
+    from collections.abc import Mapping
+
+    from .methods import METHODS
+
+    if methods is None:
+        return dict(METHODS)
+    if isinstance(methods, (str, bytes)) or callable(methods) or not hasattr(methods, "__iter__"):
+        raise ValueError(f"methods: expected a sequence of names from {list(METHODS)} or callables, got {methods!r}")
+    pairs = list(methods.items()) if isinstance(methods, Mapping) else [(getattr(m, "__name__", m), m) for m in methods]
+    chosen, unknown = {}, []
+    for label, m in pairs:
+        if isinstance(m, str) and m in METHODS:
+            chosen[label] = METHODS[m]
+        elif callable(m):
+            if not isinstance(label, str) or label in chosen or (label in METHODS and METHODS[label] is not m):
+                raise ValueError(f"methods: the callable {m!r} needs a name of its own, not {label!r}: pass "
+                                 "methods={'my_method': f, ...}")
+            chosen[label] = m
+        else:
+            unknown.append(m)
+    if unknown:
+        raise ValueError(f"methods: unknown {unknown}; expected callables or names from {list(METHODS)}")
+    return chosen
+
+
+def _run(method, setup, gb, shared, options) -> tuple:
+    """``(visibility, stats)`` of one method on a set-up: a built-in one with its stats and the
+    shared light samples if it samples the light; a user callable with the samples, and no stats."""
+    from .methods import METHODS, SAMPLED
+
+    builtin = next((name for name, f in METHODS.items() if f is method), None)
+    if builtin is None:
+        return np.asarray(method(setup.scene, setup.light, gb, samples=shared, **options), dtype=np.float32), {}
+    kwargs = {"samples": shared} if builtin in SAMPLED else {}
+    return method(setup.scene, setup.light, gb, return_stats=True, **kwargs, **options)
+
+
+def _scene_items(scenes) -> list:
+    """The scenes to evaluate, checked: built-in names, :class:`~softshadows.scenes.Setup`
+    objects (under their own light) and mesh files (staged by :func:`softshadows.scenes.stage`)."""
+    from .scene import FORMATS
+    from .scenes import SCENES, Setup
+
+    if isinstance(scenes, (str, bytes, os.PathLike, Setup)) or not hasattr(scenes, "__iter__"):
+        raise ValueError(f"scenes: expected a sequence of names from {list(SCENES)}, Setups or mesh files, got {scenes!r}")
+    items = list(scenes)
+
+    def known(x):
+        if isinstance(x, Setup) or (isinstance(x, str) and x in SCENES):
+            return True
+        return isinstance(x, (str, os.PathLike)) and Path(x).suffix.lower() in FORMATS and Path(x).is_file()
+
+    unknown = [x for x in items if not known(x)]
+    if unknown:
+        raise ValueError(f"scenes: unknown {unknown}; expected names from {list(SCENES)}, Setup objects, or mesh files "
+                         f"({', '.join(FORMATS)}) that exist")
+    return items
+
+
+def _scene_label(item) -> str:
+    """The ``scene`` column of a scene item: its name, or its file's stem."""
+    from .scenes import SCENES, Setup
+
+    if isinstance(item, Setup):
+        return item.name
+    return item if isinstance(item, str) and item in SCENES else Path(item).stem
+
+
+def _lights_of(item, lights) -> list:
+    """The light kinds a scene item runs under: a Setup's own, else each of ``lights``."""
+    from .scenes import Setup
+
+    return [item.light.kind] if isinstance(item, Setup) else list(lights)
+
+
+def _build(item, light: str, size: int, **setup_options):
+    """The Setup of a scene item under the light kind ``light``, seen at ``size`` x ``size``."""
+    from . import scenes as scene_library
+
+    if isinstance(item, scene_library.Setup):
+        return item.with_size(size, size)
+    if isinstance(item, str) and item in scene_library.SCENES:
+        return scene_library.get(item, light=light, width=size, height=size, **setup_options)
+    return scene_library.stage(item, light=light, width=size, height=size, **setup_options)
 
 
 def pareto_front(frame, x: str = "seconds", y: str = "rmse"):

@@ -167,6 +167,11 @@ class Scene:
             )
         return cls(meshes)
 
+    def __getstate__(self):
+        # The core copy and its BVH stay behind: an unpickled scene (in a sweep's worker process)
+        # builds its own on first use.
+        return {**self.__dict__, "_native": None}
+
     def subset(self, meshes) -> "Scene":
         """A scene of some of these meshes (the same Mesh objects), e.g. the shadow casters.
 
