@@ -39,7 +39,7 @@ def test_version(capsys):
     [
         ("demo", ["--size SIZE           image width and height in pixels (default: 256)", "(default: columns)", "(default: demo)",
                   "(default: 1024)"]),
-        ("evaluate", ["(default: 128)", "(default: columns)", "(default: rect)", "(default: evaluation)", "(default: 4096)"]),
+        ("evaluate", ["(default: 128)", "default columns, or none with --mesh", "(default: rect)", "(default: evaluation)", "(default: 4096)"]),
         ("reproduce", ["(default: fast)", "(default: claims)"]),
     ],
 )

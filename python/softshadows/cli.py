@@ -6,8 +6,10 @@ reference and writes a picture grid, EXR files and a metrics table (Markdown and
 the evaluation suite (:mod:`softshadows.evaluation`) and writes its report.
 ``softshadows reproduce [--papers KEYS] [--tier fast|paper] [--out DIR]`` measures the claims
 ledger (:mod:`softshadows.claims`) and writes ``claims.md``, ``claims.csv`` and the figures.
-``softshadows --version`` prints the version; ``--help`` on any command lists its options with
-their defaults.
+``softshadows demo --mesh FILE`` and ``softshadows evaluate --mesh FILE`` run them on a mesh file
+of your own, staged by :func:`softshadows.scenes.stage`; ``softshadows scenes`` lists the built-in
+scenes and light kinds. ``softshadows --version`` prints the version; ``--help`` on any command
+lists its options with their defaults.
 
 Names (scenes, methods, lights, papers, claim ids) and sizes are checked before anything is
 written or rendered: a bad one ends the command with a usage message listing the valid choices.
@@ -45,7 +47,7 @@ def _run_methods(setup, gb, samples, progress):
 
 
 def demo(out, *, scene: str = "columns", size: int = 256, samples: int = 64, reference_samples: int = 1024,
-         progress: bool = True) -> dict:
+         progress: bool = True, mesh=None, light: str = "rect") -> dict:
     """Runs the demo and returns the metrics table as a dict of method name to metrics.
 
     Writes into ``out``: ``demo.png`` (the comparison grid), ``<method>.exr`` and
@@ -69,6 +71,11 @@ def demo(out, *, scene: str = "columns", size: int = 256, samples: int = 64, ref
         Light samples of the Mitsuba ``ray_test`` reference.
     progress : bool
         Show a progress bar, only when stderr is a terminal.
+    mesh : str or os.PathLike, optional
+        A mesh file of your own instead of ``scene`` (:func:`softshadows.load`), staged by
+        :func:`softshadows.scenes.stage`.
+    light : {"rect", "disk", "sphere", "ellipsoid", "point"}
+        The light's kind, placed as the scene places it.
 
     Returns
     -------
@@ -91,8 +98,10 @@ def demo(out, *, scene: str = "columns", size: int = 256, samples: int = 64, ref
     from .camera import gbuffer
     from .methods import METHODS
 
-    if not isinstance(scene, str) or scene not in scenes.SCENES:
+    if mesh is None and (not isinstance(scene, str) or scene not in scenes.SCENES):
         raise ValueError(f"scene: expected a name from {list(scenes.SCENES)}, got {scene!r}")
+    if light not in scenes.LIGHT_KINDS:
+        raise ValueError(f"light: expected one of {scenes.LIGHT_KINDS}, got {light!r}")
     size, samples = v.positive_int("size", size), v.positive_int("samples", samples)
     reference_samples = v.positive_int("reference_samples", reference_samples)
     try:
@@ -101,7 +110,10 @@ def demo(out, *, scene: str = "columns", size: int = 256, samples: int = 64, ref
         raise TypeError(f"out: expected a str or os.PathLike, got {type(out).__name__}") from None
     for module in ("mitsuba", "skimage", "flip_evaluator", "OpenEXR", "matplotlib"):  # before any work
         require(module, extra="evaluation", for_="softshadows demo")
-    setup = scenes.get(scene, width=size, height=size)
+    if mesh is None:
+        setup = scenes.get(scene, light=light, width=size, height=size)
+    else:
+        setup = scenes.stage(mesh, light=light, width=size, height=size)
     out.mkdir(parents=True, exist_ok=True)
     # disable=None: tqdm draws only on a terminal.
     with tqdm(total=len(METHODS) + 2, desc="gbuffer", unit="step", disable=None if progress else True) as bar:
@@ -122,7 +134,7 @@ def demo(out, *, scene: str = "columns", size: int = 256, samples: int = 64, ref
     io.write_exr(out / "reference.exr", ref)
     titles = {n: f"RMSE {m['rmse']:.4f}" for n, m in table.items()}
     plot.comparison_grid(ref, results, gb.mask, path=out / "demo.png", titles=titles)
-    meta = {"scene": scene, "size": size, "samples": samples, "reference": f"mitsuba ray_test, {reference_samples} samples"}
+    meta = {"scene": setup.name, "light": light, "size": size, "samples": samples, "reference": f"mitsuba ray_test, {reference_samples} samples"}
     strict = {name: {k: x if math.isfinite(x) else None for k, x in m.items()} for name, m in table.items()}
     (out / "metrics.json").write_text(json.dumps({"setup": meta, "methods": strict}, indent=2, allow_nan=False))
     (out / "metrics.md").write_text(_markdown(meta, table))
@@ -176,6 +188,33 @@ def _name_list(allowed, what: str):
     return parse
 
 
+def _mesh_file(text: str) -> Path:
+    """An argparse ``type``: an existing file in one of the formats :func:`softshadows.load` reads."""
+    from .scene import FORMATS
+
+    path = Path(text)
+    if path.suffix.lower() not in FORMATS:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a mesh file: expected one of {', '.join(FORMATS)}")
+    if not path.is_file():
+        raise argparse.ArgumentTypeError(f"{text!r} does not exist")
+    return path
+
+
+def _scenes() -> int:
+    """Prints the built-in scenes (name and what each mirrors) and the light kinds."""
+    from .scenes import LIGHT_KINDS, SCENES, get
+
+    width = max(map(len, SCENES))
+    for name in SCENES:
+        try:
+            about = get(name, width=1, height=1).description
+        except ModuleNotFoundError as missing:  # the models need pymeshlab
+            about = str(missing)
+        print(f"{name:<{width}}  {about}")
+    print(f"lights: {', '.join(LIGHT_KINDS)}")
+    return 0
+
+
 def _positive_int(text: str) -> int:
     """An argparse ``type``: a positive integer."""
     try:
@@ -225,12 +264,16 @@ def main(argv=None) -> int:
     d.add_argument("--out", type=Path, default=Path("demo"), help="output folder")
     d.add_argument("--scene", default="columns", choices=list(SCENES), metavar="SCENE",
                    help=f"scene name, one of {', '.join(SCENES)}")
+    d.add_argument("--mesh", type=_mesh_file, default=None, help="a mesh file of your own instead of --scene")
+    d.add_argument("--light", default="rect", choices=LIGHT_KINDS, help="the light's kind")
     d.add_argument("--size", type=_positive_int, default=256, help="image width and height in pixels")
     d.add_argument("--samples", type=_positive_int, default=64, help="light samples for sample-based methods")
     d.add_argument("--reference-samples", type=_positive_int, default=1024, help="light samples of the Mitsuba reference")
     e = sub.add_parser("evaluate", help="every method on every scene and light against Mitsuba, as a report", formatter_class=_Formatter)
-    e.add_argument("--scenes", type=_name_list(SCENES, "scene"), default="columns",
-                   help=f"comma-separated scene names from {', '.join(SCENES)}")
+    e.add_argument("--scenes", type=_name_list(SCENES, "scene"), default=None,
+                   help=f"comma-separated scene names from {', '.join(SCENES)}; default columns, or none with --mesh")
+    e.add_argument("--mesh", type=_mesh_file, action="append", default=[],
+                   help="a mesh file of your own (repeat for more), staged under each of --lights")
     e.add_argument("--methods", type=_name_list(METHODS, "method"), default=None,
                    help=f"comma-separated method names from {', '.join(METHODS)}; default all")
     e.add_argument("--lights", type=_name_list(LIGHT_KINDS, "light"), default="rect",
@@ -241,6 +284,7 @@ def main(argv=None) -> int:
     e.add_argument("--out", type=Path, default=Path("evaluation"), help="output folder")
     e.add_argument("--latex", action="store_true", help="also write the results as a LaTeX table, results.tex")
     e.add_argument("--readme", type=Path, default=None, help="also rewrite the results table of this README")
+    sub.add_parser("scenes", help="list the built-in scenes and the light kinds", formatter_class=_Formatter)
     r = sub.add_parser("reproduce", help="measure every claim of the five papers (the claims ledger)", formatter_class=_Formatter)
     r.add_argument("--papers", type=_name_list(claims.PAPERS, "paper"), default=None,
                    help=f"comma-separated paper keys from {', '.join(claims.PAPERS)}; default all")
@@ -258,6 +302,8 @@ def main(argv=None) -> int:
             return _evaluate(args)
         if args.command == "reproduce":
             return _reproduce(args, r)
+        if args.command == "scenes":
+            return _scenes()
         return _demo(args)
     except MissingExtraError as exc:  # the core is installed without the evaluation stack
         print(exc, file=sys.stderr)  # e.g. "softshadows demo needs mitsuba: pip install ..."
@@ -265,7 +311,8 @@ def main(argv=None) -> int:
 
 
 def _demo(args) -> int:
-    table = demo(args.out, scene=args.scene, size=args.size, samples=args.samples, reference_samples=args.reference_samples)
+    table = demo(args.out, scene=args.scene, size=args.size, samples=args.samples, reference_samples=args.reference_samples,
+                 mesh=args.mesh, light=args.light)
     width = max(map(len, table))
     for name, m in table.items():
         print(f"{name:<{width}}  RMSE {m['rmse']:.4f}  PSNR {m['psnr']:.2f} dB  SSIM {m['ssim']:.4f}  FLIP {m['flip']:.4f}  "
@@ -277,7 +324,8 @@ def _demo(args) -> int:
 def _evaluate(args) -> int:
     from .evaluation import evaluate, report, update_readme
 
-    frame = evaluate(args.scenes, args.methods, lights=args.lights, size=args.size, samples=args.samples,
+    named = args.scenes if args.scenes is not None else ([] if args.mesh else ["columns"])
+    frame = evaluate(named + args.mesh, args.methods, lights=args.lights, size=args.size, samples=args.samples,
                      reference_samples=args.reference_samples, keep_images=True)
     page = report(frame, args.out, latex=args.latex)
     if args.readme is not None:
