@@ -76,3 +76,27 @@ def test_a_grid_draws_into_a_pyplot_figure_to_show():
         plt.close(fig)
     with pytest.raises(ValueError, match="figure: expected a matplotlib.figure.Figure"):
         ss.plot.comparison_grid(reference, results, figure="new")
+
+
+def test_the_setup_preview_shows_the_light_and_says_what_is_wrong():
+    setup = ss.scenes.get("columns", width=64, height=64)
+    ax = ss.plot.setup(setup, size=48)
+    assert ax.get_title().endswith("facing the scene") and ax.figure.canvas.manager is None
+    # The light lies above the view: the canvas grows to hold it, and its star is drawn there.
+    (x, y), = setup.camera.with_size(48, 48).project([setup.light.center]) - 0.5
+    top, bottom = ax.get_ylim()[1], ax.get_ylim()[0]
+    assert top <= y < -0.5 and top < bottom
+    assert any(line.get_marker() == "*" and np.allclose(line.get_xydata(), [[x, y]]) for line in ax.get_lines())
+    away = setup.with_light(ss.RectLight((0, 3, 0), (0.5, 0, 0), (0, 0, -0.5)))
+    assert ss.plot.setup(away, size=32).get_title().endswith("faces away from every receiver")
+    mirror = np.array([1.0, -1.0, 1.0])
+    below = setup.with_light(ss.RectLight(setup.light.center * mirror, setup.light.u * mirror, -setup.light.v * mirror))
+    assert ss.plot.setup(below, size=32).get_title().endswith("its centre hidden from every receiver")
+
+
+def test_project_inverts_the_gbuffers_rays():
+    setup = ss.scenes.get("torus_knot", width=40, height=30)
+    gb = ss.gbuffer(setup.scene, setup.camera)
+    rows, cols = np.nonzero(gb.mask)
+    xy = setup.camera.project(gb.positions[rows, cols])
+    np.testing.assert_allclose(xy, np.stack([cols + 0.5, rows + 0.5], axis=1), atol=2e-3)

@@ -90,6 +90,41 @@ class Camera:
         eye = m[:3, 3]
         return cls.look_at(eye, eye + forward / np.linalg.norm(forward), m[:3, 1], fov_y, width, height)
 
+    def project(self, points) -> np.ndarray:
+        """Continuous pixel coordinates ``(x, y)`` of world points (``y`` down, pixel ``(i, j)``'s
+        centre at ``(j + 0.5, i + 0.5)``), NaN for points behind the camera.
+
+        Parameters
+        ----------
+        points : array_like, shape (N, 3)
+
+        Returns
+        -------
+        ndarray, shape (N, 2), float64
+
+        Examples
+        --------
+        >>> import softshadows as ss
+        >>> camera = ss.Camera.look_at((0, 0, 5), (0, 0, 0), fov_y=90.0, width=100, height=100)
+        >>> camera.project([[0, 0, 0], [5, 0, 0], [0, 0, 9]]).tolist()  # centre, right edge, behind
+        [[50.0, 50.0], [100.0, 50.0], [nan, nan]]
+        """
+        pts = v.array("points", points, np.float64, (None, 3))
+        eye, target = self.eye.astype(np.float64), self.target.astype(np.float64)
+        forward = (target - eye) / np.linalg.norm(target - eye)
+        right = np.cross(forward, self.up.astype(np.float64))
+        right /= np.linalg.norm(right)
+        up = np.cross(right, forward)
+        d = pts - eye
+        z = d @ forward
+        tan_half = np.tan(np.radians(self.fov_y) / 2)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            sx = (d @ right) / (z * tan_half * self.width / self.height)
+            sy = (d @ up) / (z * tan_half)
+        xy = np.stack([(sx + 1) * self.width / 2, (1 - sy) * self.height / 2], axis=1)
+        xy[z <= 0] = np.nan
+        return xy
+
     def native(self):
         """The core camera."""
         from . import _core

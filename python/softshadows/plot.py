@@ -13,7 +13,7 @@ import numpy as np
 
 from ._extras import require
 
-__all__ = ["comparison_grid", "show_samples", "NO_HIT", "MAX_COLUMNS", "MAX_WIDTH"]
+__all__ = ["comparison_grid", "show_samples", "setup", "NO_HIT", "MAX_COLUMNS", "MAX_WIDTH"]
 
 #: The colour of pixels that hit no surface, so they never read as shadow.
 NO_HIT = (0.55, 0.68, 0.82)
@@ -162,3 +162,109 @@ def show_samples(light, samples, *, ax=None, title: str | None = None):
     ax.set_aspect("equal")
     ax.set_title(title or f"{len(pts)} samples", fontsize=9)
     return ax
+
+
+def setup(staged, *, ax=None, size: int = 192):
+    """A preview of a set-up before a long run: the scene from its camera, lit by the light's
+    centre with hard shadows, and the light drawn where it is, its outline and the way it faces.
+
+    Parameters
+    ----------
+    staged : Setup
+        A :class:`~softshadows.scenes.Setup` (built-in, or from :func:`softshadows.scenes.stage`).
+    ax : matplotlib.axes.Axes, optional
+        Where to draw, e.g. ``plt.gca()``; by default the axes of a new figure that pyplot does
+        not know about.
+    size : int
+        The preview's larger side in pixels (the camera's aspect is kept).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        Its title names the light, and says when the light faces away from every receiver or
+        no receiver sees its centre (a :class:`~softshadows.SetupWarning`).
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> ax = ss.plot.setup(ss.scenes.get("columns"), size=48)
+    >>> ax.get_title()
+    'RectLight (rect) at [-0.86, 3.06, -1.49], facing the scene'
+    """
+    import warnings
+
+    Figure = require("matplotlib.figure", extra="evaluation", for_="softshadows.plot.setup").Figure
+
+    from . import _validate as v
+    from .camera import gbuffer
+    from .methods import SetupWarning, ray_traced
+    from .scenes import Setup
+
+    v.instance("staged", staged, Setup, "a softshadows.scenes.Setup")
+    size = v.positive_int("size", size)
+    cam = staged.camera
+    scale = size / max(cam.width, cam.height)
+    view = cam.with_size(max(1, round(cam.width * scale)), max(1, round(cam.height * scale)))
+    gb = gbuffer(staged.scene, view)
+    light = staged.light
+    center = np.asarray(light.center, dtype=np.float64)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", SetupWarning)
+        seen = ray_traced(staged.scene, light, gb, samples=center[None, :].astype(np.float32))
+    problems = [w for w in caught if issubclass(w.category, SetupWarning)]
+    to_light = center - gb.positions
+    to_light /= np.maximum(np.linalg.norm(to_light, axis=-1, keepdims=True), 1e-12)
+    shade = 0.25 + 0.75 * np.clip(np.sum(gb.normals * to_light, axis=-1), 0, 1) * seen
+    image = np.where(gb.mask[..., None], shade[..., None], np.asarray(NO_HIT))
+    if ax is None:
+        ax = Figure(figsize=(5, 5 * view.height / view.width), layout="constrained").add_subplot()
+    ax.imshow(np.clip(image, 0, 1), interpolation="nearest")
+    outline = view.project(_outline(light)) - 0.5  # imshow puts pixel centres on integers
+    ax.plot(outline[:, 0], outline[:, 1], color="gold", lw=1.5)
+    # The facing arrow reaches a third of the way to the scene's centre.
+    tip = center + _facing(light) * np.linalg.norm(staged.scene.bounds.mean(axis=0) - center) / 3
+    (cx, cy), (tx, ty) = view.project(np.stack([center, tip])) - 0.5
+    ax.plot([cx], [cy], marker="*", color="gold", markersize=10)
+    if np.isfinite([cx, cy, tx, ty]).all() and (tx, ty) != (cx, cy):
+        ax.annotate("", xy=(tx, ty), xytext=(cx, cy), arrowprops={"arrowstyle": "->", "color": "gold"})
+    # The light is often outside the camera's view: widen the canvas to hold it too.
+    shown = outline[np.isfinite(outline).all(axis=1)]
+    box = np.concatenate([shown, [[-0.5, -0.5], [view.width - 0.5, view.height - 0.5]]])
+    lo, hi = box.min(axis=0), box.max(axis=0)
+    pad = 0.05 * (hi - lo)
+    ax.set_xlim(lo[0] - pad[0], hi[0] + pad[0])
+    ax.set_ylim(hi[1] + pad[1], lo[1] - pad[1])
+    ax.set_axis_off()
+    where = ", ".join(f"{x:.2f}" for x in center)
+    messages = " ".join(str(w.message) for w in problems)
+    state = ("faces away from every receiver" if "lies behind it" in messages else
+             "its centre hidden from every receiver" if "no receiver sees" in messages else "facing the scene")
+    ax.set_title(f"{type(light).__name__} ({light.kind}) at [{where}], {state}", fontsize=8)
+    return ax
+
+
+def _outline(light) -> np.ndarray:
+    """Points along a light's silhouette, world units: a rect's edges, a disk's rim, a ball's
+    equator and meridian; a point light's position."""
+    c = np.asarray(light.center, dtype=np.float64)
+    t = np.linspace(0, 2 * np.pi, 49)[:, None]
+    if light.kind == "rect":
+        u, w = light.u.astype(np.float64), light.v.astype(np.float64)
+        return np.stack([c - u - w, c + u - w, c + u + w, c - u + w, c - u - w])
+    if light.kind == "disk":
+        from .lights import _tangent_frame
+
+        a, b = _tangent_frame(light.normal)
+        return c + light.radius * (np.cos(t) * a + np.sin(t) * b)
+    if light.kind in ("sphere", "ellipsoid"):
+        axes = light.radius * np.eye(3) if light.kind == "sphere" else light.axes.astype(np.float64)
+        ring = np.cos(t) * axes[0] + np.sin(t) * axes[2]
+        return c + np.concatenate([ring, np.cos(t) * axes[1] + np.sin(t) * axes[2]])
+    return c[None, :]
+
+
+def _facing(light) -> np.ndarray:
+    """The direction a one-sided light emits toward; 0 for lights that emit every way."""
+    if light.kind in ("rect", "disk"):
+        return np.asarray(light.normal, dtype=np.float64)
+    return np.zeros(3)
