@@ -110,3 +110,23 @@ def test_stage_leaves_a_room_with_its_own_floor_and_a_lamp_inside_it():
     rx = ss.Receivers([[0, -1.5, 0], [1.8, -1.5, 1.8]], [[0, 1, 0], [0, 1, 0]])  # under the table, in a corner
     vis = ss.ray_traced(setup.scene, setup.light, rx, samples=64)
     assert vis[0] == 0 and vis[1] > 0.9
+
+
+def test_stage_keeps_a_gltf_files_own_camera(tmp_path):
+    import trimesh
+
+    scene = trimesh.Scene({"box": trimesh.creation.box()})
+    scene.camera.fov = (60.0, 45.0)
+    pose = np.eye(4)
+    pose[:3, 3] = (0.5, 1.0, 6.0)
+    scene.camera_transform = pose
+    path = tmp_path / "with_camera.glb"
+    scene.export(path)
+    setup = ss.scenes.stage(path, width=40, height=30)
+    np.testing.assert_allclose(setup.camera.eye, (0.5, 1.0, 6.0), atol=1e-6)
+    np.testing.assert_allclose(setup.camera.target - setup.camera.eye, (0, 0, -1), atol=1e-6)
+    assert setup.camera.fov_y == pytest.approx(45.0) and (setup.camera.width, setup.camera.height) == (40, 30)
+    plain = tmp_path / "plain.glb"
+    trimesh.Scene({"box": trimesh.creation.box()}).export(plain)
+    framed = ss.scenes.stage(plain, width=40, height=30).camera
+    assert not np.allclose(framed.eye, (0.5, 1.0, 6.0))

@@ -281,7 +281,15 @@ def load(path, *, closed: bool | None = None) -> Scene:
     >>> scene, scene.meshes[0].closed
     (Scene(1 mesh ['box'], 12 faces), True)
     """
+    return _read(path, closed=closed)[0]
+
+
+def _read(path, *, closed: bool | None = None):
+    """:func:`load`'s scene, and the file's camera (a glTF camera node) as a
+    :class:`~softshadows.Camera` at its own field of view and 256 pixels wide, or None."""
     import trimesh
+
+    from .camera import Camera
 
     path = Path(os.fspath(path))
     if not path.exists():
@@ -294,7 +302,13 @@ def load(path, *, closed: bool | None = None) -> Scene:
         raise ValueError(f"path: trimesh could not read {path}: {type(err).__name__}: {err}") from None
     if not any(isinstance(g, trimesh.Trimesh) and len(g.faces) for g in loaded.geometry.values()):
         raise ValueError(f"path: {path} holds no triangles (point clouds and lines cast no shadows)")
-    return Scene.from_trimesh(loaded, closed=closed, folder=path.parent)
+    scene = Scene.from_trimesh(loaded, closed=closed, folder=path.parent)
+    if not loaded.has_camera:
+        return scene, None
+    fov_x, fov_y = (float(f) for f in loaded.camera.fov)
+    width = 256
+    height = max(1, round(width * np.tan(np.radians(fov_y) / 2) / np.tan(np.radians(fov_x) / 2)))
+    return scene, Camera.from_matrix(loaded.camera_transform, fov_y=fov_y, width=width, height=height)
 
 
 def _material_alpha(part, folder) -> np.ndarray | None:

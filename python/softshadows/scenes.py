@@ -1011,7 +1011,8 @@ def stage(
     Parameters
     ----------
     scene : Scene or str or os.PathLike
-        The scene, or a mesh file that :func:`softshadows.load` reads.
+        The scene, or a mesh file that :func:`softshadows.load` reads; a glTF file's own camera,
+        if it has one, is kept (with its vertical field of view, at ``width`` x ``height``).
     light : {"rect", "disk", "sphere", "ellipsoid", "point"}
     light_size : float, optional
         As in the module docstring; default the scene's largest extent.
@@ -1046,16 +1047,17 @@ def stage(
     """
     from pathlib import Path
 
-    from .scene import load
+    from .scene import _read
 
+    camera = None
     if not isinstance(scene, Scene):
         name = name or Path(os.fspath(scene)).stem
-        scene = load(scene)
+        scene, camera = _read(scene)
     lo, hi = scene.bounds.astype(np.float64)
     extent = float(np.max(hi - lo))
     if not extent > 0:
         raise ValueError(f"scene: its bounds {lo.tolist()}..{hi.tolist()} have no extent to frame")
-    return _assemble(
+    staged = _assemble(
         name or "scene",
         scene.meshes,
         f"a user scene of {sum(len(m.faces) for m in scene.meshes)} triangles in {len(scene.meshes)} meshes",
@@ -1065,6 +1067,10 @@ def stage(
         floor=float(lo[1]), center_xz=(float(lo[0] + hi[0]) / 2, float(lo[2] + hi[2]) / 2), margin=0.5 * extent,
         ground=_v.flag("ground", ground), light_above=False,
     )
+    if camera is None:
+        return staged
+    # The file's own camera, at the image size asked for (its aspect from width and height).
+    return dataclasses.replace(staged, camera=Camera.look_at(camera.eye, camera.target, camera.up, camera.fov_y, width, height))
 
 
 def _model_factory(model: str):
