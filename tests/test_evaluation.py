@@ -213,3 +213,18 @@ def test_sweep_runs_a_user_callable_on_a_user_setup_in_a_process_pool_and_on_das
             remote = ss.sweep(method, grid, executor=client.get_executor(), **options)
     columns = [c for c in local.columns if c != "seconds"]
     pd.testing.assert_frame_equal(local[columns], remote[columns])
+
+
+def test_a_registered_method_is_known_by_name_and_the_command_line_imports_one(cache):
+    from softshadows import cli
+
+    evaluation.register_method("mine", my_shadows)
+    try:
+        frame = ss.evaluate(["columns"], ["ray_traced", "mine"], size=16, reference_samples=16, progress=False, repeat=1)
+        assert list(frame["method"]) == ["ray_traced", "mine"] and frame["rmse"].iloc[0] == frame["rmse"].iloc[1]
+        assert cli._method_list("pcss, mine") == ["pcss", "mine"]
+    finally:
+        del evaluation.REGISTERED["mine"]
+    assert cli._method_list(f"pcss, {__name__}:my_shadows") == ["pcss", my_shadows]
+    with pytest.raises(ValueError, match="name: expected a new method name"):
+        evaluation.register_method("pcss", my_shadows)

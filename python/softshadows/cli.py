@@ -188,6 +188,34 @@ def _name_list(allowed, what: str):
     return parse
 
 
+def _method_list(text: str) -> list:
+    """An argparse ``type``: comma-separated built-in or registered method names and
+    ``module:function`` imports, as names and callables."""
+    import importlib
+
+    from .evaluation import REGISTERED
+    from .methods import METHODS
+
+    methods = []
+    for item in (t.strip() for t in text.split(",")):
+        if not item:
+            continue
+        if item in METHODS or item in REGISTERED:
+            methods.append(item)
+            continue
+        module, _, function = item.partition(":")
+        if not function:
+            raise argparse.ArgumentTypeError(f"unknown method {item!r}; choose from {', '.join(METHODS)}, or give "
+                                             "module:function")
+        try:
+            methods.append(getattr(importlib.import_module(module), function))
+        except (ImportError, AttributeError) as err:
+            raise argparse.ArgumentTypeError(f"cannot import the method {item!r}: {err}") from None
+    if not methods:
+        raise argparse.ArgumentTypeError(f"expected comma-separated method names from {', '.join(METHODS)}")
+    return methods
+
+
 def _mesh_file(text: str) -> Path:
     """An argparse ``type``: an existing file in one of the formats :func:`softshadows.load` reads."""
     from .scene import FORMATS
@@ -274,8 +302,9 @@ def main(argv=None) -> int:
                    help=f"comma-separated scene names from {', '.join(SCENES)}; default columns, or none with --mesh")
     e.add_argument("--mesh", type=_mesh_file, action="append", default=[],
                    help="a mesh file of your own (repeat for more), staged under each of --lights")
-    e.add_argument("--methods", type=_name_list(METHODS, "method"), default=None,
-                   help=f"comma-separated method names from {', '.join(METHODS)}; default all")
+    e.add_argument("--methods", type=_method_list, default=None,
+                   help=f"comma-separated method names from {', '.join(METHODS)}, methods registered with "
+                        "softshadows.evaluation.register_method, or module:function of your own; default all")
     e.add_argument("--lights", type=_name_list(LIGHT_KINDS, "light"), default="rect",
                    help=f"comma-separated light kinds from {', '.join(LIGHT_KINDS)}")
     e.add_argument("--size", type=_positive_int, default=128, help="image width and height in pixels")

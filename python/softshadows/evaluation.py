@@ -292,6 +292,41 @@ def _sweep_task(task) -> dict:
     return {**record, **metrics.summary(vis, ref, gb.mask), "seconds": seconds}
 
 
+#: Methods registered by :func:`register_method`, by name.
+REGISTERED: dict = {}
+
+
+def register_method(name: str, method) -> None:
+    """Makes a method of your own known by ``name`` to :func:`evaluate`, :func:`sweep` and the
+    command line's ``--methods`` (in this process; the command line also takes
+    ``module:function``). Pools and clusters receive the callable itself, so it must pickle: a
+    module-level function, or a ``functools.partial`` of one.
+
+    Parameters
+    ----------
+    name : str
+        Not a built-in method's name.
+    method : callable
+        ``method(scene, light, receivers, *, samples, **options) -> visibility``.
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> from softshadows import evaluation
+    >>> evaluation.register_method("oracle_again", ss.ray_traced)
+    >>> list(evaluation._methods(["pcss", "oracle_again"]))
+    ['pcss', 'oracle_again']
+    >>> del evaluation.REGISTERED["oracle_again"]
+    """
+    from .methods import METHODS
+
+    if not isinstance(name, str) or not name or name in METHODS:
+        raise ValueError(f"name: expected a new method name, not one of {list(METHODS)}, got {name!r}")
+    if not callable(method):
+        raise ValueError(f"method: expected a callable f(scene, light, receivers, *, samples), got {method!r}")
+    REGISTERED[name] = method
+
+
 def _methods(methods) -> dict:
     """The methods to run by label: built-in names (their functions), and user callables
     ``f(scene, light, receivers, *, samples, **options) -> visibility``, labelled by their
@@ -307,8 +342,8 @@ def _methods(methods) -> dict:
     pairs = list(methods.items()) if isinstance(methods, Mapping) else [(getattr(m, "__name__", m), m) for m in methods]
     chosen, unknown = {}, []
     for label, m in pairs:
-        if isinstance(m, str) and m in METHODS:
-            chosen[label] = METHODS[m]
+        if isinstance(m, str) and (m in METHODS or m in REGISTERED):
+            chosen[label] = METHODS.get(m) or REGISTERED[m]
         elif callable(m):
             if not isinstance(label, str) or label in chosen or (label in METHODS and METHODS[label] is not m):
                 raise ValueError(f"methods: the callable {m!r} needs a name of its own, not {label!r}: pass "
