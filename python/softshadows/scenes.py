@@ -996,6 +996,7 @@ def stage(
     light_position=None,
     light_distance: float | None = None,
     ground: bool = True,
+    camera: Camera | None = None,
     width: int = 256,
     height: int = 256,
     fov_y: float = 40.0,
@@ -1023,8 +1024,10 @@ def stage(
         Default three times the scene's largest extent.
     ground : bool
         Add the ground square (``Setup.ground``); False for a scene with a floor of its own.
+    camera : Camera, optional
+        Your own camera (inside a room, say), instead of the framed one and the file's.
     width, height, fov_y
-        The camera's image size and vertical field of view in degrees.
+        The framed camera's image size and vertical field of view in degrees.
     name : str, optional
         The set-up's name; default the file's stem, or ``"scene"``.
 
@@ -1049,10 +1052,12 @@ def stage(
 
     from .scene import _read
 
-    camera = None
+    own = None
     if not isinstance(scene, Scene):
         name = name or Path(os.fspath(scene)).stem
-        scene, camera = _read(scene)
+        scene, own = _read(scene)
+    if camera is not None:
+        own = _v.instance("camera", camera, Camera, "a softshadows.Camera")
     lo, hi = scene.bounds.astype(np.float64)
     extent = float(np.max(hi - lo))
     if not extent > 0:
@@ -1067,10 +1072,11 @@ def stage(
         floor=float(lo[1]), center_xz=(float(lo[0] + hi[0]) / 2, float(lo[2] + hi[2]) / 2), margin=0.5 * extent,
         ground=_v.flag("ground", ground), light_above=False,
     )
-    if camera is None:
+    if own is None:
         return staged
-    # The file's own camera, at the image size asked for (its aspect from width and height).
-    return dataclasses.replace(staged, camera=Camera.look_at(camera.eye, camera.target, camera.up, camera.fov_y, width, height))
+    if camera is None:  # the file's camera, at the image size asked for
+        own = Camera.look_at(own.eye, own.target, own.up, own.fov_y, width, height)
+    return dataclasses.replace(staged, camera=own)
 
 
 def _model_factory(model: str):
