@@ -86,7 +86,7 @@ def textured_quad_scene(alpha, uvs=None):
     card = quad((0.1, -0.2), 0.6, 1.0, uvs=True, alpha=alpha, name="card")
     if uvs is not None:
         card = ss.Mesh(card.vertices, card.faces, uvs=uvs, alpha=alpha, name="card")
-    light = ss.RectLight((0, 3, 0), (0.5, 0, 0), (0, 0, -0.5))
+    light = ss.RectLight((0, 3, 0), (0.5, 0, 0), (0, 0, 0.5))  # facing down
     cam = ss.Camera.look_at((0, 4, 2.5), (0, 0, 0), fov_y=50, width=64, height=64)
     scene = ss.Scene([ground, card])
     return scene, light, ss.gbuffer(scene, cam)
@@ -176,7 +176,7 @@ def leaf_card_under_an_overhead_light(size=96):
                    np.uint32([[0, 1, 2], [0, 2, 3]]), uvs=np.float32([[0, 0], [1, 0], [1, 1], [0, 1]]),
                    alpha=ss.scenes.leaf_texture(64))
     scene = ss.Scene([ground, card])
-    light = ss.RectLight((0.05, 3.0, 0.0), (0.6, 0, 0), (0, 0, -0.6))
+    light = ss.RectLight((0.05, 3.0, 0.0), (0.6, 0, 0), (0, 0, 0.6))  # facing down
     camera = ss.Camera(np.float32([2.5, 2.5, 2.5]), np.float32([0, 0.3, 0]), np.float32([0, 1, 0]), 45.0, size, size)
     return scene, light, ss.gbuffer(scene, camera)
 

@@ -53,7 +53,7 @@ def light_views_over_a_square(light_half: float):
     xs = np.linspace(-half, half, 9)
     grid = np.array([(x, 0.0, z) for x in xs for z in xs])
     receivers = ss.Receivers(grid, np.tile([0.0, 1.0, 0.0], (len(grid), 1)))
-    light = ss.RectLight((0, height, 0), (light_half, 0, 0), (0, 0, -light_half))
+    light = ss.RectLight((0, height, 0), (light_half, 0, 0), (0, 0, light_half))  # facing down
     samples = light.samples(24, pattern="poisson", seed=0)
     offsets = np.abs(samples[:, [0, 2]])
     tan = 1.01 * (half + offsets.max()) / height
@@ -169,7 +169,7 @@ def test_open_meshes_cast_whichever_side_faces_the_light():
     flipped = quad((0, 0), 0.6, 1.0)
     flipped.faces = flipped.faces[:, ::-1].copy()
     scene = ss.Scene([ground, flipped])
-    light = ss.RectLight((0, 4, 0), (0.3, 0, 0), (0, 0, -0.3))
+    light = ss.RectLight((0, 4, 0), (0.3, 0, 0), (0, 0, 0.3))
     rx = ss.Receivers([[0, 0, 0], [3, 0, 3]], [[0, 1, 0], [0, 1, 0]])
     np.testing.assert_array_equal(ss.vwss(scene, light, rx, samples=8, resolution=512), [0.0, 1.0])
 
@@ -212,7 +212,7 @@ def scattered_knots(count=80, seed=0):
         s = rng.uniform(0.4, 1.0)
         knots.append(ss.Mesh((v * s + [x, s / 2 + rng.uniform(0, 1), z]).astype(np.float32), f, closed=True, name=f"knot{i}"))
     scene = ss.Scene([ground, *knots])
-    light = ss.RectLight((0, 6, 0), (0.6, 0, 0), (0, 0, -0.6))
+    light = ss.RectLight((0, 6, 0), (0.6, 0, 0), (0, 0, 0.6))
     gb = ss.gbuffer(scene, ss.Camera.look_at((0, 9, 9), (0, 0, 0), fov_y=50.0, width=128, height=128))
     return scene, light, gb
 

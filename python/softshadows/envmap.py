@@ -17,6 +17,7 @@ Conventions
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -379,7 +380,7 @@ def environment(scene, lights, receivers, *, method: str = "cssm", albedo=0.8, d
     ((16, 16, 3), True)
     """
     from .camera import as_receivers
-    from .methods import METHODS
+    from .methods import METHODS, SetupWarning
     from .scene import Scene
 
     if not isinstance(method, str) or method not in METHODS:
@@ -412,7 +413,9 @@ def environment(scene, lights, receivers, *, method: str = "cssm", albedo=0.8, d
         if not np.any(irradiance[mask] > 0):
             continue
         try:
-            vis = METHODS[method](scene, light.area_light(center, distance), rx, **options).reshape(-1)
+            with warnings.catch_warnings():  # an environment's lights below the horizon are no mistake
+                warnings.simplefilter("ignore", SetupWarning)
+                vis = METHODS[method](scene, light.area_light(center, distance), rx, **options).reshape(-1)
         except ValueError as exc:
             if str(exc).startswith("light:"):  # the light is this function's doing: its distance
                 raise ValueError(f"distance: {method} refuses a fitted light placed {distance:g} from the scene's center ({exc})") from None

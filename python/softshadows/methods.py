@@ -26,7 +26,7 @@ from . import _core
 from . import _validate as v
 from .camera import GBuffer, Receivers, as_receivers
 from .gpu import resolve_backend
-from .lights import DiskLight, RectLight, _Light, _pattern
+from .lights import DiskLight, PointLight, RectLight, _Light, _pattern
 from .scene import Scene
 
 __all__ = ["SetupWarning", "ray_traced", "shadow_map", "mvr", "vwss", "pcss", "cssm", "alias_free", "dcs", "penumbra_wedge", "stsv", "stsv_volumes", "backprojection", "resolve_msaa", "METHODS"]
@@ -138,9 +138,11 @@ def _warn_impossible_setup(scene, light, receivers) -> None:
                       f"behind it, so every shaded image is black; to light them, flip it: {flipped}",
                       SetupWarning, stacklevel=4)
         return
+    # A point at the centre: an emission texture may leave the centre itself dark.
+    centre = PointLight(light.center)
     sampled = _core.NativeSamples.explicit(v.light_points("samples", light.center[None, :]), None)
     check = Receivers(points, normals)
-    seen, _ = _core.ray_traced(scene.native(), light.native(), _native_receivers(check), sampled, scene.epsilon, "all")
+    seen, _ = _core.ray_traced(scene.native(), centre.native(), _native_receivers(check), sampled, scene.epsilon, "all")
     if not np.any(seen):
         warnings.warn(f"light: no receiver sees the {name}'s center {light.center.tolist()}: it lies behind every "
                       "receiver's surface or an occluder hides it from all of them (a light under the floor?), where "

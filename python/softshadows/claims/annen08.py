@@ -15,6 +15,8 @@ from __future__ import annotations
 import functools
 import time
 
+import warnings
+
 import numpy as np
 
 from ._measure import reference, rmse, staged
@@ -564,7 +566,9 @@ def _point_light_reference(scene, gb, directions, energy, albedo: float = 0.8):
     for d, e in zip(directions, energy):
         cosine = np.maximum(normals @ d, 0.0)
         if np.any(cosine[mask] > 0):
-            vis = ss.ray_traced(scene, ss.PointLight(center + distance * d), gb, samples=1).reshape(-1)
+            with warnings.catch_warnings():  # lights below the ground are part of an environment
+                warnings.simplefilter("ignore", ss.SetupWarning)
+                vis = ss.ray_traced(scene, ss.PointLight(center + distance * d), gb, samples=1).reshape(-1)
             out += e[None] * (cosine * vis)[:, None]
     out *= albedo / np.pi
     out[~mask] = 0

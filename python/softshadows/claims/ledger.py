@@ -683,18 +683,17 @@ def _rule_keys(rule) -> list:
     """The values that ``rule`` reads."""
     if isinstance(rule, AllOf):
         return [k for r in rule.rules for k in _rule_keys(r)]
-    return [rule.key] if isinstance(rule, _Threshold) else []
+    return [rule.key] if isinstance(rule, (_Threshold, Between)) else []
 
 
 def _timing_noise(claim, values, recorded) -> bool:
-    """Whether a changed verdict is the machine's load: every value the rule reads is a timing
-    measurement (the claim gives it a tolerance of its own, not :data:`DETERMINISTIC`) measured
-    within that tolerance of the recorded one, so the verdict's threshold lies inside the
-    run-to-run spread."""
+    """Whether a changed verdict is the machine's load: the rule reads a timing measurement (a
+    value the claim gives a tolerance of its own, not :data:`DETERMINISTIC`), and every value it
+    reads lies within its tolerance of the recorded one (the deterministic ones within theirs:
+    unchanged), so the verdict's threshold lies inside the run-to-run spread of a timing."""
     keys = _rule_keys(claim.rule)
-    return bool(keys) and all(
-        key in values and key in recorded and key in claim.tolerance
-        and claim.tol(key).accepts(float(values[key]), float(recorded[key]))
+    return any(key in claim.tolerance for key in keys) and all(
+        key in values and key in recorded and claim.tol(key).accepts(float(values[key]), float(recorded[key]))
         for key in keys
     )
 
