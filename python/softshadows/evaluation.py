@@ -237,7 +237,12 @@ def sweep(method, parameters: dict, *, scenes=("columns",), lights=("rect",), si
 
     from . import scenes as scene_library
 
-    (label, method), = _methods({name: method} if name is not None else [method]).items()
+    if not (callable(method) or isinstance(method, str)):
+        raise ValueError(f"method: expected a method name or a callable, got {method!r}")
+    try:
+        (label, method), = _methods({name: method} if name is not None else [method]).items()
+    except ValueError as err:  # the one method of a sweep is its ``method`` argument
+        raise ValueError("method: " + str(err).split(": ", 1)[1]) from None
     # Checked here: a bad value would otherwise surface from a worker process, after the spawn.
     if not isinstance(parameters, dict) or not all(isinstance(k, str) for k in parameters):
         raise ValueError(f"parameters: expected a dict of option name to a sequence of values, got {parameters!r}")
