@@ -237,12 +237,7 @@ def sweep(method, parameters: dict, *, scenes=("columns",), lights=("rect",), si
 
     from . import scenes as scene_library
 
-    if not (callable(method) or isinstance(method, str)):
-        raise ValueError(f"method: expected a method name or a callable, got {method!r}")
-    try:
-        (label, method), = _methods({name: method} if name is not None else [method]).items()
-    except ValueError as err:  # the one method of a sweep is its ``method`` argument
-        raise ValueError("method: " + str(err).split(": ", 1)[1]) from None
+    (label, method), = _methods({name: method} if name is not None else [method], argument="method").items()
     # Checked here: a bad value would otherwise surface from a worker process, after the spawn.
     if not isinstance(parameters, dict) or not all(isinstance(k, str) for k in parameters):
         raise ValueError(f"parameters: expected a dict of option name to a sequence of values, got {parameters!r}")
@@ -332,7 +327,7 @@ def register_method(name: str, method) -> None:
     REGISTERED[name] = method
 
 
-def _methods(methods) -> dict:
+def _methods(methods, argument: str = "methods") -> dict:
     """The methods to run by label: built-in names (their functions), and user callables
     ``f(scene, light, receivers, *, samples, **options) -> visibility``, labelled by their
     ``__name__`` in a sequence or by their key in a mapping."""
@@ -343,7 +338,7 @@ def _methods(methods) -> dict:
     if methods is None:
         return dict(METHODS)
     if isinstance(methods, (str, bytes)) or callable(methods) or not hasattr(methods, "__iter__"):
-        raise ValueError(f"methods: expected a sequence of names from {list(METHODS)} or callables, got {methods!r}")
+        raise ValueError(f"{argument}: expected a sequence of names from {list(METHODS)} or callables, got {methods!r}")
     pairs = list(methods.items()) if isinstance(methods, Mapping) else [(getattr(m, "__name__", m), m) for m in methods]
     chosen, unknown = {}, []
     for label, m in pairs:
@@ -351,13 +346,13 @@ def _methods(methods) -> dict:
             chosen[label] = METHODS.get(m) or REGISTERED[m]
         elif callable(m):
             if not isinstance(label, str) or label in chosen or (label in METHODS and METHODS[label] is not m):
-                raise ValueError(f"methods: the callable {m!r} needs a name of its own, not {label!r}: pass "
+                raise ValueError(f"{argument}: the callable {m!r} needs a name of its own, not {label!r}: pass "
                                  "methods={'my_method': f, ...}")
             chosen[label] = m
         else:
             unknown.append(m)
     if unknown:
-        raise ValueError(f"methods: unknown {unknown}; expected callables or names from {list(METHODS)}")
+        raise ValueError(f"{argument}: unknown {unknown}; expected callables or names from {list(METHODS)}")
     return chosen
 
 
