@@ -162,6 +162,18 @@ def test_alias_free_on_the_gpu_around_a_lamp_in_a_room(adapter):
     np.testing.assert_array_equal(gpu, exact)
 
 
+def test_depth_map_lookups_on_the_gpu_around_a_lamp_equal_the_cpu(adapter):
+    # One map per cube face; each face's receivers looked up on the GPU as for one fitted map.
+    from test_lights_among_geometry import LIGHTS, room, wall_receivers
+
+    scene, light, rx = room(), LIGHTS["rect"], wall_receivers(12)
+    for method, tolerance in ((ss.shadow_map, 0.0), (ss.pcss, 0.0), (ss.cssm, 1e-3)):
+        cpu = method(scene, light, rx, resolution=256, backend="cpu")
+        gpu, stats = method(scene, light, rx, resolution=256, backend="gpu", return_stats=True)
+        assert stats["light_faces"] == 6
+        assert np.abs(gpu - cpu).max() <= tolerance, method.__name__
+
+
 def test_gpu_calls_from_8_threads_at_once_equal_serial_calls(adapter):
     s = ss.scenes.get("columns").with_size(32, 32)
     gb = ss.gbuffer(s.scene, s.camera)

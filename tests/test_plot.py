@@ -81,17 +81,33 @@ def test_a_grid_draws_into_a_pyplot_figure_to_show():
 def test_the_setup_preview_shows_the_light_and_says_what_is_wrong():
     setup = ss.scenes.get("columns", width=64, height=64)
     ax = ss.plot.setup(setup, size=48)
-    assert ax.get_title().endswith("facing the scene") and ax.figure.canvas.manager is None
+    assert ax.get_title().endswith("facing the scene, 1 light frustum") and ax.figure.canvas.manager is None
     # The light lies above the view: the canvas grows to hold it, and its star is drawn there.
     (x, y), = setup.camera.with_size(48, 48).project([setup.light.center]) - 0.5
     top, bottom = ax.get_ylim()[1], ax.get_ylim()[0]
     assert top <= y < -0.5 and top < bottom
     assert any(line.get_marker() == "*" and np.allclose(line.get_xydata(), [[x, y]]) for line in ax.get_lines())
     away = setup.with_light(ss.RectLight((0, 3, 0), (0.5, 0, 0), (0, 0, -0.5)))
-    assert ss.plot.setup(away, size=32).get_title().endswith("faces away from every receiver")
+    assert ss.plot.setup(away, size=32).get_title().endswith("faces away from every receiver, 1 light frustum")
     mirror = np.array([1.0, -1.0, 1.0])
     below = setup.with_light(ss.RectLight(setup.light.center * mirror, setup.light.u * mirror, -setup.light.v * mirror))
-    assert ss.plot.setup(below, size=32).get_title().endswith("its centre hidden from every receiver")
+    assert ss.plot.setup(below, size=32).get_title().endswith("its centre hidden from every receiver, 1 light frustum")
+
+
+def test_the_setup_preview_draws_a_frustum_per_cube_face_around_a_lamp_in_a_room():
+    from test_lights_among_geometry import LAMP, LIGHTS, room
+
+    camera = ss.Camera.look_at((1.9, 1.8, 1.9), (0, 0, 0), (0, 1, 0), 100.0, 48, 48)
+    lamp = ss.scenes.Setup("room", room(), LIGHTS["sphere"], camera, "a lamp in a room", has_ground=False)
+    ax = ss.plot.setup(lamp, size=48)
+    frusta = int(ax.get_title().split(", ")[-1].split()[0])
+    assert 1 < frusta <= 6
+    # Each frustum: four edges from the lamp and four around its far plane, 64 points each.
+    edges = [line for line in ax.get_lines() if line.get_color() == "deepskyblue"]
+    assert len(edges) == 8 * frusta
+    drawn = np.concatenate([line.get_xydata() for line in edges[::8]])
+    (x, y), = camera.project([LAMP]) - 0.5
+    assert np.allclose(drawn[::64], [x, y])  # every first edge starts at the lamp
 
 
 def test_project_inverts_the_gbuffers_rays():

@@ -48,13 +48,10 @@ def test_area_lights_cast_from_their_center(setup):
     )
 
 
-def test_a_light_among_the_receivers_is_refused_with_a_clear_error(setup):
+def test_a_light_among_the_receivers_gets_a_map_per_cube_face(setup):
     scene, _, _ = setup
-    rx = ss.Receivers([[-5, 0, 0], [5, 6, 0]], [[0, 1, 0], [0, 1, 0]])
-    with pytest.raises(ValueError, match="light.*lies among the receivers.*alias_free, stsv, dcs, penumbra_wedge and ray_traced") as info:
-        ss.shadow_map(scene, ss.PointLight((0, 3, 0)), rx)
-    assert "bounding box (not only the points) lies clear of the light on one side" in str(info.value)
-    below = ss.Receivers([[-5, 0, 0], [5, 2, 0]], [[0, 1, 0], [0, 1, 0]])  # the advice, followed
-    assert ss.shadow_map(scene, ss.PointLight((0, 3, 0)), below).shape == (2,)
-    for name in ("alias_free", "ray_traced"):  # and the methods it names take the first receivers
-        assert getattr(ss, name)(scene, ss.PointLight((0, 3, 0)), rx).shape == (2,)
+    rx = ss.Receivers([[-5, 0, 0], [5, 6, 0], [0, 0, 0.5]], [[0, 1, 0], [0, 1, 0], [0, 1, 0]])
+    light = ss.PointLight((0, 3, 0))
+    vis, stats = ss.shadow_map(scene, light, rx, return_stats=True)
+    assert stats["light_faces"] == 3  # -x (the first), +x (the second), -y (the third)
+    np.testing.assert_array_equal(vis, ss.ray_traced(scene, light, rx))

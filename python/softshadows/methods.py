@@ -88,6 +88,12 @@ _CASTERS_PARAMETER = """casters : sequence of int or str, optional
         casters they test."""
 
 
+_CUBE_NOTE = """A light among the receivers (a lamp in a room: no frustum from its center holds
+    their bounds) gets one map per face of a cube around its center, each receiver looked up in
+    its own face's; each face's map reaches 1/8 past the face's edges, so that filters find the
+    texels they read across a seam (stat ``light_faces``: 1 for one fitted frustum)."""
+
+
 class SetupWarning(UserWarning):
     """A scene and light that cannot mean what they say: a one-sided light that faces away from
     every receiver (every method's visibility looks normal, every shaded image is black), or a
@@ -263,6 +269,8 @@ def shadow_map(
     The depth map is fitted to the receivers' bounds as seen from a point light's position or
     an area light's center (Sintorn et al. 2008 and Marrs et al. 2018 use it as the baseline).
 
+    {cube}
+
     Parameters
     ----------
     scene : Scene
@@ -370,6 +378,11 @@ def mvr(
     PCF shadow tests over the maps, weighted by the light's emission at each sample. With 512
     views this is the paper's "ultra-high quality" reference.
 
+    A light among the receivers (a lamp in a room: its center or a sample inside their bounds)
+    gets a cube of six depth maps around every sample instead, each receiver tested in the face
+    its direction from that sample falls in (stat ``light_faces``: the most faces one sample
+    needed), on the CPU only.
+
     Parameters
     ----------
     scene : Scene
@@ -449,6 +462,10 @@ def vwss(
     bloat is a larger share of every shadow (80 knots of 1536 triangles over a 12 x 12 ground:
     0.031 on the ground at 512² maps, 0.017 at 1024²; ``tests/test_vwss.py``). Larger maps shrink it; fewer points per texel
     (``point_density=1``) trade it for holes.
+
+    A light among the receivers (a lamp in a room) is refused with a ValueError: the source view
+    sits behind the light (section 3.1) and the paper leaves omni-directional lights to future
+    work (section 5.2); ``mvr`` on the same samples handles it.
 
     Parameters
     ----------
@@ -568,6 +585,8 @@ def pcss(
     the blockers' depths; the parallel-planes estimate turns that into a penumbra width; PCF over
     that width gives the visibility. Marrs et al. 2018 configure 64 search and 96 filter taps.
 
+    {cube}
+
     Parameters
     ----------
     scene : Scene
@@ -655,6 +674,8 @@ def backprojection(
     at level ``ceil(l)`` and ``(2 floor(b))**2`` at ``floor(l)``. Stats report each acceleration
     structure's construction time and memory (Table 1) and the share of receivers that backproject
     with the micro-occluders they process (Table 2).
+
+    {cube}
 
     Parameters
     ----------
@@ -863,6 +884,8 @@ def cssm(
     and scaling it by ``scale`` before clamping; contact shadows are sharpened by
     ``V ** (1 + sharpen_a * exp(-sharpen_b * (d - z_avg)))`` (equation 9), depths normalized to the
     map's depth range.
+
+    {cube}
 
     Parameters
     ----------
@@ -1409,4 +1432,5 @@ METHODS = {"ray_traced": ray_traced, "alias_free": alias_free, "stsv": stsv, "dc
 
 for _method in METHODS.values():
     _method.__doc__ = (_method.__doc__.replace("{object_params}", _OBJECT_PARAMETERS)
-                       .replace("{params}", _MULTIVIEW_PARAMETERS).replace("{casters}", _CASTERS_PARAMETER))
+                       .replace("{params}", _MULTIVIEW_PARAMETERS).replace("{casters}", _CASTERS_PARAMETER)
+                       .replace("{cube}", _CUBE_NOTE))

@@ -166,7 +166,10 @@ def show_samples(light, samples, *, ax=None, title: str | None = None):
 
 def setup(staged, *, ax=None, size: int = 192):
     """A preview of a set-up before a long run: the scene from its camera, lit by the light's
-    centre with hard shadows, and the light drawn where it is, its outline and the way it faces.
+    centre with hard shadows, and the light drawn where it is, its outline and the way it faces,
+    with the light frusta of the depth-map methods (``shadow_map``, ``pcss``, ``cssm``,
+    ``backprojection``) for the pixels the camera sees: one fitted to them, or one per face of a
+    cube around a light among them (a lamp in a room).
 
     Parameters
     ----------
@@ -181,15 +184,16 @@ def setup(staged, *, ax=None, size: int = 192):
     Returns
     -------
     matplotlib.axes.Axes
-        Its title names the light, and says when the light faces away from every receiver or
-        no receiver sees its centre (a :class:`~softshadows.SetupWarning`).
+        Its title names the light, says when the light faces away from every receiver or no
+        receiver sees its centre (a :class:`~softshadows.SetupWarning`), and counts the light
+        frusta.
 
     Examples
     --------
     >>> import softshadows as ss
     >>> ax = ss.plot.setup(ss.scenes.get("columns"), size=48)
     >>> ax.get_title()
-    'RectLight (rect) at [-0.86, 3.06, -1.49], facing the scene'
+    'RectLight (rect) at [-0.86, 3.06, -1.49], facing the scene, 1 light frustum'
     """
     import warnings
 
@@ -227,6 +231,10 @@ def setup(staged, *, ax=None, size: int = 192):
     ax.plot([cx], [cy], marker="*", color="gold", markersize=10)
     if np.isfinite([cx, cy, tx, ty]).all() and (tx, ty) != (cx, cy):
         ax.annotate("", xy=(tx, ty), xytext=(cx, cy), arrowprops={"arrowstyle": "->", "color": "gold"})
+    frusta = _frusta(light, gb)
+    for edge in _frustum_edges(frusta):
+        xy = view.project(edge) - 0.5
+        ax.plot(xy[:, 0], xy[:, 1], color="deepskyblue", lw=0.6, alpha=0.8)
     # The light is often outside the camera's view: widen the canvas to hold it too.
     shown = outline[np.isfinite(outline).all(axis=1)]
     box = np.concatenate([shown, [[-0.5, -0.5], [view.width - 0.5, view.height - 0.5]]])
@@ -239,8 +247,26 @@ def setup(staged, *, ax=None, size: int = 192):
     messages = " ".join(str(w.message) for w in problems)
     state = ("faces away from every receiver" if "lies behind it" in messages else
              "its centre hidden from every receiver" if "no receiver sees" in messages else "facing the scene")
-    ax.set_title(f"{type(light).__name__} ({light.kind}) at [{where}], {state}", fontsize=8)
+    count = f"{len(frusta)} light frust{'um' if len(frusta) == 1 else 'a'}"
+    ax.set_title(f"{type(light).__name__} ({light.kind}) at [{where}], {state}, {count}", fontsize=8)
     return ax
+
+
+def _frusta(light, receivers) -> np.ndarray:
+    """The depth-map methods' light frusta for ``receivers``, shape (K, 5, 3): each one's eye and
+    the four corners of its far plane."""
+    from .methods import _native_receivers
+
+    return light.native().frusta(_native_receivers(receivers))
+
+
+def _frustum_edges(frusta: np.ndarray, steps: int = 64):
+    """The edges of every frustum (eye to each far corner, and the far rectangle) as polylines
+    of ``steps`` world points, so that the parts behind the camera drop out alone."""
+    t = np.linspace(0.0, 1.0, steps)[:, None]
+    for eye, *corners in frusta:
+        for a, b in [(eye, c) for c in corners] + list(zip(corners, corners[1:] + corners[:1])):
+            yield a + t * (b - a)
 
 
 def _outline(light) -> np.ndarray:

@@ -94,7 +94,9 @@ fn maps_agree(limits: Option<DispatchLimits>, precision: Precision) {
     let _serial = LIMITS.lock().unwrap_or_else(|p| p.into_inner());
     let (scene, light) = (scene(), light());
     let eyes = light_samples(&light, 6, Pattern::Poisson, 3, 0);
-    let views = ViewSet::fit(&light, &eyes, receivers(8).bounds().unwrap(), 96).unwrap();
+    let views = ViewSet::fit(&light, &eyes, receivers(8).bounds().unwrap(), 96)
+        .unwrap()
+        .unwrap();
     let opts = VwssOptions {
         precision,
         ..Default::default()
@@ -347,7 +349,9 @@ fn mvr_maps_agree(limits: Option<DispatchLimits>, resolution: usize) {
     let _serial = LIMITS.lock().unwrap_or_else(|p| p.into_inner());
     let (scene, light) = (scene(), light());
     let eyes = light_samples(&light, 6, Pattern::Poisson, 3, 0);
-    let views = ViewSet::fit(&light, &eyes, receivers(8).bounds().unwrap(), resolution).unwrap();
+    let views = ViewSet::fit(&light, &eyes, receivers(8).bounds().unwrap(), resolution)
+        .unwrap()
+        .unwrap();
     force_limits(limits).unwrap();
     let gpu =
         softshadows_core::gpu::mvr::Rasterizer::new(&scene).and_then(|r| r.maps(&views.views));

@@ -80,7 +80,9 @@ fn receivers(n: usize) -> Receivers {
 fn views(resolution: usize) -> ViewSet {
     let rx = receivers(8);
     let eyes = light_samples(&light(), 6, Pattern::Poisson, 3, 0);
-    ViewSet::fit(&light(), &eyes, rx.bounds().unwrap(), resolution).unwrap()
+    ViewSet::fit(&light(), &eyes, rx.bounds().unwrap(), resolution)
+        .unwrap()
+        .unwrap()
 }
 
 #[test]

@@ -10,7 +10,10 @@ mod threads;
 
 use convert::{faces, image, vec2s, vec3, vec3s};
 use error::OrRaise;
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
+use glam::Vec3;
+use numpy::{
+    IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
+};
 use pyo3::prelude::*;
 use softshadows_core::geometry::bvh::Bvh;
 use softshadows_core::geometry::camera::Camera;
@@ -19,6 +22,7 @@ use softshadows_core::geometry::mesh::{AlphaTexture, Mesh, Scene};
 use softshadows_core::geometry::receivers::Receivers;
 use softshadows_core::light::lights::{EmissionTexture, Light};
 use softshadows_core::light::sampling::{light_samples, Interleave, Pattern, SampleSet};
+use softshadows_core::raster::cube::light_frusta;
 use std::sync::OnceLock;
 
 /// A scene and its BVH, built once.
@@ -195,6 +199,28 @@ impl NativeLight {
             Ok(light_samples(&self.light, n, pattern, seed, frame))
         })?;
         convert::flat3(&pts).into_pyarray(py).reshape([n, 3])
+    }
+
+    /// The light frusta of the single-view image-based methods for `receivers`, shape (K, 5, 3):
+    /// each frustum's eye and the four corners of its far plane.
+    fn frusta<'py>(
+        &self,
+        py: Python<'py>,
+        receivers: &NativeReceivers,
+    ) -> PyResult<Bound<'py, PyArray3<f32>>> {
+        let frusta = light_frusta(&self.light, &receivers.receivers, 1).or_raise()?;
+        let points: Vec<Vec3> = frusta
+            .iter()
+            .flat_map(|f| {
+                let (w, h) = (f.width as f32, f.height as f32);
+                let corners =
+                    [(0.0, 0.0), (w, 0.0), (w, h), (0.0, h)].map(|(x, y)| f.unproject(x, y, f.far));
+                std::iter::once(f.eye).chain(corners)
+            })
+            .collect();
+        convert::flat3(&points)
+            .into_pyarray(py)
+            .reshape([frusta.len(), 5, 3])
     }
 
     /// Emission weights of world-space light points, shape (S,).

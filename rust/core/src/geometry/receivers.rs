@@ -81,15 +81,20 @@ impl Receivers {
         (i % self.width.max(1), i / self.width.max(1))
     }
 
-    /// Bounds of the valid receivers, `None` when there are none.
-    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+    /// The points of the valid receivers, in order.
+    pub fn valid_points(&self) -> impl Iterator<Item = Vec3> + '_ {
         self.points
             .iter()
             .zip(&self.valid)
             .filter(|(_, &v)| v)
-            .fold(None, |acc, (p, _)| match acc {
-                None => Some((*p, *p)),
-                Some((lo, hi)) => Some((lo.min(*p), hi.max(*p))),
-            })
+            .map(|(&p, _)| p)
+    }
+
+    /// Bounds of the valid receivers, `None` when there are none.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        self.valid_points().fold(None, |acc, p| match acc {
+            None => Some((p, p)),
+            Some((lo, hi)) => Some((lo.min(p), hi.max(p))),
+        })
     }
 }

@@ -65,12 +65,11 @@ use crate::light::lights::{Light, Shape};
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, object_work, Peak};
 use crate::methods::CasterFaces;
+use crate::raster::cube::by_light_face;
 use crate::raster::depth::{
     band_rows, casters, Caster, FaceFilter, LightFrustum, RasterMode, RasterOptions,
 };
-use crate::raster::influence::{
-    by_light_face, check_hull_degree, influence_hull, LightBounds, ReceiverLists,
-};
+use crate::raster::influence::{check_hull_degree, influence_hull, LightBounds, ReceiverLists};
 use crate::raster::region::conservative_rows;
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
@@ -591,7 +590,7 @@ pub fn alias_free(
     samples: &SampleSet,
     opts: &AliasFreeOptions,
 ) -> Result<(Vec<f32>, Stats)> {
-    by_light_face(light, receivers, |part| {
+    by_light_face(light, receivers, |part, _| {
         alias_free_in_one_frustum(scene, light, part, samples, opts)
     })
 }

@@ -48,6 +48,7 @@ use crate::interrupt;
 use crate::light::lights::{concentric_disk, tangent_frame, Light, Shape};
 use crate::light::sampling::Rng;
 use crate::limits::Peak;
+use crate::raster::cube::{self, by_light_face};
 use crate::raster::depth::{
     raster_peak, raster_work, rasterize_depth, LightFrustum, RasterOptions,
 };
@@ -1037,6 +1038,11 @@ fn peak(
 /// project onto the light), `level_mean` (mean LOQ level `ℓ`), `umbra` and `lit` (receivers
 /// classified so).
 ///
+/// A light among the receivers gets a map per face of a cube around its center
+/// ([`crate::raster::cube`]), each receiver's micro-occluders taken from its own face's map and
+/// backprojected onto the light's plane as ever; stat `light_faces`, and the other stats the
+/// largest face's.
+///
 /// Errors: invalid options; a light that is not a rectangle or a disk; `TooLarge`.
 pub fn backprojection(
     scene: &Scene,
@@ -1069,6 +1075,33 @@ pub fn backprojection_levels(
 ) -> Result<Backprojected> {
     super::refuse_textured(light, "backprojection")?;
     opts.validate(receivers.len())?;
+    let n = receivers.len();
+    let (mut levels, mut processed) = (vec![f32::NAN; n], vec![0u32; n]);
+    let (visibility, stats) = by_light_face(light, receivers, |part, face| {
+        let out = backprojection_view(scene, light, part, face, opts)?;
+        for i in (0..n).filter(|&i| part.valid[i]) {
+            levels[i] = out.levels[i];
+            processed[i] = out.processed[i];
+        }
+        Ok((out.visibility, out.stats))
+    })?;
+    Ok(Backprojected {
+        visibility,
+        levels,
+        processed,
+        stats,
+    })
+}
+
+/// [`backprojection_levels`] on the receivers one light frustum serves: fitted, or cube face
+/// `face`'s.
+fn backprojection_view(
+    scene: &Scene,
+    light: &Light,
+    receivers: &Receivers,
+    face: Option<usize>,
+    opts: &BackprojectionOptions,
+) -> Result<Backprojected> {
     let side = match opts.accumulation {
         Accumulation::Bitmask { side } => side,
         Accumulation::Area => 16,
@@ -1104,7 +1137,7 @@ pub fn backprojection_levels(
             stats,
         });
     };
-    let frustum = LightFrustum::for_light_aligned(light, bounds, opts.resolution)?;
+    let frustum = cube::footprint_frustum(light, receivers, face, bounds, opts.resolution)?;
     peak(scene, n, (frustum.width, frustum.height), opts).check("backprojection", &mut stats)?;
     raster_work(scene, frustum.width, frustum.height)
         .loop_of(&[

@@ -68,6 +68,7 @@ use crate::gpu::{self, Backend};
 use crate::interrupt;
 use crate::light::lights::Light;
 use crate::limits::{self, Peak};
+use crate::raster::cube::{self, by_light_face};
 use crate::raster::depth::{
     raster_peak, raster_work, rasterize_depth, DepthMap, LightFrustum, RasterOptions,
     MAX_RESOLUTION,
@@ -471,7 +472,11 @@ impl Lookup<'_> {
 /// `prefilter_seconds`, `lookup_seconds`, `resolution`, `basis_images` (`4M + 1`), `search_near`,
 /// and the normalization `depth_min`, `depth_span` (`ẑ = (z − depth_min) / depth_span`).
 ///
-/// Errors: invalid options; the light's center inside the receivers' bounds; `TooLarge`.
+/// A light among the receivers gets a map per face of a cube around its center
+/// ([`crate::raster::cube`]), each with its own basis images and normalization, every receiver
+/// filtered in its own face's; stat `light_faces`.
+///
+/// Errors: invalid options; `TooLarge`.
 pub fn cssm(
     scene: &Scene,
     light: &Light,
@@ -480,6 +485,19 @@ pub fn cssm(
 ) -> Result<(Vec<f32>, Stats)> {
     super::refuse_textured(light, "cssm")?;
     opts.validate()?;
+    by_light_face(light, receivers, |part, face| {
+        cssm_view(scene, light, part, face, opts)
+    })
+}
+
+/// [`cssm`] on the receivers one light frustum serves: fitted, or cube face `face`'s.
+fn cssm_view(
+    scene: &Scene,
+    light: &Light,
+    receivers: &Receivers,
+    face: Option<usize>,
+    opts: &CssmOptions,
+) -> Result<(Vec<f32>, Stats)> {
     let mut stats = Stats::default();
     for name in [
         "shadow_map_seconds",
@@ -495,7 +513,7 @@ pub fn cssm(
     let Some(bounds) = receivers.bounds() else {
         return Ok((vec![0.0; receivers.len()], stats));
     };
-    let frustum = LightFrustum::for_light_aligned(light, bounds, opts.resolution)?;
+    let frustum = cube::footprint_frustum(light, receivers, face, bounds, opts.resolution)?;
     Peak::default()
         .buffer(&[receivers.len() as u64, 4])
         .and(cssm_peak(scene, frustum.width, frustum.height, opts))

@@ -33,7 +33,8 @@ use crate::interrupt;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, object_work, Peak, Work};
-use crate::raster::influence::{by_light_face, ObjectOptions, Origins};
+use crate::raster::cube::by_light_face;
+use crate::raster::influence::{ObjectOptions, Origins};
 use crate::stats::Stats;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -238,7 +239,7 @@ pub fn dcs(
     samples: &SampleSet,
     opts: &ObjectOptions,
 ) -> Result<(Vec<f32>, Stats)> {
-    by_light_face(light, receivers, |part| {
+    by_light_face(light, receivers, |part, _| {
         dcs_in_one_frustum(scene, bvh, light, part, samples, opts)
     })
 }

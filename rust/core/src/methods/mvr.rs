@@ -18,10 +18,13 @@ use crate::interrupt;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
 use crate::limits::{Peak, Work};
+use crate::raster::cube;
 use crate::raster::depth::{raster_peak, rasterize_depth, RasterOptions};
 use crate::raster::multiview::{accumulate, resolve, ViewSet};
 use crate::raster::pcf::{DepthBias, PcfKernel};
 use crate::stats::Stats;
+use glam::Vec3;
+use rayon::prelude::*;
 
 /// Options shared by [`mvr`] and `vwss`'s lighting stage.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -92,8 +95,11 @@ pub fn shared_eyes(samples: &SampleSet) -> Result<&[glam::Vec3]> {
 /// Returns the visibility (receivers' order) and stats: `depth_maps_seconds`,
 /// `lighting_seconds`, `views`, `resolution`, `fragments` (rasterized over all views).
 ///
-/// Errors: invalid options; rotated or interleaved samples; a sample inside the receivers'
-/// bounds; `TooLarge` past the memory limit.
+/// A light among the receivers (its center or a sample inside or level with their bounds) gets
+/// a cube of depth maps around every sample instead (see `around_every_sample`), on the CPU.
+///
+/// Errors: invalid options; rotated or interleaved samples; the GPU backend for a light among
+/// the receivers; `TooLarge` past the memory limit.
 pub fn mvr(
     scene: &Scene,
     light: &Light,
@@ -112,7 +118,11 @@ pub fn mvr(
     let Some(bounds) = receivers.bounds() else {
         return Ok((vec![0.0; receivers.len()], stats));
     };
-    let views = ViewSet::fit(light, eyes, bounds, opts.resolution)?;
+    let Some(views) = ViewSet::fit(light, eyes, bounds, opts.resolution)? else {
+        let vis = around_every_sample(scene, light, receivers, eyes, opts, &mut stats)?;
+        return Ok((vis, stats));
+    };
+    stats.set("light_faces", 1.0);
     // The sums, the visibility and one view's map at a time.
     Peak::default()
         .buffer(&[receivers.len() as u64, 4 + 4])
@@ -134,7 +144,7 @@ pub fn mvr(
         stats.add("lighting_seconds", light);
         stats.set("fragments", fragments as f64);
         let sums = stats.time_add("lighting", || lighting.sums())?;
-        return Ok((resolve(&sums, &views, receivers), stats));
+        return Ok((resolve(&sums, views.total_weight(), receivers), stats));
     }
     let mut sums = vec![0.0f32; receivers.len()];
     for (s, view) in views.views.iter().enumerate() {
@@ -147,5 +157,84 @@ pub fn mvr(
             accumulate(&mut sums, &views, &[(s, &map)], receivers, &kernel, bias)
         });
     }
-    Ok((resolve(&sums, &views, receivers), stats))
+    Ok((resolve(&sums, views.total_weight(), receivers), stats))
+}
+
+/// [`mvr`] for a light among the receivers: a cube of depth maps around every light sample
+/// ([`crate::raster::cube`]), each receiver tested in the face its direction from that sample
+/// falls in (a receiver near the light can lie on different sides of different samples). The
+/// faces of one sample are rendered and lit together, then dropped. Stat `light_faces`: the
+/// most faces one sample needed.
+fn around_every_sample(
+    scene: &Scene,
+    light: &Light,
+    receivers: &Receivers,
+    eyes: &[Vec3],
+    opts: &MultiViewOptions,
+    stats: &mut Stats,
+) -> Result<Vec<f32>> {
+    if opts.backend == Backend::Gpu {
+        return Err(Error::invalid(
+            "backend",
+            "mvr's GPU passes light every receiver from one view per light sample, and this light lies \
+             among the receivers (a cube of views around each sample): pass backend='cpu'",
+        ));
+    }
+    let (kernel, bias) = opts.shadow_test()?;
+    let faces = cube::FACES.len();
+    Peak::default()
+        .buffer(&[receivers.len() as u64, 4 + 4 + 1])
+        .buffer(&[
+            faces as u64,
+            opts.resolution as u64,
+            opts.resolution as u64,
+            4,
+        ])
+        .and(raster_peak(scene, 0, 0))
+        .check("mvr", stats)?;
+    opts.lighting_work(eyes.len() * faces, receivers.len())
+        .loop_of(&[
+            (eyes.len() * faces) as u64,
+            scene.num_faces() as u64,
+            Work::TRIANGLE,
+        ])
+        .check("mvr", stats)?;
+    let weights: Vec<f32> = eyes.iter().map(|&y| light.weight(y)).collect();
+    let mut sums = vec![0.0f32; receivers.len()];
+    let mut most_faces = 0;
+    for (&eye, &weight) in eyes.iter().zip(&weights) {
+        interrupt::check()?;
+        let face_of = cube::points_faces(eye, receivers);
+        let mut maps = Vec::with_capacity(faces);
+        for face in 0..faces {
+            let mut points = (0..receivers.len())
+                .filter(|&i| receivers.valid[i] && usize::from(face_of[i]) == face)
+                .map(|i| receivers.points[i])
+                .peekable();
+            if points.peek().is_none() {
+                maps.push(None);
+                continue;
+            }
+            let frustum = cube::face_frustum(eye, face, points, opts.resolution)?;
+            let map = stats.time_add("depth_maps", || {
+                rasterize_depth(scene, &frustum, &RasterOptions::default())
+            })?;
+            stats.add("fragments", map.fragments as f64);
+            maps.push(Some((frustum, map)));
+        }
+        most_faces = most_faces.max(maps.iter().flatten().count());
+        stats.time_add("lighting", || {
+            sums.par_iter_mut().enumerate().for_each(|(i, sum)| {
+                if let (true, Some((frustum, map))) =
+                    (receivers.valid[i], &maps[usize::from(face_of[i])])
+                {
+                    let p = (receivers.points[i], receivers.normals[i]);
+                    *sum += weight * kernel.visibility(map, frustum, p.0, p.1, bias);
+                }
+            });
+        });
+    }
+    stats.set("light_faces", most_faces as f64);
+    let total = weights.iter().map(|&w| f64::from(w)).sum();
+    Ok(resolve(&sums, total, receivers))
 }

@@ -34,6 +34,7 @@ use crate::interrupt;
 use crate::light::lights::Light;
 use crate::light::sampling::{unit_disk_pattern, Pattern};
 use crate::limits::Peak;
+use crate::raster::cube::{self, by_light_face};
 use crate::raster::depth::{
     raster_peak, raster_work, rasterize_depth, DepthMap, LightFrustum, RasterOptions,
     MAX_RESOLUTION,
@@ -202,7 +203,11 @@ impl Lookup<'_> {
 /// (blocker search and filtering), `resolution`, `search_near` (`z_n`), `no_blocker` (the fraction
 /// of valid receivers whose search found no blocker).
 ///
-/// Errors: invalid options; the light's center inside the receivers' bounds; `TooLarge`.
+/// A light among the receivers gets a map per face of a cube around its center
+/// ([`crate::raster::cube`]), each receiver searched and filtered in its own face's map, the
+/// light's footprint taken along that face's axes; stat `light_faces`.
+///
+/// Errors: invalid options; `TooLarge`.
 pub fn pcss(
     scene: &Scene,
     light: &Light,
@@ -211,6 +216,19 @@ pub fn pcss(
 ) -> Result<(Vec<f32>, Stats)> {
     super::refuse_textured(light, "pcss")?;
     opts.validate()?;
+    by_light_face(light, receivers, |part, face| {
+        pcss_view(scene, light, part, face, opts)
+    })
+}
+
+/// [`pcss`] on the receivers one light frustum serves: fitted, or cube face `face`'s.
+fn pcss_view(
+    scene: &Scene,
+    light: &Light,
+    receivers: &Receivers,
+    face: Option<usize>,
+    opts: &PcssOptions,
+) -> Result<(Vec<f32>, Stats)> {
     let mut stats = Stats::default();
     for name in [
         "depth_map_seconds",
@@ -224,7 +242,7 @@ pub fn pcss(
     let Some(bounds) = receivers.bounds() else {
         return Ok((vec![0.0; receivers.len()], stats));
     };
-    let frustum = LightFrustum::for_light_aligned(light, bounds, opts.resolution)?;
+    let frustum = cube::footprint_frustum(light, receivers, face, bounds, opts.resolution)?;
     // The visibility and each receiver's outcome.
     Peak::default()
         .buffer(&[receivers.len() as u64, 4 + 8])

@@ -27,7 +27,8 @@ use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
 use crate::limits::{object_work, Peak};
 use crate::methods::dcs::plus_zero_sum;
-use crate::raster::influence::{by_light_face, ObjectOptions, Origins};
+use crate::raster::cube::by_light_face;
+use crate::raster::influence::{ObjectOptions, Origins};
 use crate::stats::Stats;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -44,7 +45,7 @@ pub fn penumbra_wedge(
     samples: &SampleSet,
     opts: &ObjectOptions,
 ) -> Result<(Vec<f32>, Stats)> {
-    by_light_face(light, receivers, |part| {
+    by_light_face(light, receivers, |part, _| {
         wedges_in_one_frustum(scene, bvh, light, part, samples, opts)
     })
 }

@@ -6,7 +6,8 @@
 //! The shadow-casting point is the frustum's eye: a point light's position, or the center of an
 //! area or sphere light (so an area light gets the hard shadow of its center). Unless an explicit
 //! frustum is given, a square frustum of `resolution²` texels is fitted from that point to the
-//! valid receivers' bounds ([`LightFrustum::fit`]). Every triangle is rasterized (standard mode,
+//! valid receivers' bounds ([`LightFrustum::fit`]), or, for a light among the receivers, one per
+//! face of a cube around it ([`crate::raster::cube`]). Every triangle is rasterized (standard mode,
 //! perforated meshes alpha-tested) into a map of linear depth; each receiver is then projected and
 //! compared with `pcf × pcf` texels around its own:
 //!
@@ -30,6 +31,7 @@ use crate::gpu::{self, Backend};
 use crate::interrupt;
 use crate::light::lights::Light;
 use crate::limits::Peak;
+use crate::raster::cube::{self, by_light_face};
 use crate::raster::depth::{
     raster_peak, raster_work, rasterize_depth, DepthMap, LightFrustum, RasterOptions,
 };
@@ -92,8 +94,11 @@ impl ShadowMapOptions {
 /// `render_seconds`, `lookup_seconds`, `resolution` (map width), `texels_drawn` (texels holding
 /// a depth), `fragments` (fragments rasterized).
 ///
-/// Errors: invalid options; no fitting frustum (light inside the receivers' bounds: pass
-/// `frustum`); `TooLarge` past the memory limit.
+/// A light among the receivers (no frustum holds their bounds) gets a map per face of a cube
+/// around its center ([`crate::raster::cube`]), each receiver looked up in its own face's, with
+/// the stat `light_faces` (1 for one fitted frustum).
+///
+/// Errors: invalid options; `TooLarge` past the memory limit.
 pub fn shadow_map(
     scene: &Scene,
     light: &Light,
@@ -102,23 +107,41 @@ pub fn shadow_map(
 ) -> Result<(Vec<f32>, Stats)> {
     super::refuse_textured(light, "shadow_map")?;
     opts.validate()?;
-    let mut stats = Stats::default();
-    let frustum = match (opts.frustum, receivers.bounds()) {
-        (Some(f), _) => f,
-        (None, Some(bounds)) => LightFrustum::for_light(light, bounds, opts.resolution)?,
-        (None, None) => {
-            for name in [
-                "render_seconds",
-                "lookup_seconds",
-                "resolution",
-                "texels_drawn",
-                "fragments",
-            ] {
-                stats.set(name, 0.0);
+    if let Some(frustum) = opts.frustum {
+        return through(scene, receivers, &frustum, opts);
+    }
+    by_light_face(light, receivers, |part, face| {
+        let frustum = match (face, part.bounds()) {
+            (Some(face), _) => {
+                cube::face_frustum(light.center(), face, part.valid_points(), opts.resolution)?
             }
-            return Ok((vec![0.0; receivers.len()], stats));
-        }
-    };
+            (None, Some(bounds)) => LightFrustum::for_light(light, bounds, opts.resolution)?,
+            (None, None) => {
+                let mut stats = Stats::default();
+                for name in [
+                    "render_seconds",
+                    "lookup_seconds",
+                    "resolution",
+                    "texels_drawn",
+                    "fragments",
+                ] {
+                    stats.set(name, 0.0);
+                }
+                return Ok((vec![0.0; part.len()], stats));
+            }
+        };
+        through(scene, part, &frustum, opts)
+    })
+}
+
+/// [`shadow_map`] through one frustum.
+fn through(
+    scene: &Scene,
+    receivers: &Receivers,
+    frustum: &LightFrustum,
+    opts: &ShadowMapOptions,
+) -> Result<(Vec<f32>, Stats)> {
+    let mut stats = Stats::default();
     Peak::default()
         .buffer(&[receivers.len() as u64, 4])
         .and(raster_peak(scene, frustum.width, frustum.height))
@@ -127,13 +150,13 @@ pub fn shadow_map(
         .loop_of(&[receivers.len() as u64, (opts.pcf as u64).pow(2)])
         .check("shadow_map", &mut stats)?;
     let map = stats.time("render", || {
-        rasterize_depth(scene, &frustum, &RasterOptions::default())
+        rasterize_depth(scene, frustum, &RasterOptions::default())
     })?;
     let vis = match opts.backend {
         Backend::Gpu => gpu::timed_stage(&mut stats, "lookup", || {
-            lookup_all(&map, &frustum, receivers, opts)
+            lookup_all(&map, frustum, receivers, opts)
         })?,
-        Backend::Cpu => stats.time("lookup", || lookup_all(&map, &frustum, receivers, opts))?,
+        Backend::Cpu => stats.time("lookup", || lookup_all(&map, frustum, receivers, opts))?,
     };
     stats.set("resolution", frustum.width as f64);
     stats.set("texels_drawn", map.drawn_texels() as f64);

@@ -45,9 +45,8 @@ use crate::methods::alias_free::{masks_peak, sample_masks, AliasFreeOptions, Tab
 use crate::methods::dcs::{depth_complexity, depth_complexity_peak, visible_fraction};
 use crate::methods::penumbra_wedge::{wedge_occlusion, wedge_occlusion_peak};
 use crate::methods::CasterFaces;
-use crate::raster::influence::{
-    by_light_face, check_hull_degree, LightBounds, ObjectOptions, Origins,
-};
+use crate::raster::cube::by_light_face;
+use crate::raster::influence::{check_hull_degree, LightBounds, ObjectOptions, Origins};
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -456,7 +455,7 @@ pub fn stsv(
     samples: &SampleSet,
     opts: &StsvOptions,
 ) -> Result<(Vec<f32>, Stats)> {
-    by_light_face(light, receivers, |part| {
+    by_light_face(light, receivers, |part, _| {
         stsv_in_one_frustum(scene, bvh, light, part, samples, opts)
     })
 }

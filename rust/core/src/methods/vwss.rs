@@ -65,6 +65,7 @@ use crate::light::lights::{Light, Shape};
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, Peak};
 use crate::methods::mvr::{shared_eyes, MultiViewOptions};
+use crate::raster::cube;
 use crate::raster::depth::{
     casters, raster_peak, raster_work, rasterize_depth, Caster, DepthMap, FaceFilter, LightFrustum,
     RasterMode, RasterOptions, Rasterizer, TexelRect, MAX_RESOLUTION, NEAR_FRACTION,
@@ -597,8 +598,9 @@ pub fn warp_fragments(
 /// `traversals`, `views`, `resolution`, `source_resolution`, `pull_back` (`d` of eq. 1, world
 /// units).
 ///
-/// Errors: invalid options; rotated or interleaved samples; a sample inside the receivers'
-/// bounds; `TooLarge` past the memory limit.
+/// Errors: invalid options; rotated or interleaved samples; a light among the receivers (its
+/// center or a sample inside or level with their bounds: no source view behind the light holds
+/// them); `TooLarge` past the memory limit.
 pub fn vwss(
     scene: &Scene,
     light: &Light,
@@ -626,7 +628,18 @@ pub fn vwss(
     let Some(bounds) = receivers.bounds() else {
         return Ok((vec![0.0; receivers.len()], stats));
     };
-    let views = ViewSet::fit(light, eyes, bounds, opts.multiview.resolution)?;
+    let Some(views) = ViewSet::fit(light, eyes, bounds, opts.multiview.resolution)? else {
+        return Err(Error::invalid(
+            "light",
+            format!(
+                "vwss warps one source view into every light sample's view, its eye pulled back behind the \
+                 light to contain them all (Marrs et al. 2018, section 3.1), and leaves omni-directional \
+                 lights to future work (section 5.2); this light lies among the receivers, so no view from \
+                 behind it holds them. {} handle a light among the receivers",
+                cube::METHODS
+            ),
+        ));
+    };
     let source = source_view(scene, light, &views, opts)?;
     stats.set("source_resolution", source.width as f64);
     stats.set(
@@ -716,5 +729,5 @@ pub fn vwss(
             sums
         }
     };
-    Ok((resolve(&sums, &views, receivers), stats))
+    Ok((resolve(&sums, views.total_weight(), receivers), stats))
 }

@@ -289,10 +289,10 @@ impl LightFrustum {
                     "light",
                     format!(
                         "no light frustum from {eye} (under 179.9 degrees wide) holds the receivers' bounding \
-                         box {points_min}..{points_max}: the light lies among the receivers. alias_free, stsv, dcs, \
-                         penumbra_wedge and ray_traced handle a light among the receivers; for this method pass \
-                         receivers whose bounding box (not only the points) lies clear of the light on one side \
-                         (or, from Rust, an explicit frustum made with LightFrustum::new)"
+                         box {points_min}..{points_max}: the light lies among the receivers. {} handle a light \
+                         among the receivers (a frustum per face of a cube around it, crate::raster::cube); \
+                         or pass an explicit frustum made with LightFrustum::new",
+                        crate::raster::cube::METHODS
                     ),
                 ))
             }

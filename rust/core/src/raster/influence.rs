@@ -24,6 +24,7 @@ use crate::geometry::receivers::Receivers;
 use crate::light::lights::{tangent_frame, Light, Shape};
 use crate::light::sampling::SampleSet;
 use crate::limits::Peak;
+use crate::raster::cube::enclosing_face;
 use crate::raster::depth::{band_rows, bin_row_ranges, LightFrustum, NEAR_FRACTION};
 use crate::raster::region::{conservative_rows, convex_hull};
 use crate::stats::Stats;
@@ -419,7 +420,7 @@ pub fn record_list_stats(lengths: impl ExactSizeIterator<Item = usize>, stats: &
 
 /// The frustum of [`ReceiverLists::build`]: the square fit to the points' bounding box
 /// ([`LightFrustum::fit`]), or where none holds the box, the frustum of the cube face around
-/// the light that holds every point ([`face_frustum`]); fitted to the points ([`fit_to_points`]).
+/// the light that holds every point ([`enclosing_face`]); fitted to the points ([`fit_to_points`]).
 /// Errors: neither holds the points (some lie on every side of the light, or at it).
 fn fit_frustum(light: &Light, points: &[Vec3], resolution: usize) -> Result<LightFrustum> {
     let (lo, hi) = points
@@ -428,7 +429,7 @@ fn fit_frustum(light: &Light, points: &[Vec3], resolution: usize) -> Result<Ligh
             (lo.min(p), hi.max(p))
         });
     let eye = light.center();
-    let base = LightFrustum::fit(eye, lo, hi, resolution).ok().or_else(|| face_frustum(eye, points, resolution)).ok_or_else(|| {
+    let base = LightFrustum::fit(eye, lo, hi, resolution).ok().or_else(|| enclosing_face(eye, points, resolution)).ok_or_else(|| {
         Error::invalid(
             "light",
             format!(
@@ -459,133 +460,6 @@ fn fit_to_points(base: LightFrustum, points: &[Vec3]) -> LightFrustum {
         near: NEAR_FRACTION * z0,
         far: (z1 * 1.001).max(NEAR_FRACTION * z0 * 2.0),
         ..base
-    }
-}
-
-/// The view directions of the faces of a cube around the light (world axes, each with an up
-/// axis across it).
-const CUBE_FACES: [(Vec3, Vec3); 6] = [
-    (Vec3::X, Vec3::Y),
-    (Vec3::NEG_X, Vec3::Y),
-    (Vec3::Y, Vec3::Z),
-    (Vec3::NEG_Y, Vec3::Z),
-    (Vec3::Z, Vec3::Y),
-    (Vec3::NEG_Z, Vec3::Y),
-];
-
-/// The cube face whose direction is nearest that from `eye` to `p` (the first of equals).
-fn cube_face(eye: Vec3, p: Vec3) -> usize {
-    let d = p - eye;
-    (0..6).fold(0, |best, k| {
-        if d.dot(CUBE_FACES[k].0) > d.dot(CUBE_FACES[best].0) {
-            k
-        } else {
-            best
-        }
-    })
-}
-
-/// A frustum from `eye` along the cube face direction that keeps every point of `points` at the
-/// largest angle from its sides (a placeholder field of view and depth range, for
-/// [`fit_to_points`]); `None` when that leaves some point within 0.06° of its side plane or
-/// behind it, the limit of [`LightFrustum::fit`].
-fn face_frustum(eye: Vec3, points: &[Vec3], resolution: usize) -> Option<LightFrustum> {
-    let least_cosine = |axis: Vec3| {
-        points
-            .iter()
-            .map(|&p| (p - eye).normalize_or_zero().dot(axis))
-            .fold(f32::INFINITY, f32::min)
-    };
-    let (cosine, (forward, up)) = CUBE_FACES
-        .iter()
-        .map(|&f| (least_cosine(f.0), f))
-        .max_by(|a, b| a.0.total_cmp(&b.0))?;
-    let min_cosine =
-        1.0 / (1.0 + crate::raster::depth::MAX_FIT_TAN * crate::raster::depth::MAX_FIT_TAN).sqrt();
-    (cosine > min_cosine)
-        .then(|| {
-            LightFrustum::from_axes(eye, forward, up, 1.0, 1.0, 1.0, 2.0, resolution, resolution)
-                .ok()
-        })
-        .flatten()
-}
-
-/// For each receiver, the cube face around the light its direction falls in, when no single
-/// light frustum holds the valid receivers' bounding box ([`LightFrustum::fit`]); `None` when
-/// one does.
-pub fn light_faces(light: &Light, receivers: &Receivers) -> Option<Vec<u8>> {
-    let c = light.center();
-    let (lo, hi) = receivers.bounds()?;
-    LightFrustum::fit(c, lo, hi, 1).is_err().then(|| {
-        receivers
-            .points
-            .iter()
-            .map(|&p| cube_face(c, p) as u8)
-            .collect()
-    })
-}
-
-/// Runs an object-based method (`run`, on the receivers it is given) once per light frustum:
-/// once when one frustum holds the receivers, else once per face of a cube around the light,
-/// on the receivers whose direction falls in it, as Sintorn et al. 2008 (section 5) cover an
-/// omni-directional light with six maps. A receiver's result is exact whatever frustum serves
-/// it (the lists and regions only choose which receivers a caster tests), so the faces' results
-/// merge receiver by receiver. Stats: the faces' seconds and per-receiver counts added, other
-/// values the largest face's, and `light_faces`, the number of frusta.
-pub(crate) fn by_light_face(
-    light: &Light,
-    receivers: &Receivers,
-    mut run: impl FnMut(&Receivers) -> Result<(Vec<f32>, Stats)>,
-) -> Result<(Vec<f32>, Stats)> {
-    let Some(faces) = light_faces(light, receivers) else {
-        let (vis, mut stats) = run(receivers)?;
-        stats.set("light_faces", 1.0);
-        return Ok((vis, stats));
-    };
-    let mut vis = vec![0.0f32; receivers.len()];
-    let mut stats = Stats::default();
-    let mut part = receivers.clone();
-    let mut used = 0;
-    for face in 0..CUBE_FACES.len() as u8 {
-        part.valid = receivers
-            .valid
-            .iter()
-            .zip(&faces)
-            .map(|(&v, &f)| v && f == face)
-            .collect();
-        if !part.valid.contains(&true) {
-            continue;
-        }
-        let (face_vis, face_stats) = run(&part)?;
-        for (i, _) in part.valid.iter().enumerate().filter(|(_, &v)| v) {
-            vis[i] = face_vis[i];
-        }
-        merge_face_stats(&mut stats, &face_stats);
-        used += 1;
-    }
-    stats.set("light_faces", f64::from(used));
-    Ok((vis, stats))
-}
-
-/// The stats of the object-based methods that count work per receiver: added over the faces.
-const PER_RECEIVER_STATS: [&str; 7] = [
-    "receivers",
-    "view_samples",
-    "exact_view_samples",
-    "inside_view_samples",
-    "wedge_tests",
-    "receivers_tested",
-    "receivers_inside",
-];
-
-/// Merges a face's stats into `total` (see [`by_light_face`]).
-fn merge_face_stats(total: &mut Stats, face: &Stats) {
-    for (name, value) in &face.entries {
-        if name.ends_with("_seconds") || PER_RECEIVER_STATS.contains(&name.as_str()) {
-            total.add(name, *value);
-        } else {
-            total.set(name, total.get(name).map_or(*value, |t| t.max(*value)));
-        }
     }
 }
 

@@ -1,4 +1,5 @@
 //! Shadow-map machinery shared by every image-based method.
+pub mod cube;
 pub mod depth;
 pub mod footprint;
 pub mod influence;

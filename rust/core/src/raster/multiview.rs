@@ -34,36 +34,34 @@ impl ViewSet {
     /// Views from every light sample in `eyes` to the receivers' `bounds = (min, max)`, each
     /// `resolution²` texels (see the module documentation for the shared shape).
     ///
-    /// Errors: no samples; a sample inside (or level with) the receivers' bounds, so no
-    /// perspective view contains them.
+    /// `None` when the light lies among the receivers: its center or a sample inside (or level
+    /// with) the receivers' bounds, so no perspective view from it contains them.
+    ///
+    /// Errors: no samples.
     pub fn fit(
         light: &Light,
         eyes: &[Vec3],
         bounds: (Vec3, Vec3),
         resolution: usize,
-    ) -> Result<Self> {
+    ) -> Result<Option<Self>> {
         if eyes.is_empty() {
             return Err(Error::invalid("views", "needs at least one light sample"));
         }
-        let base = LightFrustum::fit(light.center(), bounds.0, bounds.1, resolution)?;
+        let Ok(base) = LightFrustum::fit(light.center(), bounds.0, bounds.1, resolution) else {
+            return Ok(None);
+        };
         let (lo, hi) = bounds;
         let corners: [Vec3; 8] = std::array::from_fn(|i| {
             Vec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), hi, lo)
         });
         let (mut tan, mut z_min, mut z_max) = (0.0f32, f32::INFINITY, 0.0f32);
-        for (i, eye) in eyes.iter().enumerate() {
+        for eye in eyes {
             for c in &corners {
                 let d = *c - *eye;
                 let z = d.dot(base.forward);
                 let t = d.dot(base.right).abs().max(d.dot(base.up).abs()) / z;
                 if !(z > 0.0 && t <= MAX_FIT_TAN) {
-                    return Err(Error::invalid(
-                        "light",
-                        format!(
-                            "light sample {i} at {eye} lies level with or inside the receivers' bounds {lo}..{hi}, \
-                             so no perspective view from it contains them"
-                        ),
-                    ));
+                    return Ok(None);
                 }
                 tan = tan.max(t);
                 z_min = z_min.min(z);
@@ -83,10 +81,10 @@ impl ViewSet {
                 ..base
             })
             .collect();
-        Ok(Self {
+        Ok(Some(Self {
             views,
             weights: eyes.iter().map(|&y| light.weight(y)).collect(),
-        })
+        }))
     }
 
     /// The number of views.
@@ -125,10 +123,10 @@ pub fn accumulate(
     });
 }
 
-/// The visibility from the accumulated sums: `sums[i] / Σ w_s` in [0, 1]; 0 for invalid
-/// receivers and when the total weight is 0.
-pub fn resolve(sums: &[f32], views: &ViewSet, rx: &Receivers) -> Vec<f32> {
-    let total = views.total_weight();
+/// The visibility from the accumulated sums: `sums[i] / total` in [0, 1], `total` the sum of
+/// the samples' weights ([`ViewSet::total_weight`]); 0 for invalid receivers and when the
+/// total weight is 0.
+pub fn resolve(sums: &[f32], total: f64, rx: &Receivers) -> Vec<f32> {
     sums.iter()
         .zip(&rx.valid)
         .map(|(&s, &valid)| {
