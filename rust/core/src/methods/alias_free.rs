@@ -66,6 +66,7 @@ use crate::light::sampling::SampleSet;
 use crate::limits::{self, object_work, Peak};
 use crate::methods::CasterFaces;
 use crate::raster::cube::by_light_face;
+use crate::raster::depth::check_resolution;
 use crate::raster::depth::{
     band_rows, casters, Caster, FaceFilter, LightFrustum, RasterMode, RasterOptions,
 };
@@ -171,12 +172,7 @@ impl Default for AliasFreeOptions {
 
 impl AliasFreeOptions {
     fn validate(&self) -> Result<()> {
-        if !(1..=crate::raster::depth::MAX_RESOLUTION).contains(&self.resolution) {
-            return Err(Error::invalid(
-                "resolution",
-                format!("must be in 1..=65536, got {}", self.resolution),
-            ));
-        }
+        check_resolution("resolution", self.resolution)?;
         if !(self.bias.is_finite() && self.bias >= 0.0) {
             return Err(Error::invalid(
                 "bias",

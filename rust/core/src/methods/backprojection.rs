@@ -49,6 +49,7 @@ use crate::light::lights::{concentric_disk, tangent_frame, Light, Shape};
 use crate::light::sampling::Rng;
 use crate::limits::Peak;
 use crate::raster::cube::{self, by_light_face};
+use crate::raster::depth::check_resolution;
 use crate::raster::depth::{
     raster_peak, raster_work, rasterize_depth, LightFrustum, RasterOptions,
 };
@@ -146,12 +147,7 @@ impl Default for BackprojectionOptions {
 
 impl BackprojectionOptions {
     fn validate(&self, receivers: usize) -> Result<()> {
-        if !(1..=crate::raster::depth::MAX_RESOLUTION).contains(&self.resolution) {
-            return Err(Error::invalid(
-                "resolution",
-                format!("must be in 1..=65536, got {}", self.resolution),
-            ));
-        }
+        check_resolution("resolution", self.resolution)?;
         if let Accumulation::Bitmask { side } = self.accumulation {
             if !(1..=64).contains(&side) {
                 return Err(Error::invalid(

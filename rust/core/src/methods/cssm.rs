@@ -70,8 +70,8 @@ use crate::light::lights::Light;
 use crate::limits::{self, Peak};
 use crate::raster::cube::{self, by_light_face};
 use crate::raster::depth::{
-    raster_peak, raster_work, rasterize_depth, DepthMap, LightFrustum, RasterOptions,
-    MAX_RESOLUTION,
+    check_resolution, raster_peak, raster_work, rasterize_depth, DepthMap, LightFrustum,
+    RasterOptions,
 };
 use crate::raster::footprint::LightFootprint;
 use crate::raster::pyramid::{MipMap, SummedAreaTable};
@@ -142,12 +142,7 @@ impl CssmOptions {
     }
 
     fn validate(&self) -> Result<()> {
-        if !(1..=MAX_RESOLUTION).contains(&self.resolution) {
-            return Err(Error::invalid(
-                "resolution",
-                format!("must be in 1..={MAX_RESOLUTION}, got {}", self.resolution),
-            ));
-        }
+        check_resolution("resolution", self.resolution)?;
         if !(1..=MAX_ORDER).contains(&self.order) {
             return Err(Error::invalid(
                 "order",

@@ -19,6 +19,7 @@ use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
 use crate::limits::{Peak, Work};
 use crate::raster::cube;
+use crate::raster::depth::check_resolution;
 use crate::raster::depth::{raster_peak, rasterize_depth, RasterOptions};
 use crate::raster::multiview::{accumulate, resolve, ViewSet};
 use crate::raster::pcf::{DepthBias, PcfKernel};
@@ -64,16 +65,7 @@ impl MultiViewOptions {
     /// Checks the options and returns the PCF kernel and the depth bias (see
     /// [`crate::raster::pcf`]).
     pub fn shadow_test(&self) -> Result<(PcfKernel, DepthBias)> {
-        if !(1..=crate::raster::depth::MAX_RESOLUTION).contains(&self.resolution) {
-            return Err(Error::invalid(
-                "resolution",
-                format!(
-                    "must be in 1..={}, got {}",
-                    crate::raster::depth::MAX_RESOLUTION,
-                    self.resolution
-                ),
-            ));
-        }
+        check_resolution("resolution", self.resolution)?;
         Ok((PcfKernel::with_taps(self.pcf)?, DepthBias::new(self.bias)?))
     }
 }

@@ -36,8 +36,8 @@ use crate::light::sampling::{unit_disk_pattern, Pattern};
 use crate::limits::Peak;
 use crate::raster::cube::{self, by_light_face};
 use crate::raster::depth::{
-    raster_peak, raster_work, rasterize_depth, DepthMap, LightFrustum, RasterOptions,
-    MAX_RESOLUTION,
+    check_resolution, raster_peak, raster_work, rasterize_depth, DepthMap, LightFrustum,
+    RasterOptions,
 };
 use crate::raster::footprint::LightFootprint;
 use crate::raster::pcf::{DepthBias, ReceiverDepth};
@@ -84,12 +84,7 @@ impl Default for PcssOptions {
 
 impl PcssOptions {
     fn validate(&self) -> Result<()> {
-        if !(1..=MAX_RESOLUTION).contains(&self.resolution) {
-            return Err(Error::invalid(
-                "resolution",
-                format!("must be in 1..={MAX_RESOLUTION}, got {}", self.resolution),
-            ));
-        }
+        check_resolution("resolution", self.resolution)?;
         for (arg, n) in [
             ("blocker_samples", self.blocker_samples),
             ("filter_samples", self.filter_samples),

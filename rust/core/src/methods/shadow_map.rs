@@ -23,7 +23,7 @@
 //! ([`ReceiverDepth`](crate::raster::pcf::ReceiverDepth)), which removes
 //! self-shadowing acne on flat and curved receivers for every PCF size.
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::gpu::multiview::Lighting;
@@ -32,6 +32,7 @@ use crate::interrupt;
 use crate::light::lights::Light;
 use crate::limits::Peak;
 use crate::raster::cube::{self, by_light_face};
+use crate::raster::depth::check_resolution;
 use crate::raster::depth::{
     raster_peak, raster_work, rasterize_depth, DepthMap, LightFrustum, RasterOptions,
 };
@@ -69,16 +70,7 @@ impl Default for ShadowMapOptions {
 impl ShadowMapOptions {
     /// Checks every option (the frustum too).
     pub fn validate(&self) -> Result<()> {
-        if !(1..=crate::raster::depth::MAX_RESOLUTION).contains(&self.resolution) {
-            return Err(Error::invalid(
-                "resolution",
-                format!(
-                    "must be in 1..={}, got {}",
-                    crate::raster::depth::MAX_RESOLUTION,
-                    self.resolution
-                ),
-            ));
-        }
+        check_resolution("resolution", self.resolution)?;
         DepthBias::new(self.bias)?;
         PcfKernel::square(self.pcf)?;
         match &self.frustum {

@@ -66,6 +66,7 @@ use crate::light::sampling::SampleSet;
 use crate::limits::{self, Peak};
 use crate::methods::mvr::{shared_eyes, MultiViewOptions};
 use crate::raster::cube;
+use crate::raster::depth::check_resolution;
 use crate::raster::depth::{
     casters, raster_peak, raster_work, rasterize_depth, Caster, DepthMap, FaceFilter, LightFrustum,
     RasterMode, RasterOptions, Rasterizer, TexelRect, MAX_RESOLUTION, NEAR_FRACTION,
@@ -172,12 +173,7 @@ impl VwssOptions {
             ));
         }
         if let Some(r) = self.source_resolution {
-            if !(1..=MAX_RESOLUTION).contains(&r) {
-                return Err(Error::invalid(
-                    "source_resolution",
-                    format!("must be in 1..={MAX_RESOLUTION}, got {r}"),
-                ));
-            }
+            check_resolution("source_resolution", r)?;
         }
         if self.mode == Mode::Unbuffered && !self.layered {
             return Err(Error::invalid(

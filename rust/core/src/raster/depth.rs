@@ -108,7 +108,8 @@ fn finite3(arg: &str, v: Vec3) -> Result<()> {
     }
 }
 
-fn check_resolution(arg: &str, n: usize) -> Result<()> {
+/// Refuses a map side outside 1..=[`MAX_RESOLUTION`] texels, naming `arg`.
+pub fn check_resolution(arg: &str, n: usize) -> Result<()> {
     if (1..=MAX_RESOLUTION).contains(&n) {
         Ok(())
     } else {
