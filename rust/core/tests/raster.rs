@@ -13,6 +13,7 @@ use softshadows_core::light::sampling::Rng;
 use softshadows_core::light::sampling::SampleSet;
 use softshadows_core::methods::ray_traced::{ray_traced, RayTracedOptions};
 use softshadows_core::methods::shadow_map::{shadow_map, ShadowMapOptions};
+use softshadows_core::raster::cube;
 use softshadows_core::raster::depth::{
     rasterize_depth, FaceFilter, LightFrustum, RasterMode, RasterOptions, Rasterizer, TexelRect,
 };
@@ -1170,4 +1171,57 @@ fn shadow_map_agrees_with_the_ray_traced_point_light_on_a_gbuffer() {
             "res {resolution} pcf {pcf}: {mismatches} of {valid}"
         );
     }
+}
+
+#[test]
+fn every_point_projects_into_its_face_clear_of_the_edges_by_the_overlap() {
+    let eye = Vec3::new(0.3, -0.2, 0.1);
+    let mut rng = Rng::new(7);
+    let points: Vec<Vec3> = (0..4000)
+        .map(|_| eye + Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 4.0 - 2.0)
+        .collect();
+    let side = 512;
+    // A point on a seam sits at tan 1 of a map of tan 1 + cube::SEAM_OVERLAP: this many texels in.
+    let margin = 0.5 * side as f32 * cube::SEAM_OVERLAP / (1.0 + cube::SEAM_OVERLAP);
+    for face in 0..cube::FACES.len() {
+        let mine: Vec<Vec3> = points
+            .iter()
+            .copied()
+            .filter(|&p| cube::face_of(eye, p) == face)
+            .collect();
+        assert!(mine.len() > 400, "face {face}");
+        let frustum = cube::face_frustum(eye, face, mine.iter().copied(), side).unwrap();
+        for p in mine {
+            let s = frustum.project(p).expect("in front of the near plane");
+            let edge = s.x.min(s.y).min(side as f32 - s.x).min(side as f32 - s.y);
+            assert!(
+                edge >= margin - 1e-2,
+                "face {face}: {p} is {edge} texels in"
+            );
+            assert!(s.z <= frustum.far);
+        }
+    }
+}
+
+#[test]
+fn a_light_clear_of_the_receivers_gets_one_frustum_and_one_among_them_six() {
+    let light = Light::point(Vec3::new(0.0, 3.0, 0.0)).unwrap();
+    let floor = Receivers::new(
+        vec![Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, 1.0)],
+        vec![Vec3::Y; 2],
+        vec![true; 2],
+        2,
+        1,
+    )
+    .unwrap();
+    assert!(cube::light_faces(&light, &floor).is_none());
+    let around: Vec<Vec3> = cube::FACES
+        .iter()
+        .map(|f| light.center() + f.0 * 2.0)
+        .collect();
+    let room = Receivers::new(around, vec![Vec3::Y; 6], vec![true; 6], 6, 1).unwrap();
+    assert_eq!(
+        cube::light_faces(&light, &room),
+        Some(vec![0, 1, 2, 3, 4, 5])
+    );
 }

@@ -211,12 +211,7 @@ impl NativeLight {
         let frusta = light_frusta(&self.light, &receivers.receivers, 1).or_raise()?;
         let points: Vec<Vec3> = frusta
             .iter()
-            .flat_map(|f| {
-                let (w, h) = (f.width as f32, f.height as f32);
-                let corners =
-                    [(0.0, 0.0), (w, 0.0), (w, h), (0.0, h)].map(|(x, y)| f.unproject(x, y, f.far));
-                std::iter::once(f.eye).chain(corners)
-            })
+            .flat_map(|f| std::iter::once(f.eye).chain(f.far_corners()))
             .collect();
         convert::flat3(&points)
             .into_pyarray(py)

@@ -174,15 +174,13 @@ fn around_every_sample(
     }
     let (kernel, bias) = opts.shadow_test()?;
     let faces = cube::FACES.len();
+    // The sums, the visibility and the faces, and one sample's maps: the one being rasterized
+    // and the others kept for the lighting.
+    let side = opts.resolution as u64;
     Peak::default()
         .buffer(&[receivers.len() as u64, 4 + 4 + 1])
-        .buffer(&[
-            faces as u64,
-            opts.resolution as u64,
-            opts.resolution as u64,
-            4,
-        ])
-        .and(raster_peak(scene, 0, 0))
+        .buffer(&[faces as u64 - 1, side, side, 4])
+        .and(raster_peak(scene, opts.resolution, opts.resolution))
         .check("mvr", stats)?;
     opts.lighting_work(eyes.len() * faces, receivers.len())
         .loop_of(&[
@@ -220,8 +218,8 @@ fn around_every_sample(
                 if let (true, Some((frustum, map))) =
                     (receivers.valid[i], &maps[usize::from(face_of[i])])
                 {
-                    let p = (receivers.points[i], receivers.normals[i]);
-                    *sum += weight * kernel.visibility(map, frustum, p.0, p.1, bias);
+                    let (p, n) = (receivers.points[i], receivers.normals[i]);
+                    *sum += weight * kernel.visibility(map, frustum, p, n, bias);
                 }
             });
         });

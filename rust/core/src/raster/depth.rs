@@ -428,6 +428,13 @@ impl LightFrustum {
         self.eye + self.texel_ray(sx, sy) * depth
     }
 
+    /// The four corners of the map at the far plane (world points, clockwise from the top left
+    /// texel's corner as the light sees it).
+    pub fn far_corners(&self) -> [Vec3; 4] {
+        let (w, h) = (self.width as f32, self.height as f32);
+        [(0.0, 0.0), (w, 0.0), (w, h), (0.0, h)].map(|(x, y)| self.unproject(x, y, self.far))
+    }
+
     /// The world point at the center of texel `(x, y)` at linear depth `depth`.
     pub fn texel_center(&self, x: usize, y: usize, depth: f32) -> Vec3 {
         self.unproject(x as f32 + 0.5, y as f32 + 0.5, depth)
