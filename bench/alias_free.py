@@ -26,7 +26,7 @@ import numpy as np
 
 import softshadows as ss
 from softshadows import scenes
-from softshadows.scenes import _box
+from softshadows.scenes.primitives import box
 
 sys.path.insert(0, str(Path(__file__).parent))
 from shadow_rays import best_of, mitsuba, shadow_rays  # noqa: E402  (the shared Mitsuba harness)
@@ -42,12 +42,12 @@ def print_rows(rows, exact, mask, t_rt, t_mi):
 
 def lamp_room(size: int):
     """A closed 4-unit room (inward faces), five boxes and a sphere lamp off its center; a camera in a corner."""
-    verts, faces = _box((-2.0,) * 3, (2.0,) * 3)
+    verts, faces = box((-2.0,) * 3, (2.0,) * 3)
     meshes = [ss.Mesh(verts, faces[:, ::-1].copy(), name="room")]
     boxes = [((0.9, -0.3, -0.4), (1.3, 0.5, 0.4)), ((-0.4, 1.0, -0.3), (0.3, 1.2, 0.5)),
              ((-0.5, -1.1, -0.6), (0.6, -0.8, 0.2)), ((-0.3, -0.2, 0.9), (0.4, 0.6, 1.4)),
              ((-1.4, 0.0, -1.3), (-0.9, 0.7, -0.8))]
-    meshes += [ss.Mesh(*_box(lo, hi), closed=True, name=f"box{k}") for k, (lo, hi) in enumerate(boxes)]
+    meshes += [ss.Mesh(*box(lo, hi), closed=True, name=f"box{k}") for k, (lo, hi) in enumerate(boxes)]
     camera = ss.Camera.look_at((1.9, 1.8, 1.9), (0, 0, 0), (0, 1, 0), 100.0, size, size)
     return types.SimpleNamespace(scene=ss.Scene(meshes), light=ss.SphereLight((0.13, 0.21, -0.07), 0.25), camera=camera)
 

@@ -20,6 +20,8 @@ SS_NAME=scripts/test.sh
 ss_setup libllvm19 mesa-vulkan-drivers
 
 cargo test -q --release -p softshadows-core
+# The core without its GPU half compiles, and every GPU method refuses backend="gpu" cleanly.
+cargo test -q --release -p softshadows-core --no-default-features --test no_gpu
 
 # maturin goes into the test environment too: the system Python may refuse pip (PEP 668).
 python3 -m venv --clear "$venv"

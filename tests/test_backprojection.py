@@ -39,7 +39,7 @@ def step_setup(size=96):
     from softshadows.scene import Mesh, Scene
 
     plates = ss.scenes.parallel_plates(width=size, height=size, light_size=1.5)
-    boxes = [ss.scenes._box((-1, 0.6, -1), (0, 0.9, 1)), ss.scenes._box((0, 0.6, -1), (1, 1.3, 1))]
+    boxes = [ss.scenes.primitives.box((-1, 0.6, -1), (0, 0.9, 1)), ss.scenes.primitives.box((0, 0.6, -1), (1, 1.3, 1))]
     meshes = [Mesh(v.astype(np.float32), f, name=f"box{i}") for i, (v, f) in enumerate(boxes)]
     scene = Scene([plates.ground, *meshes])
     return plates, scene

@@ -51,7 +51,7 @@ def test_parallel_plates_are_nearly_exact(order):
 
 def test_the_default_shift_makes_a_receivers_own_surface_test_lit():
     """The series at the receiver's own depth: with the default shift a receiver's own surface
-    tests exactly 1 (``rust/core/src/methods/cssm.rs`` checks the series), so the penumbra keeps
+    tests exactly 1 (``rust/core/src/methods/cssm/mod.rs`` checks the series), so the penumbra keeps
     its width; at the step's half width (0.5 / M) it tests 1.09 and the clamp narrows the
     penumbra."""
     scene, light, rx, line = parallel_plates(grid=40)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import softshadows as ss
-from softshadows.scenes import _box
+from softshadows.scenes.primitives import box
 
 ROOM = 2.0
 #: Off every axis and diagonal of the room, so no receiver's direction ties two cube faces.
@@ -20,12 +20,12 @@ LAMP = np.array([0.13, 0.21, -0.07])
 
 def room():
     """A closed room (inward faces) and four boxes around the lamp: above, below, beside, behind."""
-    verts, faces = _box((-ROOM,) * 3, (ROOM,) * 3)
+    verts, faces = box((-ROOM,) * 3, (ROOM,) * 3)
     walls = ss.Mesh(verts, faces[:, ::-1].copy(), name="room")
     boxes = [((0.9, -0.3, -0.4), (1.3, 0.5, 0.4)), ((-0.4, 1.0, -0.3), (0.3, 1.2, 0.5)),
              ((-0.5, -1.1, -0.6), (0.6, -0.8, 0.2)), ((-0.3, -0.2, 0.9), (0.4, 0.6, 1.4)),
              ((-1.4, 0.0, -1.3), (-0.9, 0.7, -0.8))]
-    return ss.Scene([walls] + [ss.Mesh(*_box(lo, hi), name=f"box{k}") for k, (lo, hi) in enumerate(boxes)])
+    return ss.Scene([walls] + [ss.Mesh(*box(lo, hi), name=f"box{k}") for k, (lo, hi) in enumerate(boxes)])
 
 
 def wall_receivers(n=20, seed=0):

@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 
 import softshadows as ss
-from softshadows.scenes import _icosphere
+from softshadows.scenes.primitives import icosphere
 
 
 def sphere(center, radius):
-    vertices, faces = _icosphere(3)
+    vertices, faces = icosphere(3)
     return ss.Mesh((vertices * radius + center).astype(np.float32), faces.astype(np.uint32), closed=True)
 
 

@@ -210,9 +210,9 @@ def test_exact_methods_keep_the_oracles_bits_for_any_samples(light_samples, meth
 
 def _sized_light_scene():
     """A 3-unit ground quad under a closed icosphere, and 144 ground receivers facing up."""
-    from softshadows.scenes import _icosphere
+    from softshadows.scenes.primitives import icosphere
 
-    vertices, faces = _icosphere(2)
+    vertices, faces = icosphere(2)
     sphere = ss.Mesh((vertices * 0.4 + [0.1, 0.8, -0.1]).astype(np.float32), faces.astype(np.uint32), closed=True)
     ground = ss.Mesh(np.float32([[-1.5, 0, -1.5], [1.5, 0, -1.5], [1.5, 0, 1.5], [-1.5, 0, 1.5]]),
                      np.uint32([[0, 2, 1], [0, 3, 2]]))

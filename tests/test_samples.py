@@ -136,7 +136,7 @@ def small_penumbra():
 def test_interleaving_builds_only_the_patterns_of_the_pixels(small_penumbra, rotate):
     setup, gb = small_penumbra
     native = ss._core.NativeSamples.generate(
-        setup.light.native(), 16, "poisson", 7, 1000, rotate is not None, 0, ss.methods._native_receivers(gb)
+        setup.light.native(), 16, "poisson", 7, 1000, rotate is not None, 0, gb.native()
     )
     assert native.patterns == 7 * 5
     assert ss._core.NativeSamples.generate(setup.light.native(), 16, "poisson", 7, 3, False, 0).patterns == 9

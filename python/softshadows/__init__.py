@@ -77,6 +77,13 @@ def memory_limit() -> int:
 #: Raised by a call whose estimated work is above :func:`work_limit` (a ``RuntimeError``).
 WorkLimitError = _core.WorkLimitError
 
+#: Raised by a method that refuses a valid setup it cannot serve (a ``ValueError``): a light kind
+#: (``backprojection`` needs a planar light), an emission texture (the single-map filters), a
+#: light among the receivers (``vwss``), an option on the GPU. The message names the methods or
+#: options that can. :func:`softshadows.evaluation.evaluate` records it as the method's refusal of
+#: the setup; any other error stops the evaluation.
+UnsupportedSetup = _core.UnsupportedSetup
+
 
 def set_work_limit(operations: int | None) -> None:
     """Caps the work a call may plan to do (``None`` restores the default of 10**12 operations).
@@ -215,6 +222,7 @@ __all__ = [
     "set_work_limit",
     "work_limit",
     "WorkLimitError",
+    "UnsupportedSetup",
     "num_threads",
     "shadow_map",
     "vwss",

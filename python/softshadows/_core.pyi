@@ -30,6 +30,8 @@ __all__ = [
     "set_work_limit",
     "work_limit",
     "WorkLimitError",
+    "UnsupportedSetup",
+    "PATTERNS",
     "shadow_map",
     "stsv",
     "stsv_volumes",
@@ -52,16 +54,16 @@ class NativeScene:
 
 @final
 class NativeLight:
-    def __new__(
-        cls,
-        kind: str,
-        center: _F32,
-        a: _F32 | None,
-        b: _F32 | None,
-        radius: float,
-        emission: _F32 | None,
-        c: _F32 | None = None,
-    ) -> Self: ...
+    @staticmethod
+    def point(center: _F32) -> NativeLight: ...
+    @staticmethod
+    def rect(center: _F32, u: _F32, v: _F32, emission: _F32 | None = None) -> NativeLight: ...
+    @staticmethod
+    def disk(center: _F32, normal: _F32, radius: float, emission: _F32 | None = None) -> NativeLight: ...
+    @staticmethod
+    def sphere(center: _F32, radius: float) -> NativeLight: ...
+    @staticmethod
+    def ellipsoid(center: _F32, axes: _F32) -> NativeLight: ...
     @property
     def extent(self) -> float: ...
     def samples(self, n: int, pattern: str, seed: int, frame: int) -> _F32: ...
@@ -104,7 +106,10 @@ def memory_limit() -> int: ...
 def set_work_limit(operations: int) -> None: ...
 def work_limit() -> int: ...
 
+PATTERNS: tuple[str, ...]
+
 class WorkLimitError(RuntimeError): ...
+class UnsupportedSetup(ValueError): ...
 
 def gpu_info() -> list[tuple[str, str]]: ...
 def ray_traced(

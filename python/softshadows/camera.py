@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -136,7 +137,51 @@ class Camera:
         return Camera.look_at(self.eye, self.target, self.up, self.fov_y, width, height)
 
 
-class Receivers:
+class Flat(NamedTuple):
+    """Receivers as flat arrays: what the core takes, and what per-receiver code loops over."""
+
+    points: np.ndarray
+    """(K, 3) float32 world positions."""
+    normals: np.ndarray
+    """(K, 3) float32 normals."""
+    mask: np.ndarray
+    """(K,) bool: whether the receiver is valid (a G-buffer pixel that hit a surface)."""
+    width: int
+    """Image width (K for explicit receivers)."""
+    height: int
+    """Image height (1 for explicit receivers)."""
+
+
+class _ReceiverSet:
+    """What GBuffer and Receivers share: flat arrays and one conversion into the core."""
+
+    def _flat(self) -> Flat:
+        raise NotImplementedError
+
+    def native(self):
+        """The core receivers, converted once and cached (the receivers are treated as
+        immutable, as a Scene is: a method called again on them does not copy them again)."""
+        cached = self.__dict__.get("_native")
+        if cached is None:
+            from . import _core
+
+            flat = self._flat()
+            cached = _core.NativeReceivers(
+                v.array("points", flat.points, np.float32, (None, 3), finite=False),
+                v.array("normals", flat.normals, np.float32, (None, 3), finite=False),
+                np.ascontiguousarray(flat.mask, dtype=bool),
+                flat.width,
+                flat.height,
+            )
+            self.__dict__["_native"] = cached
+        return cached
+
+    def __getstate__(self):
+        # The core copy stays behind: unpickled receivers (in a sweep's worker) convert their own.
+        return {k: value for k, value in self.__dict__.items() if k != "_native"}
+
+
+class Receivers(_ReceiverSet):
     """Explicit receivers: points with normals.
 
     Parameters
@@ -170,12 +215,12 @@ class Receivers:
     def shape(self) -> tuple:
         return (len(self.points),)
 
-    def _flat(self):
-        return self.points, self.normals, self.mask, len(self.points), 1
+    def _flat(self) -> Flat:
+        return Flat(self.points, self.normals, self.mask, len(self.points), 1)
 
 
 @dataclass(eq=False)
-class GBuffer:
+class GBuffer(_ReceiverSet):
     """A G-buffer: what each pixel of a camera sees.
 
     Attributes
@@ -209,6 +254,7 @@ class GBuffer:
     face_ids: np.ndarray
     sample_depths: np.ndarray | None
     camera: Camera
+    _native: object = field(default=None, init=False, repr=False)
 
     @property
     def shape(self) -> tuple:
@@ -220,9 +266,9 @@ class GBuffer:
         msaa = 1 if self.sample_depths is None else self.sample_depths.shape[2]
         return f"GBuffer({w}x{h} pixels, {int(self.mask.sum())} hit, msaa={msaa})"
 
-    def _flat(self):
+    def _flat(self) -> Flat:
         h, w = self.mask.shape
-        return self.positions.reshape(-1, 3), self.normals.reshape(-1, 3), self.mask.reshape(-1), w, h
+        return Flat(self.positions.reshape(-1, 3), self.normals.reshape(-1, 3), self.mask.reshape(-1), w, h)
 
 
 def gbuffer(scene, camera: Camera, msaa: int = 1) -> GBuffer:

@@ -402,7 +402,8 @@ def environment(scene, lights, receivers, *, method: str = "cssm", albedo=0.8, d
         raise ValueError(f"albedo: expected a number or an RGB triple in [0, 1], got {albedo!r}") from None
     if not np.all(np.isfinite(albedo)) or albedo.min() < 0 or albedo.max() > 1:
         raise ValueError(f"albedo: expected a number or an RGB triple in [0, 1], got {albedo.tolist()}")
-    points, normals, mask, *_ = rx._flat()
+    flat = rx._flat()
+    points, normals, mask = flat.points, flat.normals, flat.mask
     out = np.zeros((len(points), 3))
     if progress:
         from tqdm.auto import tqdm

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import _core
 from . import _validate as v
 from ._extras import require
 
@@ -105,8 +106,9 @@ def evaluate(
         :func:`softshadows.metrics.summary` over the hit pixels (``rmse``, ``psnr``, ``ssim``,
         ``flip``, ``rmse.umbra``, ``rmse.penumbra``, ``rmse.lit``; a region without pixels is
         NaN), ``seconds`` (wall-clock, fastest of ``repeat`` runs),
-        ``shaded.rmse`` and ``shaded.flip`` with ``shaded``, ``error`` (why a method refused the setup,
-        e.g. a non-planar light for ``backprojection``; metrics are NaN then) and every stat the
+        ``shaded.rmse`` and ``shaded.flip`` with ``shaded``, ``error`` (why a method refused the setup by
+        :class:`softshadows.UnsupportedSetup`, e.g. a non-planar light for ``backprojection``;
+        metrics are NaN then; any other error stops the evaluation, as a bug should) and every stat the
         method reports, as ``stats.<name>`` columns.
 
     Examples
@@ -124,7 +126,6 @@ def evaluate(
 
     from . import metrics, reference, shading
     from . import scenes as scene_library
-    from .camera import gbuffer
 
     # Everything is checked before the first Mitsuba reference, which can take minutes.
     chosen = _methods(methods)
@@ -142,32 +143,19 @@ def evaluate(
         for item, kind in setups:
             scene_name = _scene_label(item)
             bar.set_description(f"{scene_name}/{kind}: reference")
-            setup = _build(item, kind, size)
-            gb = gbuffer(setup.scene, setup.camera)
-            ref_samples = setup.light.samples(reference_samples, pattern="sobol", seed=1)
-            # Its own bar would nest in this one: one bar per run.
-            ref = reference.mitsuba_visibility(setup.scene, setup.light, gb, ref_samples, progress=False)
+            case = _Case.build(item, kind, size, samples=samples, reference_samples=reference_samples)
             bar.update()
-            shared = setup.light.samples(samples, pattern="poisson", seed=0)
-            render = reference.mitsuba_render(setup.scene, setup.light, setup.camera, spp=render_spp)[..., 0] if shaded else None
+            gb, ref = case.gbuffer, case.reference
+            render = reference.mitsuba_render(case.setup.scene, case.setup.light, case.setup.camera, spp=render_spp)[..., 0] if shaded else None
             kept = {"reference": ref, "mask": gb.mask}
             for name in names:
                 bar.set_description(f"{scene_name}/{kind}: {name}")
-                row = {"scene": scene_name, "light": kind, "method": name, "error": None}
-                try:
-                    seconds = []
-                    for _ in range(max(1, repeat)):
-                        start = time.perf_counter()
-                        vis, stats = _run(chosen[name], setup, gb, shared, options.get(name, {}))
-                        seconds.append(time.perf_counter() - start)
-                except ValueError as refusal:
-                    row.update(dict.fromkeys(metrics.SUMMARY_KEYS, np.nan), seconds=np.nan, error=str(refusal))
-                else:
-                    row.update(metrics.summary(vis, ref, gb.mask), seconds=min(seconds))
+                record, vis = case.run(chosen[name], options.get(name, {}), repeat=repeat)
+                row = {"scene": scene_name, "light": kind, "method": name, **record}
+                if vis is not None:
                     if render is not None:
-                        image = shading.direct(gb, setup.light, vis)
+                        image = shading.direct(gb, case.setup.light, vis)
                         row.update({"shaded.rmse": metrics.rmse(image, render, gb.mask), "shaded.flip": metrics.flip(image, render, gb.mask)})
-                    row.update({f"stats.{k}": v for k, v in stats.items()})
                     kept[name] = vis
                 rows.append(row)
                 bar.update()
@@ -272,24 +260,51 @@ def sweep(method, parameters: dict, *, scenes=("columns",), lights=("rect",), si
 
 def _sweep_task(task) -> dict:
     """One sweep task (a top-level function, so that it pickles to any executor's workers)."""
-    from . import metrics, reference
-    from .camera import gbuffer
-
     item, light, label, method, params, size, samples, reference_samples = task
-    setup = _build(item, light, size, **{k: v for k, v in params.items() if k == "light_size"})
-    gb = gbuffer(setup.scene, setup.camera)
-    ref = reference.mitsuba_visibility(setup.scene, setup.light, gb, setup.light.samples(reference_samples, pattern="sobol", seed=1),
-                                       progress=False)
-    shared = setup.light.samples(params.get("samples", samples), pattern="poisson", seed=0)
-    kwargs = {k: v for k, v in params.items() if k not in SETUP_PARAMETERS}
-    record = {"scene": _scene_label(item), "light": light, "method": label, **params, "error": None}
-    start = time.perf_counter()
-    try:
-        vis, _ = _run(method, setup, gb, shared, kwargs)
-    except ValueError as refusal:
-        return {**record, **dict.fromkeys(metrics.SUMMARY_KEYS, np.nan), "seconds": np.nan, "error": str(refusal)}
-    seconds = time.perf_counter() - start
-    return {**record, **metrics.summary(vis, ref, gb.mask), "seconds": seconds}
+    case = _Case.build(item, light, size, samples=params.get("samples", samples), reference_samples=reference_samples,
+                       **{k: v for k, v in params.items() if k == "light_size"})
+    record, _ = case.run(method, {k: v for k, v in params.items() if k not in SETUP_PARAMETERS})
+    return {"scene": _scene_label(item), "light": light, "method": label, **params, **record}
+
+
+class _Case:
+    """One scene under one light, ready for methods: the set-up, its G-buffer, the Mitsuba
+    reference on Sobol samples and the Poisson samples every sampled method shares. The one
+    pipeline of :func:`evaluate` and :func:`sweep`."""
+
+    def __init__(self, setup, gbuffer, reference, shared):
+        self.setup, self.gbuffer, self.reference, self.shared = setup, gbuffer, reference, shared
+
+    @classmethod
+    def build(cls, item, light, size, *, samples, reference_samples, **staging):
+        from . import reference
+        from .camera import gbuffer
+
+        setup = _build(item, light, size, **staging)
+        gb = gbuffer(setup.scene, setup.camera)
+        ref_samples = setup.light.samples(reference_samples, pattern="sobol", seed=1)
+        # Its own bar would nest in the caller's: one bar per run.
+        ref = reference.mitsuba_visibility(setup.scene, setup.light, gb, ref_samples, progress=False)
+        return cls(setup, gb, ref, setup.light.samples(samples, pattern="poisson", seed=0))
+
+    def run(self, method, options, *, repeat: int = 1) -> tuple:
+        """``(record, visibility)`` of ``method`` here: the metrics over the hit pixels, the
+        fastest of ``repeat`` runs in seconds and the method's stats as ``stats.<name>``; or, when
+        it refuses the set-up (:class:`softshadows.UnsupportedSetup`), NaN metrics, the refusal
+        as ``error`` and no visibility. Any other error propagates."""
+        from . import metrics
+
+        seconds = []
+        try:
+            for _ in range(max(1, repeat)):
+                start = time.perf_counter()
+                vis, stats = _run(method, self.setup, self.gbuffer, self.shared, options)
+                seconds.append(time.perf_counter() - start)
+        except _core.UnsupportedSetup as refusal:
+            return {**dict.fromkeys(metrics.SUMMARY_KEYS, np.nan), "seconds": np.nan, "error": str(refusal)}, None
+        summary = metrics.summary(vis, self.reference, self.gbuffer.mask)
+        stats = {f"stats.{k}": value for k, value in stats.items()}
+        return {**summary, "seconds": min(seconds), "error": None, **stats}, vis
 
 
 #: Methods registered by :func:`register_method`, by name.

@@ -21,11 +21,12 @@ import abc
 
 import numpy as np
 
-from . import _validate
+from . import _core, _validate
 
 __all__ = ["PointLight", "RectLight", "DiskLight", "SphereLight", "EllipsoidLight", "PATTERNS"]
 
-PATTERNS = ("uniform", "stratified", "poisson", "sobol", "halton")
+#: The sample patterns by name, as the core spells them.
+PATTERNS = _core.PATTERNS
 
 
 class _Light(abc.ABC):
@@ -34,14 +35,19 @@ class _Light(abc.ABC):
     kind = ""
 
     @abc.abstractmethod
-    def _args(self) -> tuple:
-        """(center, u-or-normal, v, radius, emission[, third axis]) as the core light constructor takes them."""
+    def _to_core(self, native_light):
+        """This light built by the ``native_light`` constructor of its kind (``_core.NativeLight``)."""
 
     def native(self):
-        """The core light object."""
-        from . import _core
+        """The core light, built once and cached (the light is treated as immutable, as a Scene is)."""
+        cached = self.__dict__.get("_native")
+        if cached is None:
+            cached = self.__dict__["_native"] = self._to_core(_core.NativeLight)
+        return cached
 
-        return _core.NativeLight(self.kind, *self._args())
+    def __getstate__(self):
+        # The core copy stays behind: an unpickled light (in a sweep's worker) builds its own.
+        return {k: v for k, v in self.__dict__.items() if k != "_native"}
 
     @property
     def extent(self) -> float:
@@ -85,7 +91,8 @@ class _Light(abc.ABC):
 
 
 def _pattern(pattern: str) -> str:
-    if pattern not in PATTERNS:
+    """``pattern`` if it is a string (the core checks its spelling and names the argument)."""
+    if not isinstance(pattern, str):
         raise ValueError(f"pattern: expected one of {PATTERNS}, got {pattern!r}")
     return pattern
 
@@ -151,8 +158,8 @@ class PointLight(_Light):
     def center(self) -> np.ndarray:
         return self.position
 
-    def _args(self):
-        return (self.position, None, None, 0.0, None)
+    def _to_core(self, native_light):
+        return native_light.point(self.position)
 
     def __repr__(self):
         return f"PointLight(position={self.position.tolist()})"
@@ -219,8 +226,8 @@ class RectLight(_Light):
     def area(self) -> float:
         return float(4 * np.linalg.norm(np.cross(self.u.astype(np.float64), self.v.astype(np.float64))))
 
-    def _args(self):
-        return (self.center, self.u, self.v, 0.0, self.emission)
+    def _to_core(self, native_light):
+        return native_light.rect(self.center, self.u, self.v, self.emission)
 
     def __repr__(self):
         return f"RectLight(center={self.center.tolist()}, u={self.u.tolist()}, v={self.v.tolist()})"
@@ -279,8 +286,8 @@ class DiskLight(_Light):
     def area(self) -> float:
         return float(np.pi * self.radius**2)
 
-    def _args(self):
-        return (self.center, self.normal, None, self.radius, self.emission)
+    def _to_core(self, native_light):
+        return native_light.disk(self.center, self.normal, self.radius, self.emission)
 
     def __repr__(self):
         return f"DiskLight(center={self.center.tolist()}, normal={self.normal.tolist()}, radius={self.radius})"
@@ -314,8 +321,8 @@ class SphereLight(_Light):
         self.radius = _validate.positive("radius", radius)
         self.native()  # the core works in float32: it refuses a radius that is 0 or inf there
 
-    def _args(self):
-        return (self.center, None, None, self.radius, None)
+    def _to_core(self, native_light):
+        return native_light.sphere(self.center, self.radius)
 
     def __repr__(self):
         return f"SphereLight(center={self.center.tolist()}, radius={self.radius})"
@@ -354,8 +361,8 @@ class EllipsoidLight(_Light):
         self.axes = _validate.array("axes", axes, np.float32, (3, 3))
         self.native()  # the core checks the axes and names the argument
 
-    def _args(self):
-        return (self.center, self.axes[0], self.axes[1], 0.0, None, self.axes[2])
+    def _to_core(self, native_light):
+        return native_light.ellipsoid(self.center, self.axes)
 
     def __repr__(self):
         return f"EllipsoidLight(center={self.center.tolist()}, axes={self.axes.tolist()})"

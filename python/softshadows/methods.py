@@ -34,17 +34,6 @@ __all__ = ["SetupWarning", "ray_traced", "shadow_map", "mvr", "vwss", "pcss", "c
 ROTATIONS = (None, "per_receiver")
 
 
-def _native_receivers(receivers):
-    points, normals, mask, width, height = receivers._flat()
-    return _core.NativeReceivers(
-        v.array("points", points, np.float32, (None, 3), finite=False),
-        v.array("normals", normals, np.float32, (None, 3), finite=False),
-        np.ascontiguousarray(mask, dtype=bool),
-        width,
-        height,
-    )
-
-
 def _native_samples(light, samples, *, pattern, seed, rotate, interleaved, frame, receivers):
     """The core sample set for ``samples`` (an int or an (S, 3) array) and the sampling options,
     with only the interleaved patterns the pixels of ``receivers`` (core receivers) use."""
@@ -131,12 +120,12 @@ def _warn_impossible_setup(scene, light, receivers) -> None:
     if repr(light) in lights:
         return
     lights.add(repr(light))
-    points, normals, mask, _, _ = receivers._flat()
-    hit = np.flatnonzero(mask)
+    flat = receivers._flat()
+    hit = np.flatnonzero(flat.mask)
     if hit.size == 0:
         return
     pick = hit[np.linspace(0, hit.size - 1, min(hit.size, SETUP_CHECK_RECEIVERS)).round().astype(np.int64)]
-    points, normals = points[pick], normals[pick]
+    points, normals = flat.points[pick], flat.normals[pick]
     name = type(light).__name__
     if isinstance(light, (RectLight, DiskLight)) and np.all((points - light.center) @ light.normal.astype(np.float64) <= 0):
         flipped = ("RectLight(center, u, -v)" if isinstance(light, RectLight) else "DiskLight(center, -normal, radius)")
@@ -148,7 +137,7 @@ def _warn_impossible_setup(scene, light, receivers) -> None:
     centre = PointLight(light.center)
     sampled = _core.NativeSamples.explicit(v.light_points("samples", light.center[None, :]), None)
     check = Receivers(points, normals)
-    seen, _ = _core.ray_traced(scene.native(), centre.native(), _native_receivers(check), sampled, scene.epsilon, "all")
+    seen, _ = _core.ray_traced(scene.native(), centre.native(), check.native(), sampled, scene.epsilon, "all")
     if not np.any(seen):
         warnings.warn(f"light: no receiver sees the {name}'s center {light.center.tolist()}: it lies behind every "
                       "receiver's surface or an occluder hides it from all of them (a light under the floor?), where "
@@ -161,7 +150,7 @@ def _inputs(scene, light, receivers, casters=None):
     _check(scene, light)
     receivers = as_receivers(receivers)
     _warn_impossible_setup(scene, light, receivers)
-    return receivers, (_casting(scene, casters).native(), light.native(), _native_receivers(receivers))
+    return receivers, (_casting(scene, casters).native(), light.native(), receivers.native())
 
 
 def _finish(receivers, out, return_stats):
@@ -392,7 +381,7 @@ def mvr(
     {casters}
     backend : {"cpu", "gpu", "auto"}
         Where the maps are rasterized and lit: the CPU, or the GPU (wgpu: one thread per triangle
-        and view runs the CPU rasterizer's rules in f64, ``rust/core/src/gpu/mvr.wgsl``, so the
+        and view runs the CPU rasterizer's rules in f64, ``rust/core/src/methods/mvr/mvr.wgsl``, so the
         maps equal the CPU's texel for texel; the lighting is ``multiview.wgsl``). Perforated
         meshes need the CPU (no alpha test on the GPU). ``"auto"``: the GPU when an adapter
         exists, else the CPU with a warning.
@@ -502,13 +491,13 @@ def vwss(
         Points per target texel at depth ``z_n``: the source view's side is equation 3's
         ``m (z_n + d) / z_n`` times ``sqrt(point_density)`` (capped at 8 m). Default 2 with
         ``source_view="fitted"`` (at 1 the warped maps have holes that leak light; 2 closes them,
-        see ``rust/core/src/methods/vwss.rs``) and 1 with ``"paper"`` (the equation as printed).
+        see ``rust/core/src/methods/vwss/mod.rs``) and 1 with ``"paper"`` (the equation as printed).
     source_resolution : int, optional
         Side of the source view in texels, overriding ``point_density``.
     {casters}
     backend : {"cpu", "gpu", "auto"}
         Where the points are warped into the depth maps and lit: the CPU, or the GPU (wgpu; the
-        paper's Listing 2 in ``rust/core/src/gpu/vwss.wgsl``, buffered mode only, maps identical
+        paper's Listing 2 in ``rust/core/src/methods/vwss/vwss.wgsl``, buffered mode only, maps identical
         texel for texel; the lighting is ``multiview.wgsl``). The points are generated on the CPU
         either way. ``"auto"`` takes the GPU when an adapter exists, else the CPU with a warning.
     return_stats : bool
@@ -609,7 +598,7 @@ def pcss(
     {casters}
     backend : {"cpu", "gpu", "auto"}
         Where the blocker search and the filter run: the CPU, or the GPU (wgpu,
-        ``rust/core/src/gpu/pcss.wgsl``), equal to the CPU's. The depth map is rasterized on the
+        ``rust/core/src/methods/pcss/pcss.wgsl``), equal to the CPU's. The depth map is rasterized on the
         CPU either way. ``"auto"``: the GPU when an adapter exists, else the CPU with a warning.
     return_stats : bool
         Also return ``{"depth_map_seconds", "lighting_seconds", "search_near", "no_blocker", ...}``.
@@ -921,11 +910,11 @@ def cssm(
         A and B of equation 9 (the paper's Figure 4: A = 30, B = 5 to 20). The default
         ``sharpen_a=0`` is off: A = 30 darkens contacts as the paper shows, but also every
         self-shadowed pixel whose average blocker lies near it, and raised the RMSE on every
-        scene we measured for B from 5 to 80 (see ``rust/core/src/methods/cssm.rs``).
+        scene we measured for B from 5 to 80 (see ``rust/core/src/methods/cssm/mod.rs``).
     {casters}
     backend : {"cpu", "gpu", "auto"}
         Where the basis images, their summed-area table and the lookups run: the CPU, or the GPU
-        (wgpu, ``rust/core/src/gpu/cssm.wgsl``; ``prefilter="sat"`` only; within 1e-3 of the CPU:
+        (wgpu, ``rust/core/src/methods/cssm/cssm.wgsl``; ``prefilter="sat"`` only; within 1e-3 of the CPU:
         f32 trigonometry, f64 tables). The shadow map is rasterized on the CPU either way.
         ``"auto"`` takes the GPU when an adapter exists, else the CPU with a warning.
     return_stats : bool
@@ -1064,7 +1053,7 @@ def alias_free(
         2008, section 4.2), so only symmetric, untextured lights (disk, sphere) take it.
     backend : {"cpu", "gpu", "auto"}
         Where the lists, the influence regions' coverage and the per-texel tests run: the CPU,
-        or the GPU (wgpu, ``rust/core/src/gpu/alias_free.wgsl``: lists by atomic counters and a
+        or the GPU (wgpu, ``rust/core/src/methods/alias_free/alias_free.wgsl``: lists by atomic counters and a
         scan, one thread per row of each caster's region over each band of rows, masks OR-ed by
         atomics), with the same bits as the CPU. The casters, their regions' polygons, the
         penumbra texels and the lookup table are set up on the CPU either way. ``"auto"``: the
@@ -1165,7 +1154,7 @@ def _object_inputs(scene, light, receivers, *, samples, pattern, seed, rotate, i
 def _refuse_perforated(scene, method: str) -> None:
     """The opaque frameworks leave perforated meshes to ``stsv(opaque=method)``."""
     if any(m.perforated for m in scene.meshes):
-        raise ValueError(f'scene: {method} casts from opaque meshes only; use stsv(..., opaque="{method}") for perforated ones')
+        raise _core.UnsupportedSetup(f'scene: {method} casts from opaque meshes only; use stsv(..., opaque="{method}") for perforated ones')
 
 
 def dcs(
@@ -1372,7 +1361,7 @@ def stsv(
     >>> bool(np.array_equal(vis, oracle))
     True
     """
-    if opaque not in ("bitmask", "dcs", "penumbra_wedge"):
+    if not isinstance(opaque, str):  # its spelling is checked by the core's binding
         raise ValueError(f"opaque: expected 'bitmask', 'dcs' or 'penumbra_wedge', got {opaque!r}")
     receivers, args = _object_inputs(scene, light, receivers, samples=samples, pattern=pattern, seed=seed, rotate=rotate,
                                      interleaved=interleaved, frame=frame, epsilon=epsilon, resolution=resolution,

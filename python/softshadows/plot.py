@@ -255,9 +255,7 @@ def setup(staged, *, ax=None, size: int = 192):
 def _frusta(light, receivers) -> np.ndarray:
     """The depth-map methods' light frusta for ``receivers``, shape (K, 5, 3): each one's eye and
     the four corners of its far plane."""
-    from .methods import _native_receivers
-
-    return light.native().frusta(_native_receivers(receivers))
+    return light.native().frusta(receivers.native())
 
 
 def _frustum_edges(frusta: np.ndarray, steps: int = 64):

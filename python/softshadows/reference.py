@@ -291,9 +291,9 @@ def _light_dict(mi, light, intensity: float) -> dict:
 def _ellipsoid_mesh(mi, light, radiance: dict):
     """An emitting ``mi.Mesh``: a level-5 icosphere (20480 faces, within 3e-4 of the unit
     sphere) mapped by the axes. Mitsuba's ``sphere`` refuses non-uniform scales."""
-    from .scenes import _icosphere
+    from .scenes import primitives
 
-    vertices, faces = _icosphere(5)
+    vertices, faces = primitives.icosphere(5)
     axes = np.asarray(light.axes, np.float64)
     vertices = light.center + vertices @ axes
     if np.linalg.det(axes) < 0:  # a reflection turns the faces inwards: emit outwards again
@@ -421,10 +421,10 @@ def _light_samples(light, samples) -> np.ndarray:
 
 
 def _receiver_arrays(rx):
-    points, normals, mask, _, _ = rx._flat()
-    points = np.asarray(points, np.float64)
-    normals = np.array(normals, np.float64)  # a copy: normalized in place below
-    mask = np.array(mask, bool)
+    flat = rx._flat()
+    points = np.asarray(flat.points, np.float64)
+    normals = np.array(flat.normals, np.float64)  # a copy: normalized in place below
+    mask = np.array(flat.mask, bool)
     if mask.any():
         if not np.all(np.isfinite(points[mask])):
             raise ValueError("receivers: positions of hit pixels contain NaN or Inf")
@@ -788,8 +788,9 @@ def _cache_key(kind: str, scene: Scene, light, *parts) -> str:
         for x in (m.vertices, m.faces, m.uvs, m.alpha):
             add(x)
     add(type(light).__name__)
-    # Every attribute, by name: a light type's own (an ellipsoid's axes) can never be left out.
-    for attr, value in sorted(vars(light).items() if light is not None else ()):
+    # Every attribute, by name (less the cached core light): a light type's own (an ellipsoid's axes)
+    # can never be left out.
+    for attr, value in sorted(light.__getstate__().items() if light is not None else ()):
         add(attr)
         add(value)
     for x in parts:

@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import _core
 from . import _validate as v
 from .camera import as_receivers
 from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight, _tangent_frame
@@ -119,7 +120,7 @@ def direct(gbuffer, light, visibility, albedo=0.8, *, intensity: float = 1.0, be
         alb = np.full(2, np.nan)  # refused below with the argument's name
     if alb.shape not in ((), (3,)) or not np.all(np.isfinite(alb)) or alb.min() < 0 or alb.max() > 1:
         raise ValueError(f"albedo: expected a number or an RGB triple in [0, 1], got {albedo!r}")
-    points, normals, mask = _flat(rx)
+    points, normals, mask = _float64_receivers(rx)
     e = np.zeros(len(points))
     e[mask] = unshadowed_irradiance(points[mask], normals[mask], light, intensity=intensity)
     if bent_normals:
@@ -256,7 +257,7 @@ def _irradiance(p, n, light) -> np.ndarray:
         return _one_sided(p, c, light.normal, _textured_rect(p, n, c, u, w, light.emission))
     if isinstance(light, DiskLight):
         if light.emission is not None:
-            raise ValueError("light: textured DiskLights are not supported by shading (only RectLight emission)")
+            raise _core.UnsupportedSetup("light: textured DiskLights are not supported by shading (only RectLight emission)")
         return _one_sided(p, light.center, light.normal, _polygon_irradiance(p, n, _disk_polygon(light)[None]))
     if isinstance(light, SphereLight):
         return _sphere_irradiance(p, n, np.asarray(light.center, np.float64), float(light.radius))
@@ -394,7 +395,7 @@ def _ellipsoid_irradiance(p, n, center, axes, chunk: int = 2048):
     return out
 
 
-def _flat(rx):
+def _float64_receivers(rx):
     """Flat float64 points (N, 3), normals (N, 3) and the bool mask (N,) of a GBuffer or Receivers."""
-    points, normals, mask, _, _ = rx._flat()
-    return np.asarray(points, np.float64), np.asarray(normals, np.float64), np.asarray(mask, bool)
+    flat = rx._flat()
+    return np.asarray(flat.points, np.float64), np.asarray(flat.normals, np.float64), np.asarray(flat.mask, bool)

@@ -8,6 +8,11 @@ use std::fmt;
 pub enum Error {
     /// Bad input: `arg` names the offending argument, `message` says what was expected and found.
     InvalidInput { arg: String, message: String },
+    /// Valid input that this method (or backend) cannot serve: a light kind, an emission texture,
+    /// a light among the receivers, an option on the GPU. `arg` names what it refuses; `message`
+    /// says why and which methods or options can. An evaluation records it as the method's
+    /// refusal of the setup, where a bad input stays an error.
+    Unsupported { arg: String, message: String },
     /// The request would need more memory than the configured limit; nothing was allocated.
     TooLarge {
         what: String,
@@ -37,12 +42,22 @@ impl Error {
             message: message.into(),
         }
     }
+
+    /// A refusal of a valid setup by a method that cannot serve it, naming `arg`.
+    pub fn unsupported(arg: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::Unsupported {
+            arg: arg.into(),
+            message: message.into(),
+        }
+    }
 }
 
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Error::InvalidInput { arg, message } => write!(f, "{arg}: {message}"),
+            Error::InvalidInput { arg, message } | Error::Unsupported { arg, message } => {
+                write!(f, "{arg}: {message}")
+            }
             Error::TooLarge { what, bytes, limit } => write!(
                 f,
                 "{what} needs about {} ({bytes} bytes), above the memory limit of {} \

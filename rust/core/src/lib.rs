@@ -1,13 +1,17 @@
 //! softshadows-core: the algorithms of softshadows, free of Python.
 //!
-//! Layout (`docs/design.md` section 1): [`geometry`] (meshes, BVH, cameras, G-buffers), [`light`]
-//! (light shapes and sample patterns), [`raster`] (light frusta, depth rasterization, pyramids),
-//! [`methods`] (one module per soft-shadow method), [`gpu`] (the wgpu backend, feature `gpu`).
-//! Every fallible call returns [`Result`].
+//! Layout (`docs/design.md` section 1): [`geometry`] (meshes, BVH, cameras, G-buffers);
+//! [`light`] (light shapes, sample patterns, environment maps); [`raster`] (light frusta, depth
+//! rasterization, pyramids); [`influence`] (receiver lists and influence regions of the
+//! object-based methods); [`methods`] (one module per soft-shadow method, its GPU half and
+//! shader beside it); [`gpu`] (what the GPU halves share, feature `gpu`); [`backend`] (where a
+//! method runs). Every fallible call returns [`Result`].
 
+pub mod backend;
 pub mod error;
 pub mod geometry;
 pub mod gpu;
+pub mod influence;
 pub mod interrupt;
 pub mod light;
 pub mod limits;

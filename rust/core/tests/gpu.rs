@@ -3,17 +3,17 @@
 //! forced low so that points and maps are split across many dispatches and bindings.
 #![cfg(feature = "gpu")]
 
-use glam::Vec3;
-use softshadows_core::geometry::mesh::{Mesh, Scene};
-use softshadows_core::geometry::receivers::Receivers;
-use softshadows_core::gpu::vwss::Warper;
-use softshadows_core::gpu::{context, force_limits, Backend, DispatchLimits};
-use softshadows_core::light::lights::Light;
-use softshadows_core::light::sampling::{light_samples, Pattern, Rng, SampleSet};
+mod common;
+
+use common::{ground_and_cloud, ground_grid, rect_light_above};
+use softshadows_core::backend::Backend;
+use softshadows_core::gpu::{context, force_limits, DispatchLimits};
+use softshadows_core::light::sampling::{light_samples, Pattern, SampleSet};
 use softshadows_core::methods::cssm::{cssm, CssmOptions};
 use softshadows_core::methods::mvr::{mvr, MultiViewOptions};
 use softshadows_core::methods::pcss::{pcss, PcssOptions};
 use softshadows_core::methods::shadow_map::{shadow_map, ShadowMapOptions};
+use softshadows_core::methods::vwss::gpu::Warper;
 use softshadows_core::methods::vwss::{
     generate_points, source_view, vwss, warp_points, Precision, VwssOptions,
 };
@@ -34,67 +34,11 @@ fn have_gpu() -> bool {
     }
 }
 
-/// A ground quad and a cloud of random triangles above it.
-fn scene() -> Scene {
-    let ground =
-        [(-3.0, -3.0), (3.0, -3.0), (3.0, 3.0), (-3.0, 3.0)].map(|(x, z)| Vec3::new(x, 0.0, z));
-    let ground = Mesh::new(
-        ground.to_vec(),
-        vec![[0, 2, 1], [0, 3, 2]],
-        None,
-        None,
-        false,
-    )
-    .unwrap();
-    let mut rng = Rng::new(11);
-    let mut pos = Vec::new();
-    for _ in 0..300 {
-        let c = Vec3::new(
-            4.0 * rng.next_f32() - 2.0,
-            0.5 + 1.5 * rng.next_f32(),
-            4.0 * rng.next_f32() - 2.0,
-        );
-        pos.extend(
-            (0..3).map(|_| {
-                c + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 0.6
-            }),
-        );
-    }
-    let faces = (0..300u32).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect();
-    Scene::new(vec![
-        ground,
-        Mesh::new(pos, faces, None, None, false).unwrap(),
-    ])
-    .unwrap()
-}
-
-fn light() -> Light {
-    Light::rect(
-        Vec3::new(0.2, 4.0, 0.1),
-        Vec3::new(0.5, 0.0, 0.0),
-        Vec3::new(0.0, 0.0, -0.5),
-    )
-    .unwrap()
-}
-
-fn receivers(n: usize) -> Receivers {
-    let points = (0..n * n)
-        .map(|i| {
-            Vec3::new(
-                -2.5 + 5.0 * (i % n) as f32 / n as f32,
-                0.0,
-                -2.5 + 5.0 * (i / n) as f32 / n as f32,
-            )
-        })
-        .collect();
-    Receivers::new(points, vec![Vec3::Y; n * n], vec![true; n * n], n, n).unwrap()
-}
-
 fn maps_agree(limits: Option<DispatchLimits>, precision: Precision) {
     let _serial = LIMITS.lock().unwrap_or_else(|p| p.into_inner());
-    let (scene, light) = (scene(), light());
+    let (scene, light) = (ground_and_cloud(), rect_light_above());
     let eyes = light_samples(&light, 6, Pattern::Poisson, 3, 0);
-    let views = ViewSet::fit(&light, &eyes, receivers(8).bounds().unwrap(), 96)
+    let views = ViewSet::fit(&light, &eyes, ground_grid(8).bounds().unwrap(), 96)
         .unwrap()
         .unwrap();
     let opts = VwssOptions {
@@ -159,7 +103,7 @@ fn gpu_visibility_equals_the_cpu_visibility() {
         return;
     }
     let _serial = LIMITS.lock().unwrap_or_else(|p| p.into_inner());
-    let (scene, light, rx) = (scene(), light(), receivers(96));
+    let (scene, light, rx) = (ground_and_cloud(), rect_light_above(), ground_grid(96));
     let samples = SampleSet::generate(&light, 12, Pattern::Poisson, 5, 1, false, 0).unwrap();
     let mut opts = VwssOptions::default();
     opts.multiview.resolution = 128;
@@ -195,7 +139,7 @@ fn gpu_visibility_equals_the_cpu_visibility() {
 /// cssm on the GPU against the CPU, with the adapter's limits or `limits` forced.
 fn cssm_agrees(limits: Option<DispatchLimits>, order: usize, n: usize) {
     let _serial = LIMITS.lock().unwrap_or_else(|p| p.into_inner());
-    let (scene, light, rx) = (scene(), light(), receivers(n));
+    let (scene, light, rx) = (ground_and_cloud(), rect_light_above(), ground_grid(n));
     let opts = CssmOptions {
         resolution: 64,
         order,
@@ -263,7 +207,7 @@ fn gpu_shadow_map_lookups_equal_the_cpu_lookups() {
         return;
     }
     let _serial = LIMITS.lock().unwrap_or_else(|p| p.into_inner());
-    let (scene, light, rx) = (scene(), light(), receivers(96));
+    let (scene, light, rx) = (ground_and_cloud(), rect_light_above(), ground_grid(96));
     for (pcf, bias) in [(1, None), (5, None), (3, Some(0.01))] {
         let opts = ShadowMapOptions {
             resolution: 256,
@@ -307,7 +251,7 @@ fn gpu_pcss_equals_the_cpu_pcss() {
         return;
     }
     let _serial = LIMITS.lock().unwrap_or_else(|p| p.into_inner());
-    let (scene, light, rx) = (scene(), light(), receivers(96));
+    let (scene, light, rx) = (ground_and_cloud(), rect_light_above(), ground_grid(96));
     for bias in [None, Some(0.02)] {
         let opts = PcssOptions {
             resolution: 256,
@@ -347,14 +291,14 @@ fn gpu_pcss_equals_the_cpu_pcss() {
 /// mvr's GPU maps against the CPU rasterizer's, with the adapter's limits or `limits` forced.
 fn mvr_maps_agree(limits: Option<DispatchLimits>, resolution: usize) {
     let _serial = LIMITS.lock().unwrap_or_else(|p| p.into_inner());
-    let (scene, light) = (scene(), light());
+    let (scene, light) = (ground_and_cloud(), rect_light_above());
     let eyes = light_samples(&light, 6, Pattern::Poisson, 3, 0);
-    let views = ViewSet::fit(&light, &eyes, receivers(8).bounds().unwrap(), resolution)
+    let views = ViewSet::fit(&light, &eyes, ground_grid(8).bounds().unwrap(), resolution)
         .unwrap()
         .unwrap();
     force_limits(limits).unwrap();
-    let gpu =
-        softshadows_core::gpu::mvr::Rasterizer::new(&scene).and_then(|r| r.maps(&views.views));
+    let gpu = softshadows_core::methods::mvr::gpu::Rasterizer::new(&scene)
+        .and_then(|r| r.maps(&views.views));
     force_limits(None).unwrap();
     let gpu = gpu.unwrap();
     for (k, (view, g)) in views.views.iter().zip(&gpu).enumerate() {
@@ -415,7 +359,7 @@ fn gpu_mvr_visibility_equals_the_cpu_visibility() {
     if !have_gpu() {
         return;
     }
-    let (scene, light, rx) = (scene(), light(), receivers(64));
+    let (scene, light, rx) = (ground_and_cloud(), rect_light_above(), ground_grid(64));
     let samples = SampleSet::generate(&light, 12, Pattern::Poisson, 5, 1, false, 0).unwrap();
     let opts = MultiViewOptions {
         resolution: 256,
@@ -454,7 +398,7 @@ fn stage_times_are_the_gpus_own_passes_and_never_exceed_the_wall_clock() {
     // Not while another test forces the limits low.
     let _serial = LIMITS.lock().unwrap_or_else(|p| p.into_inner());
     let gpu = context().unwrap();
-    let (scene, light, rx) = (scene(), light(), receivers(64));
+    let (scene, light, rx) = (ground_and_cloud(), rect_light_above(), ground_grid(64));
     let opts = CssmOptions {
         resolution: 128,
         order: 8,

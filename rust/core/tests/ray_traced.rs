@@ -1,6 +1,9 @@
 //! Integration tests of the BVH, the ray-traced oracle and the G-buffer: analytic cases,
 //! alpha testing, watertightness, brute-force agreement and determinism.
 
+mod common;
+
+use common::{mesh, plane, quad, uv_sphere};
 use glam::{Vec2, Vec3};
 use softshadows_core::geometry::bvh::{intersect_triangle, Bvh};
 use softshadows_core::geometry::camera::Camera;
@@ -12,58 +15,8 @@ use softshadows_core::light::sampling::{Pattern, Rng, SampleSet};
 use softshadows_core::methods::ray_traced::{auto_epsilon, ray_traced, RayTracedOptions};
 use softshadows_core::methods::CasterFaces;
 use softshadows_core::Error;
-use std::f32::consts::PI;
 
 // ---------------------------------------------------------------- scene helpers
-
-fn mesh(positions: Vec<Vec3>, faces: Vec<[u32; 3]>) -> Mesh {
-    Mesh::new(positions, faces, None, None, false).unwrap()
-}
-
-/// A quad with corners a, b, c, d (in order) as two triangles.
-fn quad(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> Mesh {
-    mesh(vec![a, b, c, d], vec![[0, 1, 2], [0, 2, 3]])
-}
-
-/// The square |x|, |z| <= s at height y.
-fn plane(y: f32, s: f32) -> Mesh {
-    quad(
-        Vec3::new(-s, y, -s),
-        Vec3::new(s, y, -s),
-        Vec3::new(s, y, s),
-        Vec3::new(-s, y, s),
-    )
-}
-
-/// A latitude-longitude sphere with `2 * n * m` triangles (closed; poles repeated per column).
-fn sphere(center: Vec3, radius: f32, n: u32, m: u32) -> Mesh {
-    let mut pos = Vec::new();
-    for i in 0..=m {
-        let theta = PI * i as f32 / m as f32;
-        for j in 0..=n {
-            let phi = 2.0 * PI * (j % n) as f32 / n as f32;
-            pos.push(
-                center
-                    + radius
-                        * Vec3::new(
-                            theta.sin() * phi.cos(),
-                            theta.cos(),
-                            theta.sin() * phi.sin(),
-                        ),
-            );
-        }
-    }
-    let mut faces = Vec::new();
-    for i in 0..m {
-        for j in 0..n {
-            let a = i * (n + 1) + j;
-            let (b, c, d) = (a + 1, a + n + 1, a + n + 2);
-            faces.push([a, c, b]);
-            faces.push([b, c, d]);
-        }
-    }
-    mesh(pos, faces)
-}
 
 fn receivers(points: Vec<Vec3>, normals: Vec<Vec3>) -> Receivers {
     let n = points.len();
@@ -203,7 +156,7 @@ fn tiny_rect_light_equals_the_point_light_exactly() {
     let point = Light::point(c).unwrap();
     let scene = Scene::new(vec![
         plane(0.0, 4.0),
-        sphere(Vec3::new(0.0, 1.5, 0.0), 0.7, 24, 12),
+        uv_sphere(Vec3::new(0.0, 1.5, 0.0), 0.7, 24, 12, false),
     ])
     .unwrap();
     let pts: Vec<Vec3> = (0..400)
@@ -358,7 +311,7 @@ fn vertices_and_midpoints(m: &Mesh) -> Vec<Vec3> {
 #[test]
 fn rays_through_shared_edges_and_vertices_never_leak() {
     let cube = grid_cube(8);
-    let ico = sphere(Vec3::new(0.1, -0.2, 0.05), 1.0, 48, 24);
+    let ico = uv_sphere(Vec3::new(0.1, -0.2, 0.05), 1.0, 48, 24, false);
     for m in [cube, ico] {
         let targets = vertices_and_midpoints(&m);
         let center = m.positions.iter().copied().sum::<Vec3>() / m.positions.len() as f32;
@@ -591,7 +544,7 @@ fn shadow_scene() -> Scene {
     .unwrap();
     Scene::new(vec![
         plane(0.0, 4.0),
-        sphere(Vec3::new(0.7, 1.0, 0.3), 0.6, 96, 64),
+        uv_sphere(Vec3::new(0.7, 1.0, 0.3), 0.6, 96, 64, false),
         fence,
     ])
     .unwrap()

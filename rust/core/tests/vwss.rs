@@ -2,95 +2,30 @@
 //! computation, buffered against unbuffered warping, and every traversal schedule giving the
 //! same visibility.
 
-use glam::Vec3;
-use softshadows_core::geometry::mesh::{Mesh, Scene};
-use softshadows_core::geometry::receivers::Receivers;
-use softshadows_core::light::lights::Light;
-use softshadows_core::light::sampling::{light_samples, Pattern, Rng, SampleSet};
+mod common;
+
+use common::{ground_and_cloud, ground_grid, rect_light_above};
+use softshadows_core::light::sampling::{light_samples, Pattern, SampleSet};
 use softshadows_core::methods::vwss::{
     generate_points, source_view, vwss, warp_fragments, warp_points, Mode, Parallel, Points,
     VwssOptions,
 };
 use softshadows_core::raster::multiview::ViewSet;
 
-/// A ground quad and a cloud of random triangles above it, lit from a rect light at y = 4.
-fn scene() -> Scene {
-    let ground = Mesh::new(
-        vec![
-            Vec3::new(-3.0, 0.0, -3.0),
-            Vec3::new(3.0, 0.0, -3.0),
-            Vec3::new(3.0, 0.0, 3.0),
-            Vec3::new(-3.0, 0.0, 3.0),
-        ],
-        vec![[0, 2, 1], [0, 3, 2]],
-        None,
-        None,
-        false,
-    )
-    .unwrap();
-    let mut rng = Rng::new(11);
-    let mut pos = Vec::new();
-    let mut faces = Vec::new();
-    for t in 0..300u32 {
-        let c = Vec3::new(
-            4.0 * rng.next_f32() - 2.0,
-            0.5 + 1.5 * rng.next_f32(),
-            4.0 * rng.next_f32() - 2.0,
-        );
-        for _ in 0..3 {
-            pos.push(
-                c + Vec3::new(
-                    rng.next_f32() - 0.5,
-                    rng.next_f32() - 0.5,
-                    rng.next_f32() - 0.5,
-                ) * 0.6,
-            );
-        }
-        faces.push([3 * t, 3 * t + 1, 3 * t + 2]);
-    }
-    Scene::new(vec![
-        ground,
-        Mesh::new(pos, faces, None, None, false).unwrap(),
-    ])
-    .unwrap()
-}
-
-fn light() -> Light {
-    Light::rect(
-        Vec3::new(0.2, 4.0, 0.1),
-        Vec3::new(0.5, 0.0, 0.0),
-        Vec3::new(0.0, 0.0, -0.5),
-    )
-    .unwrap()
-}
-
-fn receivers(n: usize) -> Receivers {
-    let points: Vec<Vec3> = (0..n * n)
-        .map(|i| {
-            Vec3::new(
-                -2.5 + 5.0 * (i % n) as f32 / n as f32,
-                0.0,
-                -2.5 + 5.0 * (i / n) as f32 / n as f32,
-            )
-        })
-        .collect();
-    Receivers::new(points, vec![Vec3::Y; n * n], vec![true; n * n], n, n).unwrap()
-}
-
 fn views(resolution: usize) -> ViewSet {
-    let rx = receivers(8);
-    let eyes = light_samples(&light(), 6, Pattern::Poisson, 3, 0);
-    ViewSet::fit(&light(), &eyes, rx.bounds().unwrap(), resolution)
+    let rx = ground_grid(8);
+    let eyes = light_samples(&rect_light_above(), 6, Pattern::Poisson, 3, 0);
+    ViewSet::fit(&rect_light_above(), &eyes, rx.bounds().unwrap(), resolution)
         .unwrap()
         .unwrap()
 }
 
 #[test]
 fn every_warped_texel_is_the_minimum_of_the_points_that_land_in_it() {
-    let scene = scene();
+    let scene = ground_and_cloud();
     let opts = VwssOptions::default();
     let views = views(96);
-    let source = source_view(&scene, &light(), &views, &opts).unwrap();
+    let source = source_view(&scene, &rect_light_above(), &views, &opts).unwrap();
     let points = generate_points(&scene, &source, &opts).unwrap();
     let Points::Float32(world) = &points else {
         panic!("float32 points expected")
@@ -114,10 +49,10 @@ fn every_warped_texel_is_the_minimum_of_the_points_that_land_in_it() {
 
 #[test]
 fn unbuffered_warping_writes_the_same_maps_as_the_buffer() {
-    let scene = scene();
+    let scene = ground_and_cloud();
     let opts = VwssOptions::default();
     let views = views(64);
-    let source = source_view(&scene, &light(), &views, &opts).unwrap();
+    let source = source_view(&scene, &rect_light_above(), &views, &opts).unwrap();
     let buffered = warp_points(
         &generate_points(&scene, &source, &opts).unwrap(),
         &views.views,
@@ -133,9 +68,9 @@ fn unbuffered_warping_writes_the_same_maps_as_the_buffer() {
 
 #[test]
 fn the_source_view_contains_every_sample_view() {
-    let scene = scene();
+    let scene = ground_and_cloud();
     let views = views(64);
-    let source = source_view(&scene, &light(), &views, &VwssOptions::default()).unwrap();
+    let source = source_view(&scene, &rect_light_above(), &views, &VwssOptions::default()).unwrap();
     for v in &views.views {
         let o = source.to_view(v.eye);
         assert!(
@@ -153,9 +88,10 @@ fn the_source_view_contains_every_sample_view() {
 
 #[test]
 fn every_schedule_gives_the_same_visibility() {
-    let scene = scene();
-    let rx = receivers(24);
-    let samples = SampleSet::generate(&light(), 10, Pattern::Poisson, 5, 1, false, 0).unwrap();
+    let scene = ground_and_cloud();
+    let rx = ground_grid(24);
+    let samples =
+        SampleSet::generate(&rect_light_above(), 10, Pattern::Poisson, 5, 1, false, 0).unwrap();
     let run = |mode, parallel, views_per_pass| {
         let mut opts = VwssOptions {
             mode,
@@ -164,7 +100,7 @@ fn every_schedule_gives_the_same_visibility() {
             ..VwssOptions::default()
         };
         opts.multiview.resolution = 128;
-        vwss(&scene, &light(), &rx, &samples, &opts).unwrap()
+        vwss(&scene, &rect_light_above(), &rx, &samples, &opts).unwrap()
     };
     let (reference, stats) = run(Mode::Buffered, Parallel::Partial, 4);
     assert_eq!(stats.get("traversals"), Some(3.0));
@@ -188,11 +124,12 @@ fn every_schedule_gives_the_same_visibility() {
 
 #[test]
 fn rotated_samples_are_refused() {
-    let samples = SampleSet::generate(&light(), 4, Pattern::Poisson, 5, 1, true, 0).unwrap();
+    let samples =
+        SampleSet::generate(&rect_light_above(), 4, Pattern::Poisson, 5, 1, true, 0).unwrap();
     let err = vwss(
-        &scene(),
-        &light(),
-        &receivers(4),
+        &ground_and_cloud(),
+        &rect_light_above(),
+        &ground_grid(4),
         &samples,
         &VwssOptions::default(),
     )

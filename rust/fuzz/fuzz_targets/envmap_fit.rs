@@ -2,7 +2,7 @@
 //! hot spots, negative / NaN / huge radiance, wrong lengths) with any options.
 #![no_main]
 use libfuzzer_sys::fuzz_target;
-use softshadows_core::methods::envmap::fit_area_lights;
+use softshadows_core::light::envmap::fit_area_lights;
 use softshadows_fuzz::{init, FuzzEnvmap};
 
 fuzz_target!(|input: FuzzEnvmap| {

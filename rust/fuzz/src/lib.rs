@@ -29,14 +29,14 @@ use softshadows_core::methods::alias_free::{AliasFreeOptions, TableSize};
 use softshadows_core::methods::CasterFaces;
 use softshadows_core::methods::backprojection::{Acceleration, Accumulation, BackprojectionOptions, Budget, Occluder};
 use softshadows_core::methods::cssm::{CssmOptions, Prefilter};
-use softshadows_core::methods::envmap::FitOptions;
+use softshadows_core::light::envmap::FitOptions;
 use softshadows_core::methods::mvr::MultiViewOptions;
 use softshadows_core::methods::pcss::PcssOptions;
 use softshadows_core::methods::ray_traced::{auto_epsilon, RayTracedOptions};
 use softshadows_core::methods::shadow_map::ShadowMapOptions;
 use softshadows_core::methods::stsv::{Opaque, StsvOptions};
 use softshadows_core::methods::vwss::{Mode, Parallel, Precision, SourceView, VwssOptions};
-use softshadows_core::raster::influence::ObjectOptions;
+use softshadows_core::influence::ObjectOptions;
 use softshadows_core::Result;
 
 pub use arbitrary;

@@ -124,45 +124,13 @@ pub struct NativeLight {
     pub light: Light,
 }
 
-#[pymethods]
 impl NativeLight {
-    /// `kind`: "point" (center = position), "rect" (a = u, b = v), "disk" (a = normal), "sphere",
-    /// "ellipsoid" (a, b, c = the semi-axes).
-    #[new]
-    #[pyo3(signature = (kind, center, a, b, radius, emission, c=None))]
-    #[allow(clippy::too_many_arguments)]
-    fn new(
-        kind: &str,
-        center: PyReadonlyArray1<'_, f32>,
-        a: Option<PyReadonlyArray1<'_, f32>>,
-        b: Option<PyReadonlyArray1<'_, f32>>,
-        radius: f32,
+    /// `light` as built, with the emission texture `emission` (H, W) when given.
+    fn from(
+        light: softshadows_core::Result<Light>,
         emission: Option<PyReadonlyArray2<'_, f32>>,
-        c: Option<PyReadonlyArray1<'_, f32>>,
     ) -> PyResult<Self> {
-        let center = vec3("center", &center)?;
-        let arg = |name: &str, v: &Option<PyReadonlyArray1<'_, f32>>| match v {
-            Some(v) => vec3(name, v),
-            None => Err(pyo3::exceptions::PyValueError::new_err(format!(
-                "{name}: missing"
-            ))),
-        };
-        let light = match kind {
-            "point" => Light::point(center),
-            "rect" => Light::rect(center, arg("u", &a)?, arg("v", &b)?),
-            "disk" => Light::disk(center, arg("normal", &a)?, radius),
-            "sphere" => Light::sphere(center, radius),
-            "ellipsoid" => Light::ellipsoid(
-                center,
-                [arg("axes", &a)?, arg("axes", &b)?, arg("axes", &c)?],
-            ),
-            other => {
-                return Err(pyo3::exceptions::PyValueError::new_err(format!(
-                    "light: unknown kind {other:?}"
-                )))
-            }
-        }
-        .or_raise()?;
+        let light = light.or_raise()?;
         let light = match emission {
             Some(e) => {
                 let (w, h, values) = image(&e);
@@ -173,6 +141,59 @@ impl NativeLight {
             None => light,
         };
         Ok(Self { light })
+    }
+}
+
+#[pymethods]
+impl NativeLight {
+    /// A point light at `center`.
+    #[staticmethod]
+    fn point(center: PyReadonlyArray1<'_, f32>) -> PyResult<Self> {
+        Self::from(Light::point(vec3("center", &center)?), None)
+    }
+
+    /// A one-sided rectangle `center + s u + t v`, `s, t` in [-1, 1], emitting towards `u × v`.
+    #[staticmethod]
+    #[pyo3(signature = (center, u, v, emission=None))]
+    fn rect(
+        center: PyReadonlyArray1<'_, f32>,
+        u: PyReadonlyArray1<'_, f32>,
+        v: PyReadonlyArray1<'_, f32>,
+        emission: Option<PyReadonlyArray2<'_, f32>>,
+    ) -> PyResult<Self> {
+        let light = Light::rect(vec3("center", &center)?, vec3("u", &u)?, vec3("v", &v)?);
+        Self::from(light, emission)
+    }
+
+    /// A one-sided disk of `radius` about `center`, emitting towards `normal`.
+    #[staticmethod]
+    #[pyo3(signature = (center, normal, radius, emission=None))]
+    fn disk(
+        center: PyReadonlyArray1<'_, f32>,
+        normal: PyReadonlyArray1<'_, f32>,
+        radius: f32,
+        emission: Option<PyReadonlyArray2<'_, f32>>,
+    ) -> PyResult<Self> {
+        let light = Light::disk(vec3("center", &center)?, vec3("normal", &normal)?, radius);
+        Self::from(light, emission)
+    }
+
+    /// A sphere of `radius` about `center`.
+    #[staticmethod]
+    fn sphere(center: PyReadonlyArray1<'_, f32>, radius: f32) -> PyResult<Self> {
+        Self::from(Light::sphere(vec3("center", &center)?, radius), None)
+    }
+
+    /// An ellipsoid about `center` with the rows of `axes` (3, 3) as its semi-axes.
+    #[staticmethod]
+    fn ellipsoid(
+        center: PyReadonlyArray1<'_, f32>,
+        axes: PyReadonlyArray2<'_, f32>,
+    ) -> PyResult<Self> {
+        let axes: [Vec3; 3] = vec3s("axes", &axes)?
+            .try_into()
+            .map_err(|_| pyo3::exceptions::PyValueError::new_err("axes: expected shape (3, 3)"))?;
+        Self::from(Light::ellipsoid(vec3("center", &center)?, axes), None)
     }
 
     #[getter]
@@ -395,6 +416,12 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(set_work_limit, m)?)?;
     m.add_function(wrap_pyfunction!(work_limit, m)?)?;
     m.add("WorkLimitError", m.py().get_type::<error::WorkLimitError>())?;
+    m.add(
+        "UnsupportedSetup",
+        m.py().get_type::<error::UnsupportedSetup>(),
+    )?;
+    let patterns: Vec<&str> = Pattern::NAMES.iter().map(|(name, _)| *name).collect();
+    m.add("PATTERNS", pyo3::types::PyTuple::new(m.py(), patterns)?)?;
     m.add_function(wrap_pyfunction!(gpu_info, m)?)?;
     m.add_function(wrap_pyfunction!(threads::set_num_threads, m)?)?;
     m.add_function(wrap_pyfunction!(threads::num_threads, m)?)?;

@@ -6,10 +6,12 @@ use crate::{NativeLight, NativeReceivers, NativeSamples, NativeScene};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use softshadows_core::backend::Backend;
 use softshadows_core::geometry::bvh::Bvh;
 use softshadows_core::geometry::mesh::Scene;
 use softshadows_core::geometry::receivers::Receivers;
-use softshadows_core::gpu::Backend;
+use softshadows_core::influence::ObjectOptions;
+use softshadows_core::light::envmap::{fit_area_lights as fit_core, texel_solid_angle, FitOptions};
 use softshadows_core::light::lights::Light;
 use softshadows_core::light::sampling::SampleSet;
 use softshadows_core::methods::alias_free::{
@@ -20,9 +22,6 @@ use softshadows_core::methods::backprojection::{
 };
 use softshadows_core::methods::cssm::{cssm as cssm_core, CssmOptions, Prefilter};
 use softshadows_core::methods::dcs::dcs as dcs_core;
-use softshadows_core::methods::envmap::{
-    fit_area_lights as fit_core, texel_solid_angle, FitOptions,
-};
 use softshadows_core::methods::mvr::{mvr as mvr_core, MultiViewOptions};
 use softshadows_core::methods::pcss::{pcss as pcss_core, PcssOptions};
 use softshadows_core::methods::penumbra_wedge::penumbra_wedge as penumbra_wedge_core;
@@ -35,7 +34,6 @@ use softshadows_core::methods::vwss::{
     vwss as vwss_core, Mode, Parallel, Precision, SourceView, VwssOptions,
 };
 use softshadows_core::methods::CasterFaces;
-use softshadows_core::raster::influence::ObjectOptions;
 use softshadows_core::Error;
 use softshadows_core::Result as CoreResult;
 use softshadows_core::Stats;

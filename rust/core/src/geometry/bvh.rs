@@ -33,7 +33,7 @@ mod triangle;
 
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
-use frustum::{Frustum, MAX_CANDIDATES};
+use frustum::{RayFrustum, MAX_CANDIDATES};
 use glam::{Vec3, Vec4};
 use packet::Isa;
 use std::cell::RefCell;
@@ -453,7 +453,7 @@ impl Bvh {
     ///
     /// One traversal with the frustum through the corners of both boxes from an apex behind
     /// `a`, on the line from the center of `b` through that of `a`: it holds the boxes, so
-    /// their convex hull and every such segment (see [`Frustum::around_boxes`]). The apex is
+    /// their convex hull and every such segment (see [`RayFrustum::around_boxes`]). The apex is
     /// placed (a quarter further than) where the cone tangent to both boxes' bounding spheres
     /// has its tip, which makes the frustum about as thin as the hull: the shaft of Haines and
     /// Wallace (1994) with a pyramid's planes.
@@ -467,7 +467,7 @@ impl Bvh {
             return false;
         }
         let behind = (1.25 * ra / (rb - ra)).max(1e-3) * len;
-        let Some(f) = Frustum::around_boxes(ca + axis * (behind / len), &[a, b]) else {
+        let Some(f) = RayFrustum::around_boxes(ca + axis * (behind / len), &[a, b]) else {
             return false;
         };
         ANY_STACK.with(|s| match s.try_borrow_mut() {
@@ -484,7 +484,7 @@ impl Bvh {
     /// [`FrustumCandidates::MAX`] (or no pyramid with apex `origin` bounds the box). No
     /// candidate means that every such segment is unblocked.
     pub fn frustum_candidates(&self, origin: Vec3, bounds: [Vec3; 2]) -> Option<FrustumCandidates> {
-        let f = Frustum::around(origin, bounds)?;
+        let f = RayFrustum::around(origin, bounds)?;
         let mut cand = FrustumCandidates {
             leaves: [LeafRef::default(); MAX_CANDIDATES],
             len: 0,

@@ -5,4 +5,5 @@ pub mod edges;
 pub mod gbuffer;
 pub mod inside;
 pub mod mesh;
+pub mod polygon;
 pub mod receivers;

@@ -1,9 +1,13 @@
-//! The wgpu backend: the methods that the papers ran on graphics hardware, as compute pipelines.
+//! What the wgpu backend's methods share: the device, the dispatch limits, and the lighting pass
+//! of the multi-view methods.
 //!
 //! One device and queue are created lazily on first use and reused by every call ([`context`]),
-//! one per process: a forked child makes its own ([`after_fork_in_child`]);
-//! each method has one `.rs` + `.wgsl` pair here, the WGSL embedded in the binary. Methods pick
-//! the backend per call ([`Backend`]); the CPU path is unchanged. Large inputs are split into
+//! one per process: a forked child makes its own ([`after_fork_in_child`]). Each method's GPU
+//! half lives beside its CPU half (`methods/<name>/gpu.rs` and its `.wgsl`, embedded in the
+//! binary, with a `no_gpu.rs` that refuses when the crate feature is off); here are only the
+//! shared parts: the context, the limits, the multi-view lighting pass ([`multiview`], used by
+//! `shadow_map`, `mvr` and `vwss`) and the frustum and f64 vector shaders the others include.
+//! Methods pick the backend per call ([`crate::backend::Backend`]). Large inputs are split into
 //! dispatches within the adapter's limits ([`DispatchLimits`]: workgroup counts and storage
 //! binding sizes), which tests can force lower ([`force_limits`]).
 //!
@@ -13,51 +17,16 @@ use crate::error::{Error, Result};
 use std::sync::Mutex;
 
 #[cfg(feature = "gpu")]
-pub mod alias_free;
-#[cfg(feature = "gpu")]
-mod context;
-#[cfg(feature = "gpu")]
-pub mod cssm;
+pub(crate) mod context;
 #[cfg(feature = "gpu")]
 pub mod multiview;
-#[cfg(feature = "gpu")]
-pub mod mvr;
-#[cfg(feature = "gpu")]
-pub mod pcss;
-#[cfg(feature = "gpu")]
-pub mod vwss;
-#[cfg(not(feature = "gpu"))]
-pub mod alias_free {
-    //! Without the `gpu` feature: refuses.
-    use crate::error::Result;
-    use crate::methods::alias_free::Setup;
-    use crate::stats::Stats;
-
-    pub(crate) fn masks(_setup: &Setup<'_>, _stats: &mut Stats) -> Result<Vec<u64>> {
-        Err(super::unavailable())
-    }
-}
-#[cfg(not(feature = "gpu"))]
-pub mod cssm {
-    //! Without the `gpu` feature: refuses.
-    use crate::error::Result;
-    use crate::methods::cssm::{Shared, Start};
-    use crate::raster::depth::DepthMap;
-
-    pub fn cssm(
-        _map: &DepthMap,
-        _shared: &Shared,
-        _starts: &[Start],
-    ) -> Result<(Vec<f32>, [f64; 3])> {
-        Err(super::unavailable())
-    }
-}
 #[cfg(not(feature = "gpu"))]
 pub mod multiview {
     //! Without the `gpu` feature: lighting that cannot be set up.
     use crate::error::Result;
     use crate::geometry::receivers::Receivers;
-    use crate::raster::depth::{DepthMap, LightFrustum};
+    use crate::raster::depth::DepthMap;
+    use crate::raster::frustum::LightFrustum;
     use crate::raster::pcf::{DepthBias, PcfKernel};
 
     pub enum Lighting {}
@@ -81,67 +50,6 @@ pub mod multiview {
         }
     }
 }
-#[cfg(not(feature = "gpu"))]
-pub mod mvr {
-    //! Without the `gpu` feature: a rasterizer that cannot be made.
-    use super::multiview::Lighting;
-    use crate::error::Result;
-    use crate::geometry::mesh::Scene;
-    use crate::raster::depth::LightFrustum;
-
-    pub enum Rasterizer {}
-
-    impl Rasterizer {
-        pub fn new(_scene: &Scene) -> Result<Self> {
-            Err(super::unavailable())
-        }
-
-        pub fn draw_and_light(
-            &self,
-            _views: &[LightFrustum],
-            _weights: &[f32],
-            _lighting: &Lighting,
-        ) -> Result<(f64, f64, u64)> {
-            match *self {}
-        }
-    }
-}
-#[cfg(not(feature = "gpu"))]
-pub mod pcss {
-    //! Without the `gpu` feature: refuses.
-    use crate::error::Result;
-    use crate::geometry::receivers::Receivers;
-    use crate::methods::pcss::GpuLookup;
-
-    pub fn pcss(_lookup: &GpuLookup<'_>, _rx: &Receivers) -> Result<(Vec<f32>, f64)> {
-        Err(super::unavailable())
-    }
-}
-#[cfg(not(feature = "gpu"))]
-pub mod vwss {
-    //! Without the `gpu` feature: a warper that cannot be made.
-    use super::multiview::Lighting;
-    use crate::error::Result;
-    use crate::raster::depth::LightFrustum;
-
-    pub enum Warper {}
-
-    impl Warper {
-        pub fn new(_points: impl ExactSizeIterator<Item = glam::Vec3>) -> Result<Self> {
-            Err(super::unavailable())
-        }
-
-        pub fn warp_and_light(
-            &self,
-            _views: &[LightFrustum],
-            _weights: &[f32],
-            _lighting: &Lighting,
-        ) -> Result<(f64, f64)> {
-            match *self {}
-        }
-    }
-}
-
 #[cfg(feature = "gpu")]
 pub use context::{context, Gpu, PerContext};
 
@@ -152,14 +60,6 @@ pub use context::{context, Gpu, PerContext};
 pub fn after_fork_in_child() {
     #[cfg(feature = "gpu")]
     context::forget_after_fork();
-}
-
-/// Where a method runs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Backend {
-    #[default]
-    Cpu,
-    Gpu,
 }
 
 /// The limits that split a method's work into dispatches: workgroups per dispatch dimension and
@@ -252,53 +152,33 @@ pub(crate) fn unavailable() -> Error {
     )
 }
 
+/// Validation of the WGSL shaders with naga, so a broken shader fails `cargo test` on machines
+/// without a GPU: the shared shaders here, each method's beside its module.
 #[cfg(test)]
-mod shader_tests {
-    /// Every embedded shader parses and validates with naga, so a broken shader fails `cargo test`
-    /// on machines without a GPU.
+pub(crate) mod shader_check {
+    use naga::valid::Capabilities;
+
+    /// The light-frustum helpers every frustum-reading shader is prefixed with.
+    pub const FRUSTUM: &str = include_str!("frustum.wgsl");
+    /// The f64 vector helpers of the shaders that repeat the CPU's f64 arithmetic.
+    pub const VECTOR64: &str = include_str!("vector64.wgsl");
+
+    /// Parses and validates the shader made of `parts`, panicking with naga's message.
+    pub fn validates(name: &str, parts: &[&str], capabilities: Capabilities) {
+        let source = parts.join("\n");
+        let module = naga::front::wgsl::parse_str(&source)
+            .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&source)));
+        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), capabilities)
+            .validate(&module)
+            .unwrap_or_else(|e| panic!("{name}: {e:?}"));
+    }
+
     #[test]
-    fn every_shader_parses_and_validates() {
-        use naga::valid::Capabilities;
-        let frustum = include_str!("frustum.wgsl");
-        let vector64 = include_str!("vector64.wgsl");
-        for (name, source, capabilities) in [
-            (
-                "vwss.wgsl",
-                format!("{frustum}\n{}", include_str!("vwss.wgsl")),
-                Capabilities::empty(),
-            ),
-            (
-                "multiview.wgsl",
-                format!("{frustum}\n{}", include_str!("multiview.wgsl")),
-                Capabilities::empty(),
-            ),
-            (
-                "pcss.wgsl",
-                format!("{frustum}\n{}", include_str!("pcss.wgsl")),
-                Capabilities::FLOAT64,
-            ),
-            (
-                "mvr.wgsl",
-                format!("{frustum}\n{vector64}\n{}", include_str!("mvr.wgsl")),
-                Capabilities::FLOAT64,
-            ),
-            (
-                "cssm.wgsl",
-                include_str!("cssm.wgsl").to_string(),
-                Capabilities::FLOAT64,
-            ),
-            (
-                "alias_free.wgsl",
-                format!("{frustum}\n{vector64}\n{}", include_str!("alias_free.wgsl")),
-                Capabilities::FLOAT64,
-            ),
-        ] {
-            let source = source.as_str();
-            let module = naga::front::wgsl::parse_str(source)
-                .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(source)));
-            naga::valid::Validator::new(naga::valid::ValidationFlags::all(), capabilities)
-                .validate(&module)
-                .unwrap_or_else(|e| panic!("{name}: {e:?}"));
-        }
+    fn multiview_shader_validates() {
+        validates(
+            "multiview.wgsl",
+            &[FRUSTUM, include_str!("multiview.wgsl")],
+            Capabilities::empty(),
+        );
     }
 }

@@ -5,7 +5,8 @@
 use super::context::{context, Gpu, PerContext};
 use crate::error::{Error, Result};
 use crate::geometry::receivers::Receivers;
-use crate::raster::depth::{DepthMap, LightFrustum};
+use crate::raster::depth::DepthMap;
+use crate::raster::frustum::LightFrustum;
 use crate::raster::pcf::{DepthBias, PcfKernel};
 
 /// `frustum.wgsl`, prepended to the shaders that read or write depth maps.

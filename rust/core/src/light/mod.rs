@@ -1,3 +1,4 @@
-//! Lights and light-sample patterns.
+//! Lights, light-sample patterns, and the decomposition of an environment map into lights.
+pub mod envmap;
 pub mod lights;
 pub mod sampling;

@@ -37,19 +37,30 @@ pub enum Pattern {
 }
 
 impl Pattern {
+    /// Every pattern by the name the Python API spells it, in the order the documentation
+    /// lists them.
+    pub const NAMES: [(&'static str, Pattern); 5] = [
+        ("uniform", Pattern::Uniform),
+        ("stratified", Pattern::Stratified),
+        ("poisson", Pattern::Poisson),
+        ("sobol", Pattern::Sobol),
+        ("halton", Pattern::Halton),
+    ];
+
     /// Parses a pattern name as used by the Python API.
     pub fn parse(name: &str) -> Result<Self> {
-        match name {
-            "uniform" => Ok(Pattern::Uniform),
-            "stratified" => Ok(Pattern::Stratified),
-            "poisson" => Ok(Pattern::Poisson),
-            "sobol" => Ok(Pattern::Sobol),
-            "halton" => Ok(Pattern::Halton),
-            other => Err(Error::invalid(
-                "pattern",
-                format!("expected one of 'uniform', 'stratified', 'poisson', 'sobol', 'halton', got {other:?}"),
-            )),
-        }
+        Self::NAMES
+            .iter()
+            .find(|(spelled, _)| *spelled == name)
+            .map(|(_, pattern)| *pattern)
+            .ok_or_else(|| {
+                let names: Vec<String> =
+                    Self::NAMES.iter().map(|(n, _)| format!("'{n}'")).collect();
+                Error::invalid(
+                    "pattern",
+                    format!("expected one of {}, got {name:?}", names.join(", ")),
+                )
+            })
     }
 }
 
@@ -601,6 +612,22 @@ impl Interleave {
     fn position(&self, x: usize, y: usize) -> usize {
         (x % self.k) % self.columns + self.columns * ((y % self.k) % self.rows)
     }
+}
+
+/// A receiver's visibility from its samples' weights: `lit / total` in [0, 1], and 0 when no
+/// sample carries weight. Every weighted method resolves its sums here.
+pub fn lit_fraction(lit: f64, total: f64) -> f32 {
+    if total > 0.0 {
+        (lit / total).clamp(0.0, 1.0) as f32
+    } else {
+        0.0
+    }
+}
+
+/// A step of a sum that starts from +0.0: `Iterator::sum` over f64 starts from -0.0, so a receiver
+/// with no lit sample would get a visibility of -0.0.
+pub fn plus_zero_sum(total: f64, term: f64) -> f64 {
+    total + term
 }
 
 /// How the light samples of each receiver are chosen.

@@ -43,17 +43,17 @@
 
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
+use crate::geometry::polygon::{clip_half_plane, signed_area};
 use crate::geometry::receivers::Receivers;
+use crate::influence::light_polytope;
 use crate::interrupt;
 use crate::light::lights::{concentric_disk, tangent_frame, Light, Shape};
 use crate::light::sampling::Rng;
 use crate::limits::Peak;
 use crate::raster::cube::{self, by_light_face};
-use crate::raster::depth::check_resolution;
-use crate::raster::depth::{
-    raster_peak, raster_work, rasterize_depth, LightFrustum, RasterOptions,
-};
-use crate::raster::influence::light_polytope;
+use crate::raster::depth::{raster_peak, raster_work, rasterize_depth, RasterOptions};
+use crate::raster::frustum::check_resolution;
+use crate::raster::frustum::LightFrustum;
 use crate::raster::pcf::{DepthBias, ReceiverDepth};
 use crate::raster::pyramid::{MinMaxPyramid, MultiScaleMap};
 use crate::stats::Stats;
@@ -464,7 +464,7 @@ impl LightPlane {
                     world,
                 })
             }
-            _ => Err(Error::invalid(
+            _ => Err(Error::unsupported(
                 "light",
                 "backprojection needs a planar area light (RectLight or DiskLight)",
             )),
@@ -511,31 +511,8 @@ impl LightPlane {
                 return 0.0;
             }
         }
-        polygon_area(&clipped).abs() / self.outline_area
+        signed_area(&clipped).abs() / self.outline_area
     }
-}
-
-/// Sutherland–Hodgman: the part of `poly` to the left of the directed line `a → b`.
-fn clip_half_plane(poly: &[DVec2], a: DVec2, b: DVec2) -> Vec<DVec2> {
-    let side = |p: DVec2| (b - a).perp_dot(p - a);
-    let mut out = Vec::with_capacity(poly.len() + 1);
-    for i in 0..poly.len() {
-        let (p, q) = (poly[i], poly[(i + 1) % poly.len()]);
-        let (sp, sq) = (side(p), side(q));
-        if sp >= 0.0 {
-            out.push(p);
-        }
-        if (sp >= 0.0) != (sq >= 0.0) {
-            out.push(p + (q - p) * (sp / (sp - sq)));
-        }
-    }
-    out
-}
-
-fn polygon_area(poly: &[DVec2]) -> f64 {
-    0.5 * (0..poly.len())
-        .map(|i| poly[i].perp_dot(poly[(i + 1) % poly.len()]))
-        .sum::<f64>()
 }
 
 /// Whether `s` lies inside the convex quadrilateral `q` (either winding).

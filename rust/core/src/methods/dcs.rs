@@ -12,7 +12,7 @@
 //!    edge changes a count.
 //! 3. **Wedges**: each such edge updates the receivers inside its penumbra wedge, its influence
 //!    region in the light-space receiver lists from the bounds of the light and its samples
-//!    ([`crate::raster::influence`]; the paper rasterizes the wedges in screen space). For a
+//!    ([`crate::influence`]; the paper rasterizes the wedges in screen space). For a
 //!    receiver the edge is a silhouette from, every sample `y` for which the edge crosses the
 //!    triangle `(p', y0, y)` gets the edge's change in count ([`crate::geometry::edges::Sweep`]).
 //! 4. **Samples past a face**: the sweeps carry `y0`'s count to `y` only if the segment `y0 → y`
@@ -29,12 +29,12 @@ use crate::geometry::bvh::Bvh;
 use crate::geometry::edges::{edges_peak, opaque_silhouettes};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
+use crate::influence::{ObjectOptions, Origins};
 use crate::interrupt;
 use crate::light::lights::Light;
-use crate::light::sampling::SampleSet;
+use crate::light::sampling::{lit_fraction, plus_zero_sum, SampleSet};
 use crate::limits::{self, object_work, Peak, Work};
 use crate::raster::cube::by_light_face;
-use crate::raster::influence::{ObjectOptions, Origins};
 use crate::stats::Stats;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -179,12 +179,6 @@ fn opaque_face_within(scene: &Scene, center: DVec3, radius: f64) -> bool {
     })
 }
 
-/// A step of a sum that starts from +0.0: `Iterator::sum` over f64 starts from -0.0, so a receiver
-/// with no lit sample would get a visibility of -0.0.
-pub(crate) fn plus_zero_sum(total: f64, term: f64) -> f64 {
-    total + term
-}
-
 /// The weighted fraction of each receiver's samples in front of its tangent plane whose count
 /// is 0, scattered to the receivers' order.
 pub(crate) fn visible_fraction(origins: &Origins, counts: &[i32]) -> Vec<f32> {
@@ -208,14 +202,7 @@ pub(crate) fn visible_fraction(origins: &Origins, counts: &[i32]) -> Vec<f32> {
                     .filter(|((y, _), &c)| c == 0 && (**y - p).dot(n) > 0.0)
                     .map(|((_, &w), _)| f64::from(w))
                     .fold(0.0, plus_zero_sum);
-                (
-                    i,
-                    if total > 0.0 {
-                        (lit / total).clamp(0.0, 1.0) as f32
-                    } else {
-                        0.0
-                    },
-                )
+                (i, lit_fraction(lit, total))
             },
         )
         .collect();

@@ -3,7 +3,6 @@ pub mod alias_free;
 pub mod backprojection;
 pub mod cssm;
 pub mod dcs;
-pub mod envmap;
 pub mod mvr;
 pub mod pcss;
 pub mod penumbra_wedge;
@@ -34,7 +33,7 @@ pub enum CasterFaces {
 /// 4.2: textured sources are decomposed into uniform lights instead).
 pub(crate) fn refuse_textured(light: &Light, method: &str) -> Result<()> {
     if light.is_textured() {
-        return Err(Error::invalid(
+        return Err(Error::unsupported(
             "light",
             format!(
                 "{method} cannot weight the light's emission texture (it filters one shadow map from the light's center); \

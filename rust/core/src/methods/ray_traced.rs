@@ -24,7 +24,7 @@ use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::interrupt;
 use crate::light::lights::Light;
-use crate::light::sampling::SampleSet;
+use crate::light::sampling::{lit_fraction, SampleSet};
 use crate::limits::{self, Peak, Work};
 use crate::methods::CasterFaces;
 use crate::stats::Stats;
@@ -386,7 +386,7 @@ fn trace_tile(
 ) -> u64 {
     // Unit weights: the sums of `receiver_visibility` are exact counts here.
     let total = ys.points.len() as f64;
-    let visibility = |lit: u32| fraction(f64::from(lit), total);
+    let visibility = |lit: u32| lit_fraction(f64::from(lit), total);
     b.hard.clear();
     b.origins.clear();
     b.front.clear();
@@ -509,7 +509,7 @@ fn receiver_visibility(
         .zip(&s.blocked)
         .filter(|(_, &b)| !b)
         .fold(0.0, |acc, (&w, _)| acc + f64::from(w));
-    (fraction(lit, total), s.targets.len() as u64)
+    (lit_fraction(lit, total), s.targets.len() as u64)
 }
 
 /// For each target, whether its segment is blocked with the culling of closed casters (Sintorn,
@@ -556,16 +556,6 @@ fn culled_face_blocks(scene: &Scene, f: u32, p: DVec3, y: DVec3) -> bool {
     // The barycentric weight of each vertex is the volume with the opposite edge.
     let sum = ab + bc + ca;
     inside && scene.is_opaque_at(f, (ca / sum) as f32, (ab / sum) as f32)
-}
-
-/// `lit / total` in [0, 1], and 0 when no sample carries weight. (The sums start at +0.0: Rust's
-/// empty float `sum()` is -0.0, which would surface as a negative zero in the output.)
-fn fraction(lit: f64, total: f64) -> f32 {
-    if total > 0.0 {
-        (lit / total).clamp(0.0, 1.0) as f32
-    } else {
-        0.0
-    }
 }
 
 #[cfg(test)]

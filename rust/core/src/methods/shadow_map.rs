@@ -23,19 +23,19 @@
 //! ([`ReceiverDepth`](crate::raster::pcf::ReceiverDepth)), which removes
 //! self-shadowing acne on flat and curved receivers for every PCF size.
 
+use crate::backend::Backend;
 use crate::error::Result;
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
+use crate::gpu;
 use crate::gpu::multiview::Lighting;
-use crate::gpu::{self, Backend};
 use crate::interrupt;
 use crate::light::lights::Light;
 use crate::limits::Peak;
 use crate::raster::cube::{self, by_light_face};
-use crate::raster::depth::check_resolution;
-use crate::raster::depth::{
-    raster_peak, raster_work, rasterize_depth, DepthMap, LightFrustum, RasterOptions,
-};
+use crate::raster::depth::{raster_peak, raster_work, rasterize_depth, DepthMap, RasterOptions};
+use crate::raster::frustum::check_resolution;
+use crate::raster::frustum::LightFrustum;
 use crate::raster::pcf::{DepthBias, PcfKernel};
 use crate::stats::Stats;
 

@@ -11,7 +11,7 @@
 //!    the whole light outside; adjacent outer planes meet along the closing lines (the cross
 //!    product of their normals) through the shared vertex, extruded to the back cap, parallel to
 //!    `t'` beyond the bounds of the scene and the receivers, which closes the volume ([`stsv_volumes`] returns these
-//!    closed volumes). The light is bounded by a polygon or polytope ([`light_polytope`](crate::raster::influence::light_polytope)): its
+//!    closed volumes). The light is bounded by a polygon or polytope ([`light_polytope`](crate::influence::light_polytope)): its
 //!    corners for a rectangle, a circumscribed `hull_degree`-gon for a disk, the circumscribed box
 //!    for spheres and ellipsoids; with samples off the light, one that holds them too
 //!    ([`LightBounds::polytope`]), so that the volume holds every receiver they shadow.
@@ -33,11 +33,13 @@
 //! STSV's occluded fraction is added to the wedges' visibility coefficient: approximate, the
 //! overlaps of opaque and perforated occluders count twice, Forest et al. 2009, Figure 4a).
 
+use crate::backend::Backend;
 use crate::error::{Error, Result};
 use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::{AlphaTexture, Scene};
+use crate::geometry::polygon::clip_to_side;
 use crate::geometry::receivers::Receivers;
-use crate::gpu::Backend;
+use crate::influence::{check_hull_degree, LightBounds, ObjectOptions, Origins};
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, object_work, Peak};
@@ -46,7 +48,6 @@ use crate::methods::dcs::{depth_complexity, depth_complexity_peak, visible_fract
 use crate::methods::penumbra_wedge::{wedge_occlusion, wedge_occlusion_peak};
 use crate::methods::CasterFaces;
 use crate::raster::cube::by_light_face;
-use crate::raster::influence::{check_hull_degree, LightBounds, ObjectOptions, Origins};
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -85,29 +86,6 @@ struct Volume {
     to_triangle: DMat3,
     to_texture: DMat3,
     v0: DVec3,
-}
-
-/// The part of the polytope `points` strictly on the side `sigma` of the plane `n · (x − v0) = 0`
-/// and on it: the points on that side and the plane's crossings of every pair of points.
-fn clip_to_side(points: &[DVec3], n: DVec3, v0: DVec3, sigma: f64) -> Vec<DVec3> {
-    let d: Vec<f64> = points.iter().map(|q| sigma * n.dot(*q - v0)).collect();
-    let mut out: Vec<DVec3> = points
-        .iter()
-        .zip(&d)
-        .filter(|(_, &d)| d > 0.0)
-        .map(|(q, _)| *q)
-        .collect();
-    if out.is_empty() {
-        return out;
-    }
-    for i in 0..points.len() {
-        for j in i + 1..points.len() {
-            if d[i] * d[j] < 0.0 {
-                out.push(points[i] + (points[j] - points[i]) * (d[i] / (d[i] - d[j])));
-            }
-        }
-    }
-    out
 }
 
 /// The plane through the line `a b` that touches `light` with every light point outside and `c`

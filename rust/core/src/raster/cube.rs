@@ -25,7 +25,7 @@
 use crate::error::Result;
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
-use crate::raster::depth::{LightFrustum, MAX_FIT_TAN, NEAR_FRACTION};
+use crate::raster::frustum::{LightFrustum, MAX_FIT_TAN, NEAR_FRACTION};
 use crate::stats::Stats;
 use glam::Vec3;
 

@@ -11,7 +11,7 @@
 //! 2008, All-Frequency Shadows in Dynamic Scenes, Figure 2).
 
 use crate::light::lights::Light;
-use crate::raster::depth::LightFrustum;
+use crate::raster::frustum::LightFrustum;
 use glam::Vec2;
 
 /// `k · h` per map axis for one light and frustum (see the module documentation).

@@ -16,7 +16,9 @@
 use crate::error::{Error, Result};
 use crate::geometry::receivers::Receivers;
 use crate::light::lights::Light;
-use crate::raster::depth::{DepthMap, LightFrustum, FOV_MARGIN, MAX_FIT_TAN, NEAR_FRACTION};
+use crate::light::sampling::lit_fraction;
+use crate::raster::depth::DepthMap;
+use crate::raster::frustum::{LightFrustum, FOV_MARGIN, MAX_FIT_TAN, NEAR_FRACTION};
 use crate::raster::pcf::{DepthBias, PcfKernel};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -130,8 +132,8 @@ pub fn resolve(sums: &[f32], total: f64, rx: &Receivers) -> Vec<f32> {
     sums.iter()
         .zip(&rx.valid)
         .map(|(&s, &valid)| {
-            if valid && total > 0.0 {
-                (f64::from(s) / total).clamp(0.0, 1.0) as f32
+            if valid {
+                lit_fraction(f64::from(s), total)
             } else {
                 0.0
             }

@@ -22,7 +22,8 @@
 //! curved, self-shadowing receivers (the bunny's ears and flanks).
 
 use crate::error::{Error, Result};
-use crate::raster::depth::{DepthMap, LightFrustum};
+use crate::raster::depth::DepthMap;
+use crate::raster::frustum::LightFrustum;
 use glam::{Vec2, Vec3};
 
 /// The largest square PCF kernel side accepted.

@@ -6,37 +6,6 @@
 
 use glam::DVec2;
 
-/// The convex hull of `points` in counter-clockwise order (Andrew's monotone chain; collinear
-/// points dropped). Fewer than three distinct points give them back as they are.
-pub fn convex_hull(points: &[DVec2]) -> Vec<DVec2> {
-    let mut pts: Vec<DVec2> = points.iter().copied().filter(|p| p.is_finite()).collect();
-    pts.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
-    pts.dedup();
-    if pts.len() < 3 {
-        return pts;
-    }
-    let cross = |o: DVec2, a: DVec2, b: DVec2| (a - o).perp_dot(b - o);
-    let mut hull: Vec<DVec2> = Vec::with_capacity(2 * pts.len());
-    for pass in 0..2 {
-        let start = hull.len();
-        let iter: Box<dyn Iterator<Item = &DVec2>> = if pass == 0 {
-            Box::new(pts.iter())
-        } else {
-            Box::new(pts.iter().rev())
-        };
-        for &p in iter {
-            while hull.len() >= start + 2
-                && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
-            {
-                hull.pop();
-            }
-            hull.push(p);
-        }
-        hull.pop();
-    }
-    hull
-}
-
 /// Slack of the conservative coverage, in texels.
 const SLACK: f64 = 1e-6;
 
@@ -75,7 +44,7 @@ pub fn conservative_row_range(hull: &[DVec2], height: usize) -> Option<(usize, u
 
 /// The half-open columns `[x0, x1)` of row `y` of a `width`-column map whose texel squares the
 /// polygon `hull` touches (with the slack of [`conservative_rows`]); `None` for none. The GPU
-/// repeats it operation for operation (`row_span` in `gpu/alias_free.wgsl`).
+/// repeats it operation for operation (`row_span` in `methods/alias_free/alias_free.wgsl`).
 pub fn conservative_span(hull: &[DVec2], y: usize, width: usize) -> Option<(usize, usize)> {
     let (top, bottom) = (y as f64 - SLACK, y as f64 + 1.0 + SLACK);
     let (mut x_lo, mut x_hi) = (f64::INFINITY, f64::NEG_INFINITY);
@@ -105,20 +74,7 @@ pub fn conservative_span(hull: &[DVec2], y: usize, width: usize) -> Option<(usiz
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn hull_of_a_square_with_inner_points() {
-        let pts = [
-            DVec2::new(0.0, 0.0),
-            DVec2::new(2.0, 0.0),
-            DVec2::new(1.0, 1.0),
-            DVec2::new(2.0, 2.0),
-            DVec2::new(0.0, 2.0),
-        ];
-        let hull = convex_hull(&pts);
-        assert_eq!(hull.len(), 4);
-        assert!(!hull.contains(&DVec2::new(1.0, 1.0)));
-    }
+    use crate::geometry::polygon::convex_hull;
 
     #[test]
     fn coverage_is_conservative() {

@@ -34,7 +34,7 @@ struct Plane {
 
 /// The frustum of a set of segments sharing their origin.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct Frustum {
+pub(super) struct RayFrustum {
     o: [Vec4; 3],
     k: usize,
     /// +1 or -1: the direction of the targets from the apex along axis `k`.
@@ -59,7 +59,7 @@ const SLOPE_MARGIN: f32 = 1e-4;
 /// Relative tolerance of the plane test.
 const PLANE_TOL: f32 = 1e-5;
 
-impl Frustum {
+impl RayFrustum {
     /// The frustum of the segments from `origin` to targets within the box `[tlo, thi]`;
     /// `None` when the box's corners do not all lie strictly ahead of `origin` along the
     /// dominant axis (then no pyramid with apex `origin` bounds them).
@@ -71,7 +71,7 @@ impl Frustum {
     ///
     /// `[tlo, thi]` may be any box holding the targets (e.g. the bounds of a superset of them):
     /// a looser frustum changes only the speed.
-    pub fn around(origin: Vec3, targets: [Vec3; 2]) -> Option<Frustum> {
+    pub fn around(origin: Vec3, targets: [Vec3; 2]) -> Option<RayFrustum> {
         Self::pyramid(
             origin,
             &[targets],
@@ -83,9 +83,9 @@ impl Frustum {
     /// The frustum with apex `apex` through the corners of every box of `boxes` (`[min, max]`
     /// each), cut by their bounding box: it holds every point of the boxes, so (being convex)
     /// every segment between two such points, and nothing outside their bounding box. `None`
-    /// under the condition of [`Frustum::around`], for the corners of all the boxes and the
+    /// under the condition of [`RayFrustum::around`], for the corners of all the boxes and the
     /// dominant axis of the center of their bounding box, or without boxes.
-    pub fn around_boxes(apex: Vec3, boxes: &[[Vec3; 2]]) -> Option<Frustum> {
+    pub fn around_boxes(apex: Vec3, boxes: &[[Vec3; 2]]) -> Option<RayFrustum> {
         let [first, ..] = boxes else { return None };
         let bounds = boxes
             .iter()
@@ -94,14 +94,14 @@ impl Frustum {
     }
 
     /// The pyramid with apex `origin` through the corners of `boxes`, whose bounding box is
-    /// `[tlo, thi]`, cut by the box `[lo, hi]` (see [`Frustum::around`] and
-    /// [`Frustum::around_boxes`]).
+    /// `[tlo, thi]`, cut by the box `[lo, hi]` (see [`RayFrustum::around`] and
+    /// [`RayFrustum::around_boxes`]).
     fn pyramid(
         origin: Vec3,
         boxes: &[[Vec3; 2]],
         [tlo, thi]: [Vec3; 2],
         [lo, hi]: [Vec3; 2],
-    ) -> Option<Frustum> {
+    ) -> Option<RayFrustum> {
         let center = (tlo + thi) * 0.5 - origin;
         let s = center.abs();
         let k = if s.x >= s.y && s.x >= s.z {
@@ -156,7 +156,7 @@ impl Frustum {
         let pad = (hi - lo) * 1e-5 + (lo.abs().max(hi.abs())) * 1e-6 + Vec3::splat(1e-30);
         let (lo, hi) = (lo - pad, hi + pad);
         let splat3 = |v: Vec3| [Vec4::splat(v.x), Vec4::splat(v.y), Vec4::splat(v.z)];
-        Some(Frustum {
+        Some(RayFrustum {
             o: splat3(origin),
             k,
             sign,

@@ -7,7 +7,7 @@
 //! by Benthin and Wald, "Efficient Ray Traced Soft Shadows using Multi-Frusta Tracing" (2009).
 //! One traversal serves a packet of up to [`LANES`] rays:
 //!
-//! - inner nodes are culled with the [`Frustum`] of the packet (conservative, see
+//! - inner nodes are culled with the [`RayFrustum`] of the packet (conservative, see
 //!   `bvh/frustum.rs`: it bounds the very same segments, read from `y`), so the inner-node work
 //!   is shared by all lanes (about one node test per ray instead of nine);
 //! - each child also gets the lanes that may reach it, by the central projection from `y`
@@ -40,7 +40,7 @@
 //! segment answers either way, so each lane's answer equals [`Bvh::occluded`] bit for bit,
 //! whatever the packet it travels in and whatever the instruction set.
 
-use super::frustum::Frustum;
+use super::frustum::RayFrustum;
 use super::triangle::RayData;
 use super::{Bvh, LeafRef, Node4, Tri4, LEAF, ROBUST, STACK};
 use crate::geometry::mesh::Scene;
@@ -959,7 +959,7 @@ impl Bvh {
                     *out = match packet.as_mut() {
                         _ if m == 0 => 0,
                         // The frustum of all the origins bounds the segments of any lanes.
-                        Some(packet) => match Frustum::around(y, packet.origin_bounds) {
+                        Some(packet) => match RayFrustum::around(y, packet.origin_bounds) {
                             Some(f) => self.packet_trace(isa, scene, packet, y, m, &f, stack),
                             // No pyramid with apex `y` bounds the origins: the rays go one by one.
                             None => self.one_by_one(scene, origins, y, m),
@@ -992,7 +992,7 @@ impl Bvh {
             p: &mut Packet,
             target: Vec3,
             lanes: u64,
-            f: &Frustum,
+            f: &RayFrustum,
             stack: &mut [u32; STACK],
         ) -> u64
     }
@@ -1004,7 +1004,7 @@ impl Bvh {
         p: &mut Packet,
         target: Vec3,
         lanes: u64,
-        f: &Frustum,
+        f: &RayFrustum,
         stack: &mut [u32; STACK],
     ) -> u64 {
         let live = p.aim(target, lanes, f.axis());
@@ -1098,7 +1098,7 @@ impl Bvh {
         &self,
         scene: &Scene,
         p: &mut Packet,
-        f: &Frustum,
+        f: &RayFrustum,
         active: &mut u64,
         stack: &mut [u32; STACK],
     ) {

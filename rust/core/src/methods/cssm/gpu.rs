@@ -3,10 +3,10 @@
 //! Tables are split into groups of coefficients that fit one storage binding, receivers into
 //! chunks, and every pass into dispatches within the workgroup limit.
 
-use super::context::{context, Binding, Gpu, PerContext};
-use super::DispatchLimits;
+use super::{Shared, Start};
 use crate::error::{Error, Result};
-use crate::methods::cssm::{Shared, Start};
+use crate::gpu::context::{context, Binding, Gpu, PerContext};
+use crate::gpu::DispatchLimits;
 use crate::raster::depth::DepthMap;
 
 const SHADER: &str = include_str!("cssm.wgsl");

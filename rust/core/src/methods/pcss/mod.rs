@@ -26,20 +26,24 @@
 //! occluders that fall between the search taps are missed, and a single average blocker depth
 //! cannot represent occluders at very different depths (occluder fusion).
 
+#[cfg(feature = "gpu")]
+pub mod gpu;
+#[cfg(not(feature = "gpu"))]
+#[path = "no_gpu.rs"]
+pub mod gpu;
+
+use crate::backend::Backend;
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
-use crate::gpu::{self, Backend};
 use crate::interrupt;
 use crate::light::lights::Light;
 use crate::light::sampling::{unit_disk_pattern, Pattern};
 use crate::limits::Peak;
 use crate::raster::cube::{self, by_light_face};
-use crate::raster::depth::{
-    check_resolution, raster_peak, raster_work, rasterize_depth, DepthMap, LightFrustum,
-    RasterOptions,
-};
+use crate::raster::depth::{raster_peak, raster_work, rasterize_depth, DepthMap, RasterOptions};
 use crate::raster::footprint::LightFootprint;
+use crate::raster::frustum::{check_resolution, LightFrustum};
 use crate::raster::pcf::{DepthBias, ReceiverDepth};
 use crate::stats::Stats;
 use glam::{Vec2, Vec3};
@@ -64,7 +68,7 @@ pub struct PcssOptions {
     /// Seed of the two Poisson-disk tap patterns.
     pub seed: u64,
     /// Where the blocker search and filter run (the map is rasterized on the CPU either way):
-    /// the CPU, or the GPU (`gpu/pcss.wgsl`), with equal results.
+    /// the CPU, or the GPU (`methods/pcss/pcss.wgsl`), with equal results.
     pub backend: Backend,
 }
 
@@ -109,7 +113,7 @@ impl PcssOptions {
     }
 }
 
-/// What every receiver's GPU lookup shares (`gpu::pcss`).
+/// What every receiver's GPU lookup shares ([`gpu::pcss`]).
 pub struct GpuLookup<'a> {
     pub map: &'a DepthMap,
     pub frustum: &'a LightFrustum,
@@ -122,7 +126,7 @@ pub struct GpuLookup<'a> {
 }
 
 /// What every receiver's lookup shares.
-struct Lookup<'a> {
+struct PcssLookup<'a> {
     map: &'a DepthMap,
     frustum: &'a LightFrustum,
     footprint: LightFootprint,
@@ -139,7 +143,7 @@ enum Outcome {
     Filtered(f32),
 }
 
-impl Lookup<'_> {
+impl PcssLookup<'_> {
     /// Visits the stored depth and the receiver depth to compare it with at every tap of `taps`
     /// scaled by `region` around the receiver.
     fn taps<'t>(
@@ -255,7 +259,7 @@ fn pcss_view(
     let nearest_stored = map.depth.iter().copied().fold(f32::INFINITY, f32::min);
     let near = opts.near.unwrap_or(nearest_stored).max(frustum.near);
     stats.set("search_near", f64::from(near));
-    let lookup = Lookup {
+    let lookup = PcssLookup {
         map: &map,
         frustum: &frustum,
         footprint: LightFootprint::new(&frustum, light),
@@ -278,9 +282,8 @@ fn pcss_view(
             filter_taps: &lookup.filter_taps,
             bias: lookup.bias,
         };
-        let (vis, no_blocker) = gpu::timed_stage(&mut stats, "lighting", || {
-            gpu::pcss::pcss(&gpu_lookup, receivers)
-        })?;
+        let (vis, no_blocker) =
+            crate::gpu::timed_stage(&mut stats, "lighting", || gpu::pcss(&gpu_lookup, receivers))?;
         stats.set("no_blocker", no_blocker);
         return Ok((vis, stats));
     }
@@ -312,4 +315,19 @@ fn pcss_view(
         })
         .collect();
     Ok((vis, stats))
+}
+
+#[cfg(test)]
+mod shader_test {
+    use crate::gpu::shader_check::{validates, FRUSTUM};
+    use naga::valid::Capabilities;
+
+    #[test]
+    fn shader_validates() {
+        validates(
+            "pcss.wgsl",
+            &[FRUSTUM, include_str!("pcss.wgsl")],
+            Capabilities::FLOAT64,
+        );
+    }
 }

@@ -1,14 +1,17 @@
 //! `mvr` on the GPU: every view's depth map rasterized by `mvr.wgsl` (one workgroup per triangle
 //! and view, the CPU rasterizer's rules in f64, so the maps equal the CPU's texel for texel), then the
-//! shared lighting pass ([`super::multiview`]) on the maps where they lie. Triangles are uploaded
+//! shared lighting pass ([`crate::gpu::multiview`]) on the maps where they lie. Triangles are uploaded
 //! once per call in chunks within the binding and workgroup limits; views go in batches whose
 //! maps fit one binding.
 
-use super::context::{context, Binding, Gpu, PerContext, WORKGROUP};
-use super::multiview::{decode_maps, upload_views, views_per_batch, Lighting, FRUSTUM, VECTOR64};
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
-use crate::raster::depth::{DepthMap, LightFrustum};
+use crate::gpu::context::{context, Binding, Gpu, PerContext, WORKGROUP};
+use crate::gpu::multiview::{
+    decode_maps, upload_views, views_per_batch, Lighting, FRUSTUM, VECTOR64,
+};
+use crate::raster::depth::DepthMap;
+use crate::raster::frustum::LightFrustum;
 
 const SHADER: &str = include_str!("mvr.wgsl");
 /// Bytes per triangle: nine f32.
@@ -75,7 +78,7 @@ impl Rasterizer {
             .triangles()
             .any(|(id, _)| scene.is_perforated_face(id))
         {
-            return Err(Error::invalid("backend", "the GPU rasterizer has no alpha test: perforated (alpha-textured) meshes need backend='cpu'"));
+            return Err(Error::unsupported("backend", "the GPU rasterizer has no alpha test: perforated (alpha-textured) meshes need backend='cpu'"));
         }
         let limits = gpu.limits();
         let per_chunk = (u64::from(limits.workgroups) * WORKGROUP)
@@ -245,7 +248,7 @@ impl Rasterizer {
         }
         let mut counts = gpu.finish_and_read(encoder, &counters)?;
         if counts.pop().is_some_and(|too_large| too_large > 0) {
-            return Err(Error::invalid(
+            return Err(Error::unsupported(
                 "resolution",
                 format!("{width}x{height} maps: some triangles cover too many texels for the GPU's limits (use backend='cpu')"),
             ));

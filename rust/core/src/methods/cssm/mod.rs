@@ -61,19 +61,23 @@
 //! A receiver facing away from the light's center gets 0, as in `shadow_map`; one whose initial
 //! filter finds no blocker (`w ∗ f̄` below 1e-4) is lit.
 
+#[cfg(feature = "gpu")]
+pub mod gpu;
+#[cfg(not(feature = "gpu"))]
+#[path = "no_gpu.rs"]
+pub mod gpu;
+
+use crate::backend::Backend;
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
-use crate::gpu::{self, Backend};
 use crate::interrupt;
 use crate::light::lights::Light;
 use crate::limits::{self, Peak};
 use crate::raster::cube::{self, by_light_face};
-use crate::raster::depth::{
-    check_resolution, raster_peak, raster_work, rasterize_depth, DepthMap, LightFrustum,
-    RasterOptions,
-};
+use crate::raster::depth::{raster_peak, raster_work, rasterize_depth, DepthMap, RasterOptions};
 use crate::raster::footprint::LightFootprint;
+use crate::raster::frustum::{check_resolution, LightFrustum};
 use crate::raster::pyramid::{MipMap, SummedAreaTable};
 use crate::stats::Stats;
 use glam::{Vec2, Vec3};
@@ -114,7 +118,7 @@ pub struct CssmOptions {
     /// Sharpening falloff `B` of eq. 9, per unit of normalized depth (default 10, Figure 4).
     pub sharpen_b: f32,
     /// Where the basis images, their table and the lookups run (the shadow map is the CPU's):
-    /// the CPU, or the GPU (`gpu/cssm.wgsl`; summed-area tables only, f32 trigonometry).
+    /// the CPU, or the GPU (`methods/cssm/cssm.wgsl`; summed-area tables only, f32 trigonometry).
     pub backend: Backend,
 }
 
@@ -150,7 +154,7 @@ impl CssmOptions {
             ));
         }
         if self.backend == Backend::Gpu && self.prefilter != Prefilter::Sat {
-            return Err(Error::invalid(
+            return Err(Error::unsupported(
                 "prefilter",
                 "the GPU prefilters by summed-area tables: use prefilter='sat' with backend='gpu'",
             ));
@@ -410,12 +414,12 @@ impl Projection<'_> {
 }
 
 /// What every receiver's CPU lookup shares.
-struct Lookup<'a> {
+struct CssmLookup<'a> {
     filtered: &'a Filtered,
     projection: Projection<'a>,
 }
 
-impl Lookup<'_> {
+impl CssmLookup<'_> {
     fn receiver(&self, p: Vec3, n: Vec3) -> f32 {
         let (center, half, depth, d) = match self.projection.start(p, n) {
             Start::Done(v) => return v,
@@ -552,8 +556,7 @@ fn cssm_view(
                 }
             })
             .collect();
-        let (vis, [basis, prefilter, lookup]) =
-            gpu::cssm::cssm(&map, &projection.shared(), &starts)?;
+        let (vis, [basis, prefilter, lookup]) = gpu::cssm(&map, &projection.shared(), &starts)?;
         for (name, seconds) in [
             ("basis_seconds", basis),
             ("prefilter_seconds", prefilter),
@@ -576,7 +579,7 @@ fn cssm_view(
         })
     })?;
     drop(basis);
-    let lookup = Lookup {
+    let lookup = CssmLookup {
         filtered: &filtered,
         projection,
     };
@@ -792,6 +795,21 @@ mod tests {
         assert!(
             worst[1] < 0.5 * worst[0],
             "the error does not shrink with the order: {worst:?}"
+        );
+    }
+}
+
+#[cfg(test)]
+mod shader_test {
+    use crate::gpu::shader_check::validates;
+    use naga::valid::Capabilities;
+
+    #[test]
+    fn shader_validates() {
+        validates(
+            "cssm.wgsl",
+            &[include_str!("cssm.wgsl")],
+            Capabilities::FLOAT64,
         );
     }
 }

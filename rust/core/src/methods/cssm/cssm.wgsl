@@ -1,4 +1,4 @@
-// Convolution soft shadow maps on the GPU (methods/cssm.rs; Annen et al. 2008,
+// Convolution soft shadow maps on the GPU (methods/cssm/mod.rs; Annen et al. 2008,
 // All-Frequency Shadows in Dynamic Scenes): the basis images, their
 // summed-area table (prefix sums along rows, then columns) and the two-stage lookup of Figure 2.
 //

@@ -1,12 +1,13 @@
 //! `vwss` on the GPU: the point warping of the paper's Listing 2 (`vwss.wgsl`), then the shared
-//! lighting pass ([`super::multiview`]) on the maps where they lie. The points are uploaded once
+//! lighting pass ([`crate::gpu::multiview`]) on the maps where they lie. The points are uploaded once
 //! per call, in chunks that fit one storage binding and one dispatch's workgroups; each traversal
 //! warps every chunk into a batch of views whose maps fit one binding.
 
-use super::context::{context, Gpu, PerContext, WORKGROUP};
-use super::multiview::{decode_maps, upload_views, views_per_batch, Lighting, FRUSTUM};
 use crate::error::Result;
-use crate::raster::depth::{DepthMap, LightFrustum};
+use crate::gpu::context::{context, Gpu, PerContext, WORKGROUP};
+use crate::gpu::multiview::{decode_maps, upload_views, views_per_batch, Lighting, FRUSTUM};
+use crate::raster::depth::DepthMap;
+use crate::raster::frustum::LightFrustum;
 
 const SHADER: &str = include_str!("vwss.wgsl");
 /// Bytes per point: three f32.
@@ -63,7 +64,7 @@ impl Warper {
     }
 
     /// Warps every point into each of `views` (all of one size) and returns their depth maps,
-    /// equal texel for texel to [`crate::methods::vwss::warp_points`].
+    /// equal texel for texel to [`super::warp_points`].
     ///
     /// Errors: one map larger than a storage binding of the adapter.
     pub fn warp(&self, views: &[LightFrustum]) -> Result<Vec<DepthMap>> {

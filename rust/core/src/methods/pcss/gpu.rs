@@ -1,11 +1,11 @@
 //! `pcss` on the GPU (`pcss.wgsl`): the blocker search and the filter per receiver, over the
 //! CPU's depth map; receivers in chunks that fit a binding, dispatches within the workgroup limit.
 
-use super::context::{context, Gpu, PerContext};
-use super::multiview::{receiver_chunks, upload_maps, upload_views, FRUSTUM};
+use super::GpuLookup;
 use crate::error::{Error, Result};
 use crate::geometry::receivers::Receivers;
-use crate::methods::pcss::GpuLookup as Lookup;
+use crate::gpu::context::{context, Gpu, PerContext};
+use crate::gpu::multiview::{receiver_chunks, upload_maps, upload_views, FRUSTUM};
 use crate::raster::pcf::DepthBias;
 
 const SHADER: &str = include_str!("pcss.wgsl");
@@ -22,7 +22,7 @@ fn pipeline(gpu: &Gpu) -> &'static wgpu::ComputePipeline {
 ///
 /// Errors: `Unavailable` without an adapter, or one without 64-bit floats (the blockers' sum);
 /// a map larger than a storage binding.
-pub fn pcss(lookup: &Lookup<'_>, rx: &Receivers) -> Result<(Vec<f32>, f64)> {
+pub fn pcss(lookup: &GpuLookup<'_>, rx: &Receivers) -> Result<(Vec<f32>, f64)> {
     let gpu = context()?;
     if !gpu.device.features().contains(wgpu::Features::SHADER_F64) {
         return Err(Error::Unavailable(format!("backend=\"gpu\" pcss needs 64-bit floats in shaders (the blockers' sum), which {} lacks", gpu.name())));

@@ -40,7 +40,7 @@ const SUBPIXEL: f64 = 256.0lf;
 const MAX_POLY: u32 = 8u;
 // Texels one thread visits at most in one invocation. Drivers may cap loops: Mesa's llvmpipe
 // silently stops an invocation's loops once they have run 65535 iterations all together (see
-// gpu/alias_free.rs). Within a budget of 60000: the setup's loops (under 1000) and, per texel,
+// alias_free/gpu.rs). Within a budget of 60000: the setup's loops (under 1000) and, per texel,
 // the texel loop and its edge loop of 3 (which llvmpipe unrolls: 32768 texels per thread ran
 // whole; counted anyway, for a driver that does not).
 const STEPS: u32 = (60000u - 1000u) / 4u;

@@ -1,5 +1,5 @@
 //! `alias_free` on the GPU (`alias_free.wgsl`): the lists, the influence regions' coverage and
-//! the per-texel tests of the CPU's [`Setup`] (casters, their regions' polygons, penumbra
+//! the per-texel tests of the CPU's [`TexelTests`] (casters, their regions' polygons, penumbra
 //! texels and lookup table are set up on the CPU for both backends).
 //!
 //! The view samples go in chunks whose records fit one binding; the map in ranges of rows whose
@@ -12,14 +12,14 @@
 //! by atomics, so the order of the lists and of the threads changes nothing: the result is the
 //! CPU's bits (the f64 arithmetic is repeated operation for operation, see the shader).
 
-use super::context::{context, Binding, Gpu, PerContext};
-use super::multiview::{view_record, FRUSTUM, VECTOR64};
+use super::TexelTests;
 use crate::error::{Error, Result};
-use crate::methods::alias_free::Setup;
-use crate::raster::depth::band_rows;
-use crate::raster::influence::{
+use crate::gpu::context::{context, Binding, Gpu, PerContext};
+use crate::gpu::multiview::{view_record, FRUSTUM, VECTOR64};
+use crate::influence::{
     band_frustum, bin_regions, influence_hull, record_list_stats, ReceiverLists,
 };
+use crate::raster::depth::band_rows;
 use crate::raster::region::conservative_row_range;
 use crate::stats::Stats;
 use glam::DVec2;
@@ -49,7 +49,7 @@ const MAX_ITEMS: u64 = 1 << 31;
 /// Errors: `Unavailable` without an adapter, or one without 64-bit floats; one record (the light
 /// samples and the table's boundaries, the table, one caster, one row of lists) larger than a
 /// storage binding.
-pub(crate) fn masks(setup: &Setup<'_>, stats: &mut Stats) -> Result<Vec<u64>> {
+pub(crate) fn masks(setup: &TexelTests<'_>, stats: &mut Stats) -> Result<Vec<u64>> {
     let gpu = context()?;
     if !gpu.device.features().contains(wgpu::Features::SHADER_F64) {
         return Err(Error::Unavailable(format!("backend=\"gpu\" alias_free needs 64-bit floats in shaders (its plane tests), which {} lacks", gpu.name())));
@@ -124,7 +124,7 @@ const COVER_LOOPS: usize = 1_000;
 /// iterations of one entry test at most (`test_entry` in `alias_free.wgsl`: per straddling plane
 /// the exact tests' sample loop or the table's two binary searches, and the word loops; the
 /// alpha test's sample loop; the mask's word loops).
-fn entries_per_slot(setup: &Setup<'_>, words: usize) -> u32 {
+fn entries_per_slot(setup: &TexelTests<'_>, words: usize) -> u32 {
     let table_only = setup.lut.is_some() && setup.view.iter().all(|v| !v.exact_planes);
     let per_plane = if table_only {
         2 * 8 + 2 * words
@@ -150,7 +150,7 @@ fn fits<T>(values: Vec<T>, binding: u64, what: &str) -> Result<Vec<T>> {
 }
 
 /// The `light` buffer of `alias_free.wgsl`: center, radius, extent, samples, table boundaries.
-fn light_values(setup: &Setup<'_>) -> Vec<f64> {
+fn light_values(setup: &TexelTests<'_>) -> Vec<f64> {
     let c = setup.center;
     let extent = setup.lut.map_or(0.0, |t| t.extent);
     let mut values = vec![0.0; SAMPLES_AT];
@@ -279,7 +279,7 @@ impl Region {
 /// Every caster's region in every band its far-plane region reaches (`Tester::band`): the same
 /// polygons and rows as the CPU's, so the GPU tests the very same pairs (which matters for the
 /// lookup table, whose masks are not exact away from the true region).
-fn regions(setup: &Setup<'_>) -> Vec<Region> {
+fn regions(setup: &TexelTests<'_>) -> Vec<Region> {
     let f = &setup.frustum;
     let band = band_rows(f.height);
     let mut far = vec![0.0f32; f.height.div_ceil(band)];
@@ -297,9 +297,12 @@ fn regions(setup: &Setup<'_>) -> Vec<Region> {
             casters.iter().filter_map(move |&c| {
                 let c = c as usize;
                 let hull = match (&setup.casters.hulls[c], &band_frustum) {
-                    (Some(_), Some(bf)) => {
-                        influence_hull(bf, setup.bounds, &setup.casters.raw[c].1, setup.hull_degree)
-                    }
+                    (Some(_), Some(bf)) => influence_hull(
+                        bf,
+                        setup.bounds,
+                        &setup.casters.raw[c].vertices,
+                        setup.hull_degree,
+                    ),
                     _ => None,
                 };
                 let reach = match &hull {
@@ -339,7 +342,7 @@ fn column_range(hull: &[DVec2], width: usize) -> std::ops::Range<usize> {
 }
 
 /// The casters of `setup` and their regions, in batches of whole casters that fit `binding`.
-fn caster_batches(setup: &Setup<'_>, binding: u64) -> Result<Vec<(usize, Batch)>> {
+fn caster_batches(setup: &TexelTests<'_>, binding: u64) -> Result<Vec<(usize, Batch)>> {
     let regions = regions(setup);
     let textures = Textures::new(setup);
     let region_bytes = |r: &Region| {
@@ -399,7 +402,7 @@ struct Textures {
 }
 
 impl Textures {
-    fn new(setup: &Setup<'_>) -> Textures {
+    fn new(setup: &TexelTests<'_>) -> Textures {
         let (mut at, mut bits) = (HashMap::new(), Vec::new());
         for t in setup.casters.prepared.iter().filter(|t| t.alpha) {
             let mesh = setup.scene.face_ref(t.id).mesh as usize;
@@ -420,7 +423,7 @@ impl Textures {
 }
 
 /// The buffers' contents of the regions `regions` of `casters` whole casters.
-fn batch(setup: &Setup<'_>, regions: &[Region], casters: usize, textures: &Textures) -> Batch {
+fn batch(setup: &TexelTests<'_>, regions: &[Region], casters: usize, textures: &Textures) -> Batch {
     let textures_at = casters * INFO_STRIDE + regions.len() * REGION_STRIDE;
     let mut f64s = Vec::with_capacity(casters * CASTER_STRIDE);
     let mut info = Vec::with_capacity(textures_at + textures.bits.len());
@@ -480,7 +483,7 @@ fn batch(setup: &Setup<'_>, regions: &[Region], casters: usize, textures: &Textu
 }
 
 /// The texture of perforated face `id`.
-fn texture(setup: &Setup<'_>, id: u32) -> Option<Texture> {
+fn texture(setup: &TexelTests<'_>, id: u32) -> Option<Texture> {
     let r = setup.scene.face_ref(id);
     let mesh = &setup.scene.meshes[r.mesh as usize];
     let (tex, uvs) = (mesh.alpha.as_ref()?, mesh.uvs.as_ref()?);
@@ -498,7 +501,7 @@ fn texture(setup: &Setup<'_>, id: u32) -> Option<Texture> {
 /// One chunk of view samples on the GPU: its shared buffers and sizes.
 struct Run<'a> {
     gpu: &'static Gpu,
-    setup: &'a Setup<'a>,
+    setup: &'a TexelTests<'a>,
     light: &'a wgpu::Buffer,
     lut: &'a wgpu::Buffer,
     /// u32 words per mask.
@@ -867,10 +870,11 @@ mod tests {
     //! The GPU's masks against the CPU's, bit for bit (skipped, with a note, where no adapter
     //! exists); also with the limits forced low, so that view samples, rows and casters are
     //! split into many chunks, ranges, batches and dispatches.
-    use super::super::{force_limits, DispatchLimits};
+    use crate::backend::Backend;
     use crate::geometry::mesh::{AlphaTexture, Mesh, Scene};
     use crate::geometry::receivers::Receivers;
-    use crate::gpu::{context, Backend};
+    use crate::gpu::context;
+    use crate::gpu::{force_limits, DispatchLimits};
     use crate::light::lights::Light;
     use crate::light::sampling::{Pattern, Rng, SampleSet};
     use crate::methods::alias_free::{sample_masks, AliasFreeOptions, TableSize};

@@ -9,7 +9,7 @@
 //! 2. **Parametrization** (section 4.3): the light frustum, from the light's center, fitted to the
 //!    view samples' projected bounding box and depth range.
 //! 3. **Lists** (section 3.1): each view sample goes to the list of the texel it projects to, by
-//!    count, prefix sum and scatter ([`crate::raster::influence::ReceiverLists`]).
+//!    count, prefix sum and scatter ([`crate::influence::ReceiverLists`]).
 //! 4. **Casters**: with `CasterFaces::Backfacing` (the default), closed meshes cast with their light
 //!    back-facing triangles only, which never shadow the front-facing surface they belong to, so
 //!    no bias is needed (section 3.3); open meshes cast with every triangle. Culling holds for
@@ -22,7 +22,7 @@
 //!    `CasterFaces::All` every triangle casts. A caster that can be its own receiver's surface (every
 //!    triangle of an open mesh, every triangle with `All`) tests the receiver moved `bias` along
 //!    its normal, as the ray tracer does.
-//! 5. **Influence regions** (section 4.1, [`crate::raster::influence`]): the union of the
+//! 5. **Influence regions** (section 4.1, [`crate::influence`]): the union of the
 //!    triangle's projections from every point of the light, bounded by the convex hull of the
 //!    projections of its vertices from the light's bounding points (`hull_degree`-gons for disks,
 //!    spheres and, by virtual scaling, ellipsoids), rasterized conservatively. Bands of rows are
@@ -54,23 +54,28 @@
 //!
 //! The result is the emission-weighted fraction of unblocked samples, as `ray_traced`'s.
 
+#[cfg(feature = "gpu")]
+pub mod gpu;
+#[cfg(not(feature = "gpu"))]
+#[path = "no_gpu.rs"]
+pub mod gpu;
+
+use crate::backend::Backend;
 use crate::error::{Error, Result};
 use crate::geometry::bvh::Bvh;
 use crate::geometry::edges::{edges, edges_peak, Edge};
 use crate::geometry::inside::inside_closed_meshes;
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
-use crate::gpu::{self, Backend};
+use crate::influence::{check_hull_degree, influence_hull, LightBounds, ReceiverLists};
 use crate::light::lights::{Light, Shape};
-use crate::light::sampling::SampleSet;
+use crate::light::sampling::{lit_fraction, SampleSet};
 use crate::limits::{self, object_work, Peak};
 use crate::methods::CasterFaces;
 use crate::raster::cube::by_light_face;
-use crate::raster::depth::check_resolution;
-use crate::raster::depth::{
-    band_rows, casters, Caster, FaceFilter, LightFrustum, RasterMode, RasterOptions,
-};
-use crate::raster::influence::{check_hull_degree, influence_hull, LightBounds, ReceiverLists};
+use crate::raster::depth::{band_rows, casters, Caster, FaceFilter, RasterMode, RasterOptions};
+use crate::raster::frustum::check_resolution;
+use crate::raster::frustum::LightFrustum;
 use crate::raster::region::conservative_rows;
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
@@ -150,7 +155,7 @@ pub struct AliasFreeOptions {
     /// casters) see all of the light or none of it, so one test against the light's center
     /// decides their whole bitmask. Same result, less work.
     pub restrict_to_penumbra: bool,
-    /// Where the lists, influence regions and per-texel tests run (`gpu/alias_free.rs`); the
+    /// Where the lists, influence regions and per-texel tests run (`methods/alias_free/gpu.rs`); the
     /// casters, their regions' polygons, the penumbra texels and the table are set up on the
     /// CPU for both. Same bits either way.
     pub backend: Backend,
@@ -241,7 +246,7 @@ impl LightSamples {
 ///
 /// A plane's bins are found without trigonometry, by binary searches over the bins' boundaries
 /// (`theta_bounds`, `phi_bounds`): the same bins as `acos` and `atan2` give up to rounding at a
-/// boundary, and the same arithmetic in `gpu/alias_free.wgsl`, which has no 64-bit `acos` or
+/// boundary, and the same arithmetic in `methods/alias_free/alias_free.wgsl`, which has no 64-bit `acos` or
 /// `atan2`, so both backends read the same entries.
 pub(crate) struct Lut {
     pub bins: usize,
@@ -348,7 +353,7 @@ impl Lut {
 }
 
 /// How many of the first `n` indices satisfy `pred`, for a predicate true on a prefix, by binary
-/// search (the very steps of `leading_true` in `gpu/alias_free.wgsl`).
+/// search (the very steps of `leading_true` in `methods/alias_free/alias_free.wgsl`).
 fn leading_true(n: usize, pred: impl Fn(usize) -> bool) -> usize {
     let (mut lo, mut hi) = (0, n);
     while lo < hi {
@@ -636,11 +641,7 @@ impl SampleMasks {
         let lit = (0..self.weights.len())
             .filter(|&k| m[k / 64] >> (k % 64) & 1 == 0)
             .fold(0.0f64, |acc, k| acc + self.weights[k]);
-        if total > 0.0 {
-            (lit / total).clamp(0.0, 1.0) as f32
-        } else {
-            0.0
-        }
+        lit_fraction(lit, total)
     }
 }
 
@@ -796,7 +797,7 @@ pub(crate) fn sample_masks(
         _ => None,
     };
     stats.set("lut_bins", lut.as_ref().map_or(0.0, |t| t.bins as f64));
-    let setup = Setup {
+    let setup = TexelTests {
         scene,
         bounds: &bounds,
         hull_degree: opts.hull_degree,
@@ -813,7 +814,7 @@ pub(crate) fn sample_masks(
     };
     let masks = match opts.backend {
         Backend::Cpu => cpu_masks(&setup, stats)?,
-        Backend::Gpu => gpu::alias_free::masks(&setup, stats)?,
+        Backend::Gpu => gpu::masks(&setup, stats)?,
     };
     for (k, s) in view.iter().enumerate() {
         let r = s.receiver as usize;
@@ -825,7 +826,7 @@ pub(crate) fn sample_masks(
 /// Everything the per-texel tests read (sections 3.3 and 4.2), set up on the CPU for either
 /// backend: the view samples and their points, the lists' frustum, the casters with their
 /// influence regions on its far plane, the penumbra texels, the light samples and the table.
-pub(crate) struct Setup<'a> {
+pub(crate) struct TexelTests<'a> {
     pub scene: &'a Scene,
     /// The light and the bounds of it and its samples, from which the influence regions are
     /// projected.
@@ -850,7 +851,7 @@ pub(crate) struct Setup<'a> {
 
 /// The bitmask of every view sample (view order) on the CPU: the lists, then bands of rows in
 /// parallel over the casters binned to them. Errors: interrupted.
-fn cpu_masks(setup: &Setup<'_>, stats: &mut Stats) -> Result<Vec<u64>> {
+fn cpu_masks(setup: &TexelTests<'_>, stats: &mut Stats) -> Result<Vec<u64>> {
     let lists = stats.time_add("list_build", || {
         ReceiverLists::with_frustum(setup.frustum, setup.points)
     });
@@ -896,7 +897,7 @@ fn light_samples(light: &Light, samples: &SampleSet) -> Result<LightSamples> {
     // A point light's one bit is its position (rotations map every sample there): samples
     // elsewhere would be ignored, and the result would not be `ray_traced`'s on them.
     if point && !rotated && ys.iter().any(|&y| y != light.center()) {
-        return Err(Error::invalid(
+        return Err(Error::unsupported(
             "samples",
             "alias_free tests a point light at its position only; pass samples at the position (or a count), or a SphereLight for samples around it",
         ));
@@ -1048,35 +1049,41 @@ impl CasterSet {
         let left_out = |id: u32, t: &[Vec3; 3], alpha: bool| {
             (!any_inside && culled(id, t)) || (opaque_only && alpha)
         };
-        raw.retain(|(id, t, alpha)| !left_out(*id, t, *alpha));
+        raw.retain(|c| !left_out(c.face, &c.vertices, c.alpha_tested));
         let prepared = raw
             .iter()
-            .map(|(id, t, alpha)| {
-                let v = t.map(|p| p.as_dvec3());
-                // Closed casters under culling skip the offset (section 3.3), for area lights too:
-                // a closed triangle blocks only from receivers strictly in front of its plane
-                // (`front_only`), so never the surface a receiver lies on.
-                let moved = opts.caster_faces == CasterFaces::All || !scene.is_closed_face(*id);
-                let near_depth = t
-                    .iter()
-                    .map(|p| f64::from(frustum.to_view(*p).z))
-                    .fold(f64::INFINITY, f64::min);
-                let culled = any_inside && culled(*id, t);
-                Prepared {
-                    id: *id,
-                    v,
-                    normal: (v[1] - v[0]).cross(v[2] - v[0]),
-                    alpha: *alpha,
-                    moved,
-                    front_only: front_only(*id),
-                    culled,
-                    near_depth,
-                }
-            })
+            .map(
+                |&Caster {
+                     face: id,
+                     vertices: t,
+                     alpha_tested: alpha,
+                 }| {
+                    let v = t.map(|p| p.as_dvec3());
+                    // Closed casters under culling skip the offset (section 3.3), for area lights too:
+                    // a closed triangle blocks only from receivers strictly in front of its plane
+                    // (`front_only`), so never the surface a receiver lies on.
+                    let moved = opts.caster_faces == CasterFaces::All || !scene.is_closed_face(id);
+                    let near_depth = t
+                        .iter()
+                        .map(|p| f64::from(frustum.to_view(*p).z))
+                        .fold(f64::INFINITY, f64::min);
+                    let culled = any_inside && culled(id, &t);
+                    Prepared {
+                        id,
+                        v,
+                        normal: (v[1] - v[0]).cross(v[2] - v[0]),
+                        alpha,
+                        moved,
+                        front_only: front_only(id),
+                        culled,
+                        near_depth,
+                    }
+                },
+            )
             .collect();
         let hulls = raw
             .par_iter()
-            .map(|(_, t, _)| influence_hull(frustum, bounds, t, opts.hull_degree))
+            .map(|c| influence_hull(frustum, bounds, &c.vertices, opts.hull_degree))
             .collect();
         CasterSet {
             raw,
@@ -1112,7 +1119,7 @@ fn penumbra_texels(
         .raw
         .iter()
         .zip(&casters.hulls)
-        .filter(|((_, _, alpha), _)| *alpha)
+        .filter(|(c, _)| c.alpha_tested)
         .map(|(_, hull)| hull.clone());
     let hulls: Vec<Option<Vec<DVec2>>> = edge_hulls
         .collect::<Vec<_>>()
@@ -1138,7 +1145,7 @@ fn penumbra_texels(
 
 /// The CPU's per-texel tests over the lists, with the casters binned by bands of rows.
 struct Tester<'a> {
-    setup: &'a Setup<'a>,
+    setup: &'a TexelTests<'a>,
     lists: &'a ReceiverLists,
     bins: &'a [Vec<u32>],
 }
@@ -1188,7 +1195,7 @@ impl Tester<'_> {
                 Some(_) => influence_hull(
                     &band_frustum,
                     setup.bounds,
-                    &casters.raw[c as usize].1,
+                    &casters.raw[c as usize].vertices,
                     setup.hull_degree,
                 ),
                 None => None,
@@ -1260,8 +1267,8 @@ fn rotate_about(center: DVec3, rotation: Option<DMat3>, y: DVec3) -> DVec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::influence::light_points;
     use crate::light::sampling::Rng;
-    use crate::raster::influence::light_points;
 
     /// Whether the line from `v` through `y` meets the plane of the convex polygon `poly` inside it.
     fn through_polygon(v: DVec3, y: DVec3, poly: &[DVec3]) -> bool {
@@ -1324,5 +1331,20 @@ mod tests {
         }
         // A vertex inside the ellipsoid has no bounding polygon: the whole map.
         assert!(light_points(&light, center.as_dvec3(), 6).is_empty());
+    }
+}
+
+#[cfg(test)]
+mod shader_test {
+    use crate::gpu::shader_check::{validates, FRUSTUM, VECTOR64};
+    use naga::valid::Capabilities;
+
+    #[test]
+    fn shader_validates() {
+        validates(
+            "alias_free.wgsl",
+            &[FRUSTUM, VECTOR64, include_str!("alias_free.wgsl")],
+            Capabilities::FLOAT64,
+        );
     }
 }

@@ -1,4 +1,4 @@
-// Percentage-closer soft shadows on the GPU (methods/pcss.rs's Lookup::receiver), after
+// Percentage-closer soft shadows on the GPU (methods/pcss/mod.rs's Lookup::receiver), after
 // frustum.wgsl: one thread per receiver runs the blocker search over the Poisson taps scaled by
 // the light's footprint through the search plane, then the filter over the footprint through
 // the blockers' average depth. The blockers' depths are summed in f64, as on the CPU.

@@ -1,4 +1,4 @@
-// Alias-free shadow maps on the GPU (methods/alias_free.rs), after frustum.wgsl. Per chunk of
+// Alias-free shadow maps on the GPU (methods/alias_free/mod.rs), after frustum.wgsl. Per chunk of
 // view samples and range of map rows: the lists by atomic counters (count_texels), an exclusive
 // scan of the counts in blocks of 64 (scan_reduce, scan_top, scan_down) and an atomic scatter
 // (scatter); the tangent-plane masks (initial); then one thread per row and block of columns of
@@ -58,7 +58,7 @@ struct Params {
 // regions' polygons (x, y per point).
 @group(0) @binding(5) var<storage, read> casters: array<f64>;
 // Per caster of the batch, INFO_STRIDE words (see INFO_*); per region (one caster over one band
-// of rows, methods/alias_free.rs Tester::band) REGION_STRIDE words (see REGION_*); then the alpha
+// of rows, methods/alias_free/mod.rs Tester::band) REGION_STRIDE words (see REGION_*); then the alpha
 // textures' bits.
 @group(0) @binding(6) var<storage, read> info: array<u32>;
 // Per view sample of the chunk, `words` words of blocked samples.

@@ -54,26 +54,33 @@
 //!    anywhere inside it rather than the surface's depth at its center, so at the same bias the
 //!    occluders shadow themselves more than under `mvr` (the self-shadowing of section 5.1).
 
+#[cfg(feature = "gpu")]
+pub mod gpu;
+#[cfg(not(feature = "gpu"))]
+#[path = "no_gpu.rs"]
+pub mod gpu;
+
+use crate::backend::Backend;
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::gpu::multiview::Lighting;
-use crate::gpu::vwss::Warper;
-use crate::gpu::Backend;
 use crate::interrupt;
 use crate::light::lights::{Light, Shape};
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, Peak};
 use crate::methods::mvr::{shared_eyes, MultiViewOptions};
 use crate::raster::cube;
-use crate::raster::depth::check_resolution;
 use crate::raster::depth::{
-    casters, raster_peak, raster_work, rasterize_depth, Caster, DepthMap, FaceFilter, LightFrustum,
-    RasterMode, RasterOptions, Rasterizer, TexelRect, MAX_RESOLUTION, NEAR_FRACTION,
+    casters, raster_peak, raster_work, rasterize_depth, Caster, DepthMap, FaceFilter, RasterMode,
+    RasterOptions, Rasterizer,
 };
+use crate::raster::frustum::check_resolution;
+use crate::raster::frustum::{LightFrustum, TexelRect, MAX_RESOLUTION, NEAR_FRACTION};
 use crate::raster::multiview::{accumulate, resolve, ViewSet};
 use crate::stats::Stats;
 use glam::Vec3;
+use gpu::Warper;
 use half::f16;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -182,7 +189,7 @@ impl VwssOptions {
             ));
         }
         if self.mode == Mode::Unbuffered && self.multiview.backend == Backend::Gpu {
-            return Err(Error::invalid(
+            return Err(Error::unsupported(
                 "mode",
                 "the GPU warps a point buffer: use mode='buffered' with backend='gpu'",
             ));
@@ -399,7 +406,7 @@ pub fn points_peak(scene: &Scene, source: &LightFrustum, opts: &VwssOptions) -> 
     let raster = Rasterizer::new(source, RasterMode::Standard)?;
     let bound: u64 = casters(scene, &opts.raster_options(), source.eye)
         .par_iter()
-        .filter_map(|(_, t, _)| raster.bounds(t))
+        .filter_map(|c| raster.bounds(&c.vertices))
         .map(|r| ((r.x1 - r.x0) * (r.y1 - r.y0)) as u64)
         .sum();
     Ok(Peak::default()
@@ -625,7 +632,7 @@ pub fn vwss(
         return Ok((vec![0.0; receivers.len()], stats));
     };
     let Some(views) = ViewSet::fit(light, eyes, bounds, opts.multiview.resolution)? else {
-        return Err(Error::invalid(
+        return Err(Error::unsupported(
             "light",
             format!(
                 "vwss warps one source view into every light sample's view, its eye pulled back behind the \
@@ -726,4 +733,19 @@ pub fn vwss(
         }
     };
     Ok((resolve(&sums, views.total_weight(), receivers), stats))
+}
+
+#[cfg(test)]
+mod shader_test {
+    use crate::gpu::shader_check::{validates, FRUSTUM};
+    use naga::valid::Capabilities;
+
+    #[test]
+    fn shader_validates() {
+        validates(
+            "vwss.wgsl",
+            &[FRUSTUM, include_str!("vwss.wgsl")],
+            Capabilities::empty(),
+        );
+    }
 }

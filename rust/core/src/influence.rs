@@ -20,13 +20,15 @@
 
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
+use crate::geometry::polygon::{circumscribed_polygon, convex_hull};
 use crate::geometry::receivers::Receivers;
-use crate::light::lights::{tangent_frame, Light, Shape};
+use crate::light::lights::{Light, Shape};
 use crate::light::sampling::SampleSet;
 use crate::limits::Peak;
 use crate::raster::cube::enclosing_face;
-use crate::raster::depth::{band_rows, bin_row_ranges, LightFrustum, NEAR_FRACTION};
-use crate::raster::region::{conservative_rows, convex_hull};
+use crate::raster::depth::{band_rows, bin_row_ranges};
+use crate::raster::frustum::{check_resolution, LightFrustum, NEAR_FRACTION};
+use crate::raster::region::conservative_rows;
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
 use rayon::prelude::*;
@@ -66,12 +68,7 @@ impl ObjectOptions {
                 format!("must be at most the size of the scene and receivers (their bounds' diagonal, {diagonal}), got {}; it offsets shadow-ray origins, typically by 1e-4 of that", self.epsilon),
             ));
         }
-        if !(1..=crate::raster::depth::MAX_RESOLUTION).contains(&self.resolution) {
-            return Err(Error::invalid(
-                "resolution",
-                format!("must be in 1..=65536, got {}", self.resolution),
-            ));
-        }
+        check_resolution("resolution", self.resolution)?;
         check_hull_degree(self.hull_degree)
     }
 }
@@ -475,7 +472,7 @@ pub fn light_points(light: &Light, v: DVec3, degree: usize) -> Vec<DVec3> {
             center,
             normal,
             radius,
-        } => polygon(
+        } => circumscribed_polygon(
             center.as_dvec3(),
             normal.as_dvec3(),
             f64::from(radius),
@@ -495,19 +492,6 @@ pub fn light_points(light: &Light, v: DVec3, degree: usize) -> Vec<DVec3> {
     }
 }
 
-/// The `degree`-gon circumscribing the circle of radius `r` about `c` in the plane normal to `n`.
-pub(crate) fn polygon(c: DVec3, n: DVec3, r: f64, degree: usize) -> Vec<DVec3> {
-    let (t, b) = tangent_frame(n.as_vec3());
-    let (t, b) = (t.as_dvec3(), b.as_dvec3());
-    let r = r / (std::f64::consts::PI / degree as f64).cos();
-    (0..degree)
-        .map(|k| {
-            let a = 2.0 * std::f64::consts::PI * k as f64 / degree as f64;
-            c + (t * a.cos() + b * a.sin()) * r
-        })
-        .collect()
-}
-
 /// The bounding `degree`-gon of the silhouette circle of the sphere `(c, r)` seen from `v`
 /// (empty when `v` is inside the sphere).
 fn sphere_silhouette(c: DVec3, r: f64, v: DVec3, degree: usize) -> Vec<DVec3> {
@@ -517,7 +501,7 @@ fn sphere_silhouette(c: DVec3, r: f64, v: DVec3, degree: usize) -> Vec<DVec3> {
         return Vec::new();
     }
     // The silhouette circle seen from v: center c + d r²/|d|², radius r sqrt(1 − r²/|d|²).
-    polygon(
+    circumscribed_polygon(
         c + d * (r * r / dist2),
         d / dist2.sqrt(),
         r * (1.0 - r * r / dist2).sqrt(),
@@ -549,7 +533,7 @@ pub fn light_polytope(light: &Light, degree: usize) -> Vec<DVec3> {
             center,
             normal,
             radius,
-        } => polygon(
+        } => circumscribed_polygon(
             center.as_dvec3(),
             normal.as_dvec3(),
             f64::from(radius),
@@ -846,7 +830,7 @@ fn disk_beyond(
     Some(Beyond::Corners(
         heights
             .iter()
-            .flat_map(|&h| polygon(c + n * h, n, radius, degree))
+            .flat_map(|&h| circumscribed_polygon(c + n * h, n, radius, degree))
             .collect(),
     ))
 }

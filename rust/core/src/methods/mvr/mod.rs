@@ -8,23 +8,29 @@
 //!
 //! Views are rendered and lit one at a time, so memory stays at one map whatever the view count.
 
+#[cfg(feature = "gpu")]
+pub mod gpu;
+#[cfg(not(feature = "gpu"))]
+#[path = "no_gpu.rs"]
+pub mod gpu;
+
+use crate::backend::Backend;
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::gpu::multiview::Lighting;
-use crate::gpu::mvr::Rasterizer;
-use crate::gpu::Backend;
 use crate::interrupt;
 use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
 use crate::limits::{Peak, Work};
 use crate::raster::cube;
-use crate::raster::depth::check_resolution;
 use crate::raster::depth::{raster_peak, rasterize_depth, RasterOptions};
+use crate::raster::frustum::check_resolution;
 use crate::raster::multiview::{accumulate, resolve, ViewSet};
 use crate::raster::pcf::{DepthBias, PcfKernel};
 use crate::stats::Stats;
 use glam::Vec3;
+use gpu::Rasterizer;
 use rayon::prelude::*;
 
 /// Options shared by [`mvr`] and `vwss`'s lighting stage.
@@ -36,8 +42,8 @@ pub struct MultiViewOptions {
     pub pcf: usize,
     /// Constant depth bias in world units, or `None` for the receiver plane per tap (default).
     pub bias: Option<f32>,
-    /// Where the depth maps are made and lit: the CPU, or the GPU (`gpu/mvr.wgsl` rasterizes,
-    /// `gpu/vwss.wgsl` warps, `gpu/multiview.wgsl` lights), with maps equal texel for texel.
+    /// Where the depth maps are made and lit: the CPU, or the GPU (`methods/mvr/mvr.wgsl` rasterizes,
+    /// `methods/vwss/vwss.wgsl` warps, `gpu/multiview.wgsl` lights), with maps equal texel for texel.
     pub backend: Backend,
 }
 
@@ -166,7 +172,7 @@ fn around_every_sample(
     stats: &mut Stats,
 ) -> Result<Vec<f32>> {
     if opts.backend == Backend::Gpu {
-        return Err(Error::invalid(
+        return Err(Error::unsupported(
             "backend",
             "mvr's GPU passes light every receiver from one view per light sample, and this light lies \
              among the receivers (a cube of views around each sample): pass backend='cpu'",
@@ -227,4 +233,19 @@ fn around_every_sample(
     stats.set("light_faces", most_faces as f64);
     let total = weights.iter().map(|&w| f64::from(w)).sum();
     Ok(resolve(&sums, total, receivers))
+}
+
+#[cfg(test)]
+mod shader_test {
+    use crate::gpu::shader_check::{validates, FRUSTUM, VECTOR64};
+    use naga::valid::Capabilities;
+
+    #[test]
+    fn shader_validates() {
+        validates(
+            "mvr.wgsl",
+            &[FRUSTUM, VECTOR64, include_str!("mvr.wgsl")],
+            Capabilities::FLOAT64,
+        );
+    }
 }
