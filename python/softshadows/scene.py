@@ -210,10 +210,10 @@ class Scene:
     def epsilon(self) -> float:
         """The default shadow-ray offset along the receiver normal: 1e-4 x the bounds' diagonal.
 
-        ``ray_traced`` and the Mitsuba reference use the same value (docs/design.md section 3).
+        Computed by the core (``auto_epsilon`` in ``rust/core/src/methods/ray_traced.rs``) in
+        float64; ``ray_traced`` and the Mitsuba reference use the same value (docs/design.md section 3).
         """
-        lo, hi = self.bounds.astype(np.float64)
-        return float(1e-4 * np.linalg.norm(hi - lo))
+        return self.native().epsilon
 
     @property
     def num_faces(self) -> int:

@@ -297,7 +297,7 @@ fn mvr_maps_agree(limits: Option<DispatchLimits>, resolution: usize) {
         .unwrap()
         .unwrap();
     force_limits(limits).unwrap();
-    let gpu = softshadows_core::methods::mvr::gpu::Rasterizer::new(&scene)
+    let gpu = softshadows_core::methods::mvr::gpu::GpuRasterizer::new(&scene)
         .and_then(|r| r.maps(&views.views));
     force_limits(None).unwrap();
     let gpu = gpu.unwrap();

@@ -658,7 +658,7 @@ fn bad_options_and_mismatched_bvh_are_refused() {
     assert!(
         matches!(ray_traced(&other, &bvh, &light, &rx, &samples, &ok), Err(Error::InvalidInput { ref arg, .. }) if arg == "bvh")
     );
-    assert!((auto_epsilon(&scene) - 1e-4 * 8f32.sqrt()).abs() < 1e-9);
+    assert!((auto_epsilon(&scene) - 1e-4 * 8f64.sqrt()).abs() < 1e-9);
 }
 
 #[test]

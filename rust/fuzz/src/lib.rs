@@ -472,7 +472,7 @@ pub struct FuzzRayTracedOptions {
 impl FuzzRayTracedOptions {
     pub fn build(&self, scene: &Scene) -> RayTracedOptions {
         RayTracedOptions {
-            epsilon: opt(self.epsilon).unwrap_or_else(|| auto_epsilon(scene)),
+            epsilon: opt(self.epsilon).unwrap_or_else(|| auto_epsilon(scene) as f32),
             caster_faces: if self.backfacing { CasterFaces::Backfacing } else { CasterFaces::All },
         }
     }
@@ -646,7 +646,7 @@ pub struct FuzzObjectOptions {
 impl FuzzObjectOptions {
     pub fn build(&self, scene: &Scene) -> ObjectOptions {
         ObjectOptions {
-            epsilon: opt(self.epsilon).unwrap_or_else(|| auto_epsilon(scene)),
+            epsilon: opt(self.epsilon).unwrap_or_else(|| auto_epsilon(scene) as f32),
             resolution: side(self.resolution),
             hull_degree: self.hull_degree as usize % 70,
         }

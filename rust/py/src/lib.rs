@@ -90,6 +90,12 @@ impl NativeScene {
         self.scene.num_faces()
     }
 
+    /// The default shadow-ray offset along the receiver normal (world units).
+    #[getter]
+    fn epsilon(&self) -> f64 {
+        softshadows_core::methods::ray_traced::auto_epsilon(&self.scene)
+    }
+
     /// Ray-casts a G-buffer: `(positions (N,3), normals (N,3), mask (N,), face_ids (N,), depths (N*msaa,))`.
     #[allow(clippy::type_complexity)]
     fn gbuffer<'py>(

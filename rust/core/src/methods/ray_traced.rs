@@ -52,19 +52,20 @@ impl RayTracedOptions {
     /// The options with `epsilon = auto_epsilon(scene)` and every triangle casting.
     pub fn for_scene(scene: &Scene) -> Self {
         Self {
-            epsilon: auto_epsilon(scene),
+            epsilon: auto_epsilon(scene) as f32,
             caster_faces: CasterFaces::All,
         }
     }
 }
 
-/// The default normal offset: `1e-4` times the diagonal of the scene's bounding box. Large
-/// enough to step off the receiver's own triangle at float precision for any scene scale, small
-/// enough not to skip real contact shadows. The Python layer and the Mitsuba reference use the
-/// same value, so their rays start at the same points.
-pub fn auto_epsilon(scene: &Scene) -> f32 {
+/// The default normal offset: `1e-4` times the diagonal of the scene's bounding box (in f64, so
+/// that a diagonal beyond f32's range still gives one). Large enough to step off the receiver's
+/// own triangle at float precision for any scene scale, small enough not to skip real contact
+/// shadows. The Python layer (`Scene.epsilon`) and the Mitsuba reference take this value, so
+/// their rays start at the same points.
+pub fn auto_epsilon(scene: &Scene) -> f64 {
     let (lo, hi) = scene.bounds();
-    1e-4 * (hi - lo).length()
+    1e-4 * (hi.as_dvec3() - lo.as_dvec3()).length()
 }
 
 /// Visibility of every receiver by tracing its shadow rays (see the module doc). Returns one

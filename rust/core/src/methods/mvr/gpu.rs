@@ -52,7 +52,7 @@ fn pipelines(gpu: &Gpu) -> &'static Pipelines {
 }
 
 /// The uploaded triangles of one call.
-pub struct Rasterizer {
+pub struct GpuRasterizer {
     gpu: &'static Gpu,
     /// Each chunk's buffer and triangle count.
     chunks: Vec<(wgpu::Buffer, u32)>,
@@ -61,7 +61,7 @@ pub struct Rasterizer {
 /// Seconds of the depth maps and of the lighting, and the fragments drawn.
 pub type Work = (f64, f64, u64);
 
-impl Rasterizer {
+impl GpuRasterizer {
     /// Uploads the triangles of `scene`.
     ///
     /// Errors: `Unavailable` without an adapter or one without 64-bit floats; a perforated mesh
@@ -103,7 +103,7 @@ impl Rasterizer {
                 })
                 .collect();
             pipelines(gpu);
-            Ok(Rasterizer { gpu, chunks })
+            Ok(GpuRasterizer { gpu, chunks })
         })
     }
 

@@ -30,7 +30,7 @@ use crate::raster::multiview::{accumulate, resolve, ViewSet};
 use crate::raster::pcf::{DepthBias, PcfKernel};
 use crate::stats::Stats;
 use glam::Vec3;
-use gpu::Rasterizer;
+use gpu::GpuRasterizer;
 use rayon::prelude::*;
 
 /// Options shared by [`mvr`] and `vwss`'s lighting stage.
@@ -134,7 +134,7 @@ pub fn mvr(
         ])
         .check("mvr", &mut stats)?;
     if opts.backend == Backend::Gpu {
-        let rasterizer = stats.time_add("depth_maps", || Rasterizer::new(scene))?;
+        let rasterizer = stats.time_add("depth_maps", || GpuRasterizer::new(scene))?;
         let lighting = stats.time_add("lighting", || Lighting::new(receivers, &kernel, bias))?;
         let (draw, light, fragments) =
             rasterizer.draw_and_light(&views.views, &views.weights, &lighting)?;

@@ -4,9 +4,9 @@ use crate::geometry::mesh::Scene;
 use crate::gpu::multiview::Lighting;
 use crate::raster::frustum::LightFrustum;
 
-pub enum Rasterizer {}
+pub enum GpuRasterizer {}
 
-impl Rasterizer {
+impl GpuRasterizer {
     pub fn new(_scene: &Scene) -> Result<Self> {
         Err(crate::gpu::unavailable())
     }
