@@ -35,14 +35,14 @@ class _Light(abc.ABC):
     kind = ""
 
     @abc.abstractmethod
-    def _to_core(self, native_light):
-        """This light built by the ``native_light`` constructor of its kind (``_core.NativeLight``)."""
+    def _to_core(self):
+        """This light as the core's, built by the ``_core.NativeLight`` constructor of its kind."""
 
     def native(self):
         """The core light, built once and cached (the light is treated as immutable, as a Scene is)."""
         cached = self.__dict__.get("_native")
         if cached is None:
-            cached = self.__dict__["_native"] = self._to_core(_core.NativeLight)
+            cached = self.__dict__["_native"] = self._to_core()
         return cached
 
     def __getstate__(self):
@@ -158,8 +158,8 @@ class PointLight(_Light):
     def center(self) -> np.ndarray:
         return self.position
 
-    def _to_core(self, native_light):
-        return native_light.point(self.position)
+    def _to_core(self):
+        return _core.NativeLight.point(self.position)
 
     def __repr__(self):
         return f"PointLight(position={self.position.tolist()})"
@@ -226,8 +226,8 @@ class RectLight(_Light):
     def area(self) -> float:
         return float(4 * np.linalg.norm(np.cross(self.u.astype(np.float64), self.v.astype(np.float64))))
 
-    def _to_core(self, native_light):
-        return native_light.rect(self.center, self.u, self.v, self.emission)
+    def _to_core(self):
+        return _core.NativeLight.rect(self.center, self.u, self.v, self.emission)
 
     def __repr__(self):
         return f"RectLight(center={self.center.tolist()}, u={self.u.tolist()}, v={self.v.tolist()})"
@@ -286,8 +286,8 @@ class DiskLight(_Light):
     def area(self) -> float:
         return float(np.pi * self.radius**2)
 
-    def _to_core(self, native_light):
-        return native_light.disk(self.center, self.normal, self.radius, self.emission)
+    def _to_core(self):
+        return _core.NativeLight.disk(self.center, self.normal, self.radius, self.emission)
 
     def __repr__(self):
         return f"DiskLight(center={self.center.tolist()}, normal={self.normal.tolist()}, radius={self.radius})"
@@ -321,8 +321,8 @@ class SphereLight(_Light):
         self.radius = _validate.positive("radius", radius)
         self.native()  # the core works in float32: it refuses a radius that is 0 or inf there
 
-    def _to_core(self, native_light):
-        return native_light.sphere(self.center, self.radius)
+    def _to_core(self):
+        return _core.NativeLight.sphere(self.center, self.radius)
 
     def __repr__(self):
         return f"SphereLight(center={self.center.tolist()}, radius={self.radius})"
@@ -361,8 +361,8 @@ class EllipsoidLight(_Light):
         self.axes = _validate.array("axes", axes, np.float32, (3, 3))
         self.native()  # the core checks the axes and names the argument
 
-    def _to_core(self, native_light):
-        return native_light.ellipsoid(self.center, self.axes)
+    def _to_core(self):
+        return _core.NativeLight.ellipsoid(self.center, self.axes)
 
     def __repr__(self):
         return f"EllipsoidLight(center={self.center.tolist()}, axes={self.axes.tolist()})"
