@@ -236,7 +236,7 @@ def ray_traced(
     native_samples = _native_samples(
         light, samples, pattern=pattern, seed=seed, rotate=rotate, interleaved=interleaved, frame=frame, receivers=inputs[2]
     )
-    eps = scene.epsilon if epsilon is None else v.positive("epsilon", epsilon, allow_zero=True)
+    eps = scene.epsilon if epsilon is None else v.number("epsilon", epsilon)  # its range: the core
     out = _core.ray_traced(*inputs, native_samples, eps, str(caster_faces))
     return _finish(receivers, out, return_stats)
 
@@ -1146,7 +1146,7 @@ def _object_inputs(scene, light, receivers, *, samples, pattern, seed, rotate, i
     native_samples = _native_samples(
         light, samples, pattern=pattern, seed=seed, rotate=rotate, interleaved=interleaved, frame=frame, receivers=inputs[2]
     )
-    eps = scene.epsilon if epsilon is None else v.positive("epsilon", epsilon, allow_zero=True)
+    eps = scene.epsilon if epsilon is None else v.number("epsilon", epsilon)  # its range: the core
     options = (eps, v.positive_int("resolution", resolution), v.positive_int("hull_degree", hull_degree))
     return receivers, (*inputs, native_samples, *options)
 
