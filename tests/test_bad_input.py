@@ -118,6 +118,28 @@ def test_bad_method_arguments(ground):
         ss.gbuffer(scene, None)
 
 
+ENUM_OPTIONS = [  # (method, option, a value it takes), every string option of every method
+    ("ray_traced", "caster_faces", "all"), ("ray_traced", "pattern", "sobol"),
+    ("alias_free", "caster_faces", "all"), ("cssm", "prefilter", "mipmap"),
+    ("vwss", "mode", "unbuffered"), ("vwss", "parallel", "full"), ("vwss", "precision", "float16"),
+    ("vwss", "source_view", "paper"), ("stsv", "opaque", "dcs"), ("backprojection", "occluder", "microquad"),
+    ("backprojection", "accumulation", "area"), ("backprojection", "accel", "mssm"),
+]
+
+
+@pytest.mark.parametrize("method, option, good", ENUM_OPTIONS)
+def test_a_misspelt_or_non_string_option_names_itself_and_its_values(ground, method, option, good):
+    scene = ss.Scene([ground])
+    light = ss.RectLight((0, 4, 0), (1, 0, 0), (0, 0, 1))  # facing the receivers
+    rx = up_receivers([0.0, 1.0])
+    call = getattr(ss, method)
+    call(scene, light, rx, **{option: good})
+    with pytest.raises(ValueError, match=f"^{option}: expected one of .*{good!r}.*got {good[:-1] + 'x'!r}".replace("'", '"')):
+        call(scene, light, rx, **{option: good[:-1] + "x"})
+    with pytest.raises(ValueError, match=f"^{option}: expected a string, got int"):
+        call(scene, light, rx, **{option: 3})
+
+
 def test_a_request_too_large_raises_memory_error_before_allocating(ground):
     scene = ss.Scene([ground])
     light = ss.RectLight((0, 4, 0), (1, 0, 0), (0, 0, -1))

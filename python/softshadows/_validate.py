@@ -128,6 +128,14 @@ def light_points(name: str, value) -> np.ndarray:
     return pts
 
 
+def option(name: str, value) -> str:
+    """``value`` if it is a string: an enum option, whose spelling the core's binding checks
+    (naming the argument and every value it takes)."""
+    if not isinstance(value, str):
+        raise ValueError(f"{name}: expected a string, got {type(value).__name__} {value!r}")
+    return value
+
+
 def instance(name: str, value, cls, what: str):
     """``value`` if it is a ``cls``, else a ValueError naming the argument."""
     if not isinstance(value, cls):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import abc
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -152,11 +153,12 @@ class Flat(NamedTuple):
     """Image height (1 for explicit receivers)."""
 
 
-class _ReceiverSet:
+class _ReceiverSet(abc.ABC):
     """What GBuffer and Receivers share: flat arrays and one conversion into the core."""
 
+    @abc.abstractmethod
     def _flat(self) -> Flat:
-        raise NotImplementedError
+        """The receivers as flat arrays, the form every method and the core read."""
 
     def native(self):
         """The core receivers, converted once and cached (the receivers are treated as

@@ -51,17 +51,9 @@ class _Light(abc.ABC):
 
     @property
     def extent(self) -> float:
-        """Largest distance from the center to a point of the light, in world units.
-
-        Computed in float64: the core's float32 value overflows to inf for a rectangle whose
-        sides reach 1e19 (|u + v|^2 > 3.4e38) although the extent itself is representable.
-        """
-        if isinstance(self, RectLight):
-            u, w = self.u.astype(np.float64), self.v.astype(np.float64)
-            return float(max(np.linalg.norm(u + w), np.linalg.norm(u - w)))
-        if isinstance(self, EllipsoidLight):
-            return float(np.linalg.norm(self.axes.astype(np.float64), axis=1).max())
-        return float(getattr(self, "radius", 0.0))
+        """Largest distance from the center to a point of the light, in world units (computed
+        by the core, in float64)."""
+        return self.native().extent
 
     def samples(self, n: int, *, pattern: str = "poisson", seed: int = 0, frame: int = 0) -> np.ndarray:
         """World-space light samples.
@@ -82,30 +74,12 @@ class _Light(abc.ABC):
         ndarray, shape (n, 3), float32
         """
         n = _validate.positive_int("n", n)
-        return self.native().samples(n, _pattern(pattern), _validate.nonneg_int("seed", seed), _validate.nonneg_int("frame", frame))
+        return self.native().samples(n, _validate.option("pattern", pattern), _validate.nonneg_int("seed", seed), _validate.nonneg_int("frame", frame))
 
     def weights(self, samples) -> np.ndarray:
         """Emission weights of world-space light points, shape (S,): 1 without an emission texture."""
         pts = _validate.array("samples", samples, np.float32, (None, 3))
         return self.native().weights(pts)
-
-
-def _pattern(pattern: str) -> str:
-    """``pattern`` if it is a string (the core checks its spelling and names the argument)."""
-    if not isinstance(pattern, str):
-        raise ValueError(f"pattern: expected one of {PATTERNS}, got {pattern!r}")
-    return pattern
-
-
-def _tangent_frame(normal) -> tuple[np.ndarray, np.ndarray]:
-    """An orthonormal float64 basis ``(t, b)`` of the plane orthogonal to the unit ``normal``,
-    with ``t x b = normal``: ``t = normalize(normal x X)``, or ``normal x Y`` when ``|normal_x| >= 0.9``.
-    The core (``light::lights::tangent_frame``), Mitsuba's disk and shading's disk polygon use it."""
-    n = np.asarray(normal, np.float64)
-    helper = np.array([1.0, 0, 0]) if abs(n[0]) < 0.9 else np.array([0, 1.0, 0])
-    t = np.cross(n, helper)
-    t /= np.linalg.norm(t)
-    return t, np.cross(n, t)
 
 
 def _facing_axes(center, target) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -285,6 +259,23 @@ class DiskLight(_Light):
     @property
     def area(self) -> float:
         return float(np.pi * self.radius**2)
+
+    @property
+    def tangent_frame(self) -> tuple[np.ndarray, np.ndarray]:
+        """The orthonormal axes ``(t, b)``, float64 (3,) each, across the disk with
+        ``t x b = normal``, as the core orients the disk's samples and its emission texture
+        (the concentric map's ``(x, y)`` lands at ``center + radius (x t + y b)``): the Mitsuba
+        reference and the analytic shading use the same frame.
+
+        Examples
+        --------
+        >>> import softshadows as ss
+        >>> t, b = ss.DiskLight((0, 4, 0), (0, -1, 0), 0.5).tangent_frame
+        >>> (t + 0.0).tolist(), (b + 0.0).tolist()  # + 0.0 turns -0.0 into 0.0
+        ([0.0, 0.0, 1.0], [-1.0, 0.0, 0.0])
+        """
+        t, b = self.native().tangent_frame
+        return np.asarray(t, np.float64), np.asarray(b, np.float64)
 
     def _to_core(self):
         return _core.NativeLight.disk(self.center, self.normal, self.radius, self.emission)

@@ -26,7 +26,7 @@ from . import _core
 from . import _validate as v
 from .camera import GBuffer, Receivers, as_receivers
 from .gpu import resolve_backend
-from .lights import DiskLight, PointLight, RectLight, _Light, _pattern
+from .lights import DiskLight, PointLight, RectLight, _Light
 from .scene import Scene
 
 __all__ = ["SetupWarning", "ray_traced", "shadow_map", "mvr", "vwss", "pcss", "cssm", "alias_free", "dcs", "penumbra_wedge", "stsv", "stsv_volumes", "backprojection", "resolve_msaa", "METHODS"]
@@ -44,7 +44,7 @@ def _native_samples(light, samples, *, pattern, seed, rotate, interleaved, frame
         n = v.positive_int("samples", samples)
         k = v.positive_int("interleaved", interleaved)
         return _core.NativeSamples.generate(
-            light.native(), n, _pattern(pattern), seed, k, rotate == "per_receiver", v.nonneg_int("frame", frame), receivers
+            light.native(), n, v.option("pattern", pattern), seed, k, rotate == "per_receiver", v.nonneg_int("frame", frame), receivers
         )
     pts = v.light_points("samples", samples)
     if interleaved != 1:
@@ -214,7 +214,7 @@ def ray_traced(
         with no packets: 5-11 times slower than ``"all"`` on the built-in scenes.
     {casters}
     return_stats : bool
-        Also return ``{"rays", "trace_seconds", ...}``.
+        Also return the stats dict, whose keys are {stats}.
 
     Returns
     -------
@@ -237,7 +237,7 @@ def ray_traced(
         light, samples, pattern=pattern, seed=seed, rotate=rotate, interleaved=interleaved, frame=frame, receivers=inputs[2]
     )
     eps = scene.epsilon if epsilon is None else v.number("epsilon", epsilon)  # its range: the core
-    out = _core.ray_traced(*inputs, native_samples, eps, str(caster_faces))
+    out = _core.ray_traced(*inputs, native_samples, eps, v.option("caster_faces", caster_faces))
     return _finish(receivers, out, return_stats)
 
 
@@ -281,6 +281,7 @@ def shadow_map(
         The map is rasterized on the CPU either way. ``"auto"``: the GPU when an adapter exists,
         else the CPU with a warning.
     return_stats : bool
+        Also return the stats dict, whose keys are {stats}.
 
     Returns
     -------
@@ -311,7 +312,7 @@ def _view_samples(light, samples, *, pattern, seed, frame):
     if isinstance(samples, (int, np.integer)) and not isinstance(samples, bool):
         n = v.positive_int("samples", samples)
         return _core.NativeSamples.generate(
-            light.native(), n, _pattern(pattern), v.nonneg_int("seed", seed), 1, False, v.nonneg_int("frame", frame)
+            light.native(), n, v.option("pattern", pattern), v.nonneg_int("seed", seed), 1, False, v.nonneg_int("frame", frame)
         )
     if frame != 0:
         raise ValueError("frame: explicit samples are used as given; pass samples=n to jitter over frames")
@@ -386,7 +387,7 @@ def mvr(
         meshes need the CPU (no alpha test on the GPU). ``"auto"``: the GPU when an adapter
         exists, else the CPU with a warning.
     return_stats : bool
-        Also return ``{"depth_maps_seconds", "lighting_seconds", "views", "fragments", ...}``.
+        Also return the stats dict, whose keys are {stats}.
 
     Returns
     -------
@@ -501,9 +502,8 @@ def vwss(
         texel for texel; the lighting is ``multiview.wgsl``). The points are generated on the CPU
         either way. ``"auto"`` takes the GPU when an adapter exists, else the CPU with a warning.
     return_stats : bool
-        Also return the columns of the paper's Tables 1-2: ``point_generation_seconds``,
-        ``depth_maps_seconds``, ``lighting_seconds``, ``points``, ``maps_per_traversal``,
-        ``traversals``, plus ``source_resolution`` and ``pull_back`` (d of equation 1).
+        Also return the stats dict, whose keys are {stats}: the columns of the paper's Tables
+        1-2, plus ``source_resolution`` and ``pull_back`` (d of equation 1).
 
     Returns
     -------
@@ -531,13 +531,13 @@ def vwss(
         *inputs,
         native_samples,
         *_multiview_options(resolution, pcf, bias),
-        str(mode),
-        str(parallel),
+        v.option("mode", mode),
+        v.option("parallel", parallel),
         v.positive_int("views_per_pass", views_per_pass),
         v.flag("cull_backfaces", cull_backfaces),
         v.flag("layered", layered),
-        str(precision),
-        str(source_view),
+        v.option("precision", precision),
+        v.option("source_view", source_view),
         v.positive("point_density", _point_density(source_view, point_density)),
         source,
         resolve_backend(backend, "vwss"),
@@ -601,7 +601,7 @@ def pcss(
         ``rust/core/src/methods/pcss/pcss.wgsl``), equal to the CPU's. The depth map is rasterized on the
         CPU either way. ``"auto"``: the GPU when an adapter exists, else the CPU with a warning.
     return_stats : bool
-        Also return ``{"depth_map_seconds", "lighting_seconds", "search_near", "no_blocker", ...}``.
+        Also return the stats dict, whose keys are {stats}.
 
     Returns
     -------
@@ -717,11 +717,9 @@ def backprojection(
         Also return the micro-occluders each receiver processed (uint32, both levels when
         blending, 0 where it backprojects nothing).
     return_stats : bool
-        Also return ``{"backprojecting_percent", "processed_mean", "processed_std",
-        "processed_max", "backprojected_mean", "backprojected_std", "backprojected_max",
-        "level_mean", "umbra", "lit", "acceleration_bytes", ... seconds per stage}`` (Tables 1-2):
-        micro-occluders processed (read) and backprojected (in front of the receiver, projecting
-        onto the light) per backprojecting receiver.
+        Also return the stats dict, whose keys are {stats} (Tables 1-2; ``processed_*`` and
+        ``backprojected_*``: micro-occluders processed (read) and backprojected (in front of the receiver, projecting
+        onto the light) per backprojecting receiver).
 
     Returns
     -------
@@ -756,11 +754,11 @@ def backprojection(
     out = _core.backprojection(
         *inputs,
         v.positive_int("resolution", resolution),
-        str(occluder),
+        v.option("occluder", occluder),
         v.flag("extend", extend),
-        str(accumulation),
+        v.option("accumulation", accumulation),
         v.positive_int("bitmask_side", bitmask_side),
-        str(accel),
+        v.option("accel", accel),
         v.positive_int("ysm_resolution", ysm_resolution),
         budget,
         None if level is None else v.nonneg_int("level", level),
@@ -918,8 +916,7 @@ def cssm(
         f32 trigonometry, f64 tables). The shadow map is rasterized on the CPU either way.
         ``"auto"`` takes the GPU when an adapter exists, else the CPU with a warning.
     return_stats : bool
-        Also return ``{"shadow_map_seconds", "basis_seconds", "prefilter_seconds",
-        "lookup_seconds", "basis_images", ...}``.
+        Also return the stats dict, whose keys are {stats}.
 
     Returns
     -------
@@ -940,7 +937,7 @@ def cssm(
         *inputs,
         v.positive_int("resolution", resolution),
         v.positive_int("order", order),
-        str(prefilter),
+        v.option("prefilter", prefilter),
         None if near is None else v.positive("near", near),
         None if offset is None else float(offset),
         float(scale),
@@ -1060,10 +1057,7 @@ def alias_free(
         GPU when an adapter exists, else the CPU with a warning.
     {casters}
     return_stats : bool
-        Also return ``{"list_build_seconds", "rasterization_seconds", "visibility_seconds",
-        "average_list_length", "max_list_length", "occupied_texels_percent",
-        "silhouette_edges", "penumbra_texels_percent", "exact_view_samples",
-        "inside_view_samples", ...}``.
+        Also return the stats dict, whose keys are {stats}.
 
     Returns
     -------
@@ -1088,7 +1082,7 @@ def alias_free(
         *inputs,
         native,
         v.positive_int("resolution", resolution),
-        str(caster_faces),
+        v.option("caster_faces", caster_faces),
         scene.epsilon if bias is None else v.positive("bias", bias, allow_zero=True),
         _lut(lut),
         v.positive_int("hull_degree", hull_degree),
@@ -1192,8 +1186,7 @@ def dcs(
     receivers : GBuffer or Receivers
     {object_params}
     return_stats : bool
-        Also return ``{"reference_seconds", "silhouettes_seconds", "wedges_seconds",
-        "silhouette_edges", "wedge_tests", "receivers", "light_samples"}``.
+        Also return the stats dict, whose keys are {stats}.
 
     Returns
     -------
@@ -1253,8 +1246,7 @@ def penumbra_wedge(
     receivers : GBuffer or Receivers
     {object_params}
     return_stats : bool
-        Also return ``{"hard_seconds", "silhouettes_seconds", "wedges_seconds",
-        "silhouette_edges", "wedge_tests", "receivers", "light_samples"}``.
+        Also return the stats dict, whose keys are {stats}.
 
     Returns
     -------
@@ -1341,9 +1333,8 @@ def stsv(
         As in ``dcs``.
     {casters}
     return_stats : bool
-        Also return ``{"opaque_seconds", "perforated_seconds", "volumes", "receivers_tested",
-        "receivers_inside", "light_samples", ...}`` (the paper's Figure 9), plus the opaque
-        method's own.
+        Also return the stats dict, whose keys are {stats} (the paper's Figure 9), plus the
+        opaque method's own.
 
     Returns
     -------
@@ -1361,8 +1352,7 @@ def stsv(
     >>> bool(np.array_equal(vis, oracle))
     True
     """
-    if not isinstance(opaque, str):  # its spelling is checked by the core's binding
-        raise ValueError(f"opaque: expected 'bitmask', 'dcs' or 'penumbra_wedge', got {opaque!r}")
+    opaque = v.option("opaque", opaque)
     receivers, args = _object_inputs(scene, light, receivers, samples=samples, pattern=pattern, seed=seed, rotate=rotate,
                                      interleaved=interleaved, frame=frame, epsilon=epsilon, resolution=resolution,
                                      hull_degree=hull_degree, casters=casters)
@@ -1419,7 +1409,9 @@ SAMPLED = frozenset({"ray_traced", "alias_free", "dcs", "penumbra_wedge", "stsv"
 METHODS = {"ray_traced": ray_traced, "alias_free": alias_free, "stsv": stsv, "dcs": dcs, "penumbra_wedge": penumbra_wedge,
            "shadow_map": shadow_map, "pcss": pcss, "cssm": cssm, "backprojection": backprojection, "mvr": mvr, "vwss": vwss}
 
-for _method in METHODS.values():
+for _name, _method in METHODS.items():
     _method.__doc__ = (_method.__doc__.replace("{object_params}", _OBJECT_PARAMETERS)
                        .replace("{params}", _MULTIVIEW_PARAMETERS).replace("{casters}", _CASTERS_PARAMETER)
-                       .replace("{cube}", _CUBE_NOTE))
+                       .replace("{cube}", _CUBE_NOTE)
+                       # the stats keys, declared once in the core (each method module's STATS)
+                       .replace("{stats}", ", ".join(f"``{key}``" for key in _core.STATS[_name])))

@@ -276,9 +276,7 @@ def _outline(light) -> np.ndarray:
         u, w = light.u.astype(np.float64), light.v.astype(np.float64)
         return np.stack([c - u - w, c + u - w, c + u + w, c - u + w, c - u - w])
     if light.kind == "disk":
-        from .lights import _tangent_frame
-
-        a, b = _tangent_frame(light.normal)
+        a, b = light.tangent_frame
         return c + light.radius * (np.cos(t) * a + np.sin(t) * b)
     if light.kind in ("sphere", "ellipsoid"):
         axes = light.radius * np.eye(3) if light.kind == "sphere" else light.axes.astype(np.float64)

@@ -81,7 +81,7 @@ import numpy as np
 from . import _validate as v
 from ._extras import require
 from .camera import Camera, as_receivers
-from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight, _tangent_frame
+from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight
 from .scene import Scene
 
 __all__ = ["variant", "mitsuba_scene", "mitsuba_visibility", "mitsuba_render", "mitsuba_environment_render", "cache_dir", "CACHE_VERSION"]
@@ -277,7 +277,7 @@ def _light_dict(mi, light, intensity: float) -> dict:
     if isinstance(light, DiskLight):
         if light.emission is not None:
             raise ValueError("light: a textured DiskLight has no Mitsuba equivalent (Mitsuba's disk uv is polar)")
-        t, b = _tangent_frame(light.normal)
+        t, b = light.tangent_frame
         to_world = _frame(light.center, light.radius * t, light.radius * b, light.normal)
         return {"type": "disk", "to_world": to_world, "emitter": {"type": "area", "radiance": radiance}}
     if isinstance(light, SphereLight):

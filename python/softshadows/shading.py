@@ -48,7 +48,7 @@ import numpy as np
 from . import _core
 from . import _validate as v
 from .camera import as_receivers
-from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight, _tangent_frame
+from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight
 
 __all__ = ["direct", "unshadowed_irradiance", "DISK_EDGES", "BEND_SHARPNESS"]
 
@@ -297,7 +297,7 @@ def _textured_rect(p, n, c, u, w, emission):
 
 def _disk_polygon(light) -> np.ndarray:
     """A regular DISK_EDGES-gon with the disk's area, counter-clockwise about the disk normal."""
-    t, b = _tangent_frame(light.normal)
+    t, b = light.tangent_frame
     k = DISK_EDGES
     radius = light.radius * np.sqrt(2 * np.pi / (k * np.sin(2 * np.pi / k)))
     phi = 2 * np.pi * np.arange(k) / k

@@ -650,9 +650,8 @@ impl<'a> LightBounds<'a> {
     /// Errors: samples so far from the light that their bounds overflow f32.
     pub fn new(light: &'a Light, samples: &SampleSet, degree: usize) -> Result<Self> {
         let c = light.center().as_dvec3();
-        let tol = ON_LIGHT_ULPS
-            * f64::from(f32::EPSILON)
-            * (c.abs().max_element() + f64::from(light.extent()));
+        let tol =
+            ON_LIGHT_ULPS * f64::from(f32::EPSILON) * (c.abs().max_element() + light.extent());
         let offsets: Vec<DVec3> = samples.points().map(|y| y.as_dvec3() - c).collect();
         let beyond = match light.shape {
             Shape::Point { .. } => ball_beyond(c, 0.0, &offsets, tol)?,
@@ -684,8 +683,8 @@ impl<'a> LightBounds<'a> {
     /// every sample lies on it.
     pub fn reach(&self) -> f32 {
         match &self.beyond {
-            None => self.light.extent(),
-            Some(Beyond::Volume(volume)) => volume.extent(),
+            None => self.light.extent() as f32,
+            Some(Beyond::Volume(volume)) => volume.extent() as f32,
             Some(Beyond::Corners(corners)) => {
                 let c = self.light.center().as_dvec3();
                 let far = corners
@@ -1004,12 +1003,12 @@ mod tests {
             }
             let c = light.center();
             let off = SampleSet::explicit(
-                vec![c + Vec3::new(0.0, 0.0, 2.0 * light.extent() + 0.1)],
+                vec![c + Vec3::new(0.0, 0.0, 2.0 * light.extent() as f32 + 0.1)],
                 None,
             )?;
             let bounds = LightBounds::new(&light, &off, 6)?;
             assert!(
-                !bounds.is_light() && bounds.reach() >= 2.0 * light.extent() + 0.1,
+                !bounds.is_light() && bounds.reach() >= 2.0 * light.extent() as f32 + 0.1,
                 "{:?}",
                 light.shape
             );

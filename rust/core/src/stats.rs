@@ -2,6 +2,10 @@
 
 use std::time::Instant;
 
+/// The keys every method's call returns beside its own (`STATS` in each method's module): the
+/// memory guard's peak bytes and the work guard's estimated operations.
+pub const COMMON: &[&str] = &["peak_bytes", "work"];
+
 /// Named values in insertion order; the Python layer turns them into a dict.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Stats {
@@ -9,6 +13,18 @@ pub struct Stats {
 }
 
 impl Stats {
+    /// Stats holding 0 under each of `keys`, then each of [`COMMON`]: a method starts from its
+    /// declared keys, so that every call returns all of them, an early exit included.
+    pub fn declared(keys: &[&str]) -> Self {
+        Stats {
+            entries: keys
+                .iter()
+                .chain(COMMON)
+                .map(|key| (key.to_string(), 0.0))
+                .collect(),
+        }
+    }
+
     /// Records `value` under `name` (a later record of the same name replaces it).
     pub fn set(&mut self, name: &str, value: f64) {
         match self.entries.iter_mut().find(|(n, _)| n == name) {

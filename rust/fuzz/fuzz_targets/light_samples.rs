@@ -18,7 +18,7 @@ fuzz_target!(|input: (FuzzScene, u8, u8, u64, u8, bool)| {
     assert!(poisson_radius(n, dim) > 0.0);
     let Ok(scene) = fuzz.scene() else { return };
     let Ok(light) = fuzz.light.build(&scene) else { return };
-    let (c, extent) = (light.center(), light.extent());
+    let (c, extent) = (light.center(), light.extent() as f32);
     // A light far from f32's limits keeps its samples on it (to round-off), rotated and jittered
     // ones too (rectangle parameters and ellipsoid inverses are solved in f64). Known exception
     // (docs/robustness.md): a rectangle with one side over 1e6 times shorter than the other

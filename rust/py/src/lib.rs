@@ -6,6 +6,7 @@
 mod convert;
 mod error;
 mod methods;
+mod spelling;
 mod threads;
 
 use convert::{faces, image, vec2s, vec3, vec3s};
@@ -20,9 +21,10 @@ use softshadows_core::geometry::camera::Camera;
 use softshadows_core::geometry::gbuffer::gbuffer;
 use softshadows_core::geometry::mesh::{AlphaTexture, Mesh, Scene};
 use softshadows_core::geometry::receivers::Receivers;
-use softshadows_core::light::lights::{EmissionTexture, Light};
+use softshadows_core::light::lights::{tangent_frame, EmissionTexture, Light};
 use softshadows_core::light::sampling::{light_samples, Interleave, Pattern, SampleSet};
 use softshadows_core::raster::cube::light_frusta;
+use spelling::{Spelled, Spelling};
 use std::sync::OnceLock;
 
 /// A scene and its BVH, built once.
@@ -202,9 +204,18 @@ impl NativeLight {
         Self::from(Light::ellipsoid(vec3("center", &center)?, axes), None)
     }
 
+    /// Largest distance from the center to a point of the light (world units).
     #[getter]
-    fn extent(&self) -> f32 {
+    fn extent(&self) -> f64 {
         self.light.extent()
+    }
+
+    /// The orthonormal `(t, b)` across the light's normal that orients its samples and its
+    /// emission texture (the core's `tangent_frame`); None for a light without a plane.
+    #[getter]
+    fn tangent_frame(&self) -> Option<([f32; 3], [f32; 3])> {
+        let (t, b) = tangent_frame(self.light.normal()?);
+        Some((t.to_array(), b.to_array()))
     }
 
     /// `n` world-space samples of `pattern`, shape (n, 3).
@@ -212,11 +223,11 @@ impl NativeLight {
         &self,
         py: Python<'py>,
         n: usize,
-        pattern: &str,
+        pattern: Spelling<Pattern>,
         seed: u64,
         frame: u64,
     ) -> PyResult<Bound<'py, PyArray2<f32>>> {
-        let pattern = Pattern::parse(pattern).or_raise()?;
+        let pattern = pattern.0;
         softshadows_core::limits::check_memory(
             "light samples",
             softshadows_core::limits::bytes(&[n as u64, 12]),
@@ -336,14 +347,14 @@ impl NativeSamples {
         py: Python<'_>,
         light: &NativeLight,
         n: usize,
-        pattern: &str,
+        pattern: Spelling<Pattern>,
         seed: u64,
         interleave: usize,
         rotate: bool,
         frame: u64,
         receivers: Option<&NativeReceivers>,
     ) -> PyResult<Self> {
-        let pattern = Pattern::parse(pattern).or_raise()?;
+        let pattern = pattern.0;
         let tile = match receivers {
             Some(r) => Interleave::for_grid(interleave, r.receivers.width, r.receivers.height),
             None => Interleave::full(interleave),
@@ -410,6 +421,21 @@ fn gpu_info(py: Python<'_>) -> PyResult<Vec<(String, String)>> {
     threads::detached(py, softshadows_core::gpu::info)
 }
 
+/// `{method: (key, ...)}`: each method's stats keys as the core declares them, the common ones
+/// last.
+fn stats_keys(py: Python<'_>) -> PyResult<Bound<'_, pyo3::types::PyDict>> {
+    let table = pyo3::types::PyDict::new(py);
+    for (method, own) in softshadows_core::methods::STATS {
+        let keys: Vec<&str> = own
+            .iter()
+            .chain(softshadows_core::stats::COMMON)
+            .copied()
+            .collect();
+        table.set_item(method, pyo3::types::PyTuple::new(py, keys)?)?;
+    }
+    Ok(table)
+}
+
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<NativeScene>()?;
@@ -426,8 +452,9 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
         "UnsupportedSetup",
         m.py().get_type::<error::UnsupportedSetup>(),
     )?;
-    let patterns: Vec<&str> = Pattern::NAMES.iter().map(|(name, _)| *name).collect();
+    let patterns: Vec<&str> = Pattern::SPELLINGS.iter().map(|(name, _)| *name).collect();
     m.add("PATTERNS", pyo3::types::PyTuple::new(m.py(), patterns)?)?;
+    m.add("STATS", stats_keys(m.py())?)?;
     m.add_function(wrap_pyfunction!(gpu_info, m)?)?;
     m.add_function(wrap_pyfunction!(threads::set_num_threads, m)?)?;
     m.add_function(wrap_pyfunction!(threads::num_threads, m)?)?;

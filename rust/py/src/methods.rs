@@ -2,6 +2,7 @@
 //! released and returns `(visibility (N,), stats dict)`.
 
 use crate::error::OrRaise;
+use crate::spelling::{choice, Spelling};
 use crate::{NativeLight, NativeReceivers, NativeSamples, NativeScene};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
@@ -34,7 +35,6 @@ use softshadows_core::methods::vwss::{
     vwss as vwss_core, Mode, Parallel, Precision, SourceView, VwssOptions,
 };
 use softshadows_core::methods::CasterFaces;
-use softshadows_core::Error;
 use softshadows_core::Result as CoreResult;
 use softshadows_core::Stats;
 
@@ -48,27 +48,6 @@ fn output<'py>(py: Python<'py>, (vis, stats): (Vec<f32>, Stats)) -> PyResult<Out
     Ok((vis.into_pyarray(py), dict))
 }
 
-/// `"cpu"` or `"gpu"` (Python resolves `"auto"`).
-fn parse_backend(backend: &str) -> CoreResult<Backend> {
-    choice(
-        "backend",
-        backend,
-        &[("cpu", Backend::Cpu), ("gpu", Backend::Gpu)],
-    )
-}
-
-/// The `caster_faces=` option of `alias_free` and `ray_traced`.
-fn parse_caster_faces(caster_faces: &str) -> CoreResult<CasterFaces> {
-    choice(
-        "caster_faces",
-        caster_faces,
-        &[
-            ("backfacing", CasterFaces::Backfacing),
-            ("all", CasterFaces::All),
-        ],
-    )
-}
-
 /// Exact sampled visibility by BVH shadow rays (the oracle).
 #[pyfunction]
 fn ray_traced<'py>(
@@ -78,11 +57,11 @@ fn ray_traced<'py>(
     receivers: &NativeReceivers,
     samples: &NativeSamples,
     epsilon: f32,
-    caster_faces: &str,
+    caster_faces: Spelling<CasterFaces>,
 ) -> PyResult<Output<'py>> {
     let opts = RayTracedOptions {
         epsilon,
-        caster_faces: parse_caster_faces(caster_faces).or_raise()?,
+        caster_faces: caster_faces.0,
     };
     let bvh = scene.bvh(py)?;
     let out = crate::threads::detached(py, || {
@@ -109,14 +88,14 @@ fn shadow_map<'py>(
     resolution: usize,
     bias: Option<f32>,
     pcf: usize,
-    backend: &str,
+    backend: Spelling<Backend>,
 ) -> PyResult<Output<'py>> {
     let opts = ShadowMapOptions {
         resolution,
         bias,
         pcf,
         frustum: None,
-        backend: parse_backend(backend).or_raise()?,
+        backend: backend.0,
     };
     let out = crate::threads::detached(py, || {
         shadow_map_core(&scene.scene, &light.light, &receivers.receivers, &opts)
@@ -136,13 +115,13 @@ fn mvr<'py>(
     resolution: usize,
     pcf: usize,
     bias: Option<f32>,
-    backend: &str,
+    backend: Spelling<Backend>,
 ) -> PyResult<Output<'py>> {
     let opts = MultiViewOptions {
         resolution,
         pcf,
         bias,
-        backend: parse_backend(backend).or_raise()?,
+        backend: backend.0,
     };
     let out = crate::threads::detached(py, || {
         mvr_core(
@@ -154,20 +133,6 @@ fn mvr<'py>(
         )
     })?;
     output(py, out)
-}
-
-fn choice<T: Copy>(arg: &str, value: &str, options: &[(&str, T)]) -> Result<T, Error> {
-    options
-        .iter()
-        .find(|(name, _)| *name == value)
-        .map(|(_, v)| *v)
-        .ok_or_else(|| {
-            let names: Vec<String> = options.iter().map(|(n, _)| format!("{n:?}")).collect();
-            Error::invalid(
-                arg,
-                format!("expected one of {}, got {value:?}", names.join(", ")),
-            )
-        })
 }
 
 /// View-warped soft shadows: one source rasterization warped into every light sample's map.
@@ -182,61 +147,31 @@ fn vwss<'py>(
     resolution: usize,
     pcf: usize,
     bias: Option<f32>,
-    mode: &str,
-    parallel: &str,
+    mode: Spelling<Mode>,
+    parallel: Spelling<Parallel>,
     views_per_pass: usize,
     cull_backfaces: bool,
     layered: bool,
-    precision: &str,
-    source_view: &str,
+    precision: Spelling<Precision>,
+    source_view: Spelling<SourceView>,
     point_density: f32,
     source_resolution: Option<usize>,
-    backend: &str,
+    backend: Spelling<Backend>,
 ) -> PyResult<Output<'py>> {
     let opts = VwssOptions {
         multiview: MultiViewOptions {
             resolution,
             pcf,
             bias,
-            backend: parse_backend(backend).or_raise()?,
+            backend: backend.0,
         },
-        mode: choice(
-            "mode",
-            mode,
-            &[
-                ("buffered", Mode::Buffered),
-                ("unbuffered", Mode::Unbuffered),
-            ],
-        )
-        .or_raise()?,
-        parallel: choice(
-            "parallel",
-            parallel,
-            &[
-                ("serial", Parallel::Serial),
-                ("partial", Parallel::Partial),
-                ("full", Parallel::Full),
-            ],
-        )
-        .or_raise()?,
+        mode: mode.0,
+        parallel: parallel.0,
         views_per_pass,
         cull_backfaces,
         layered,
-        precision: choice(
-            "precision",
-            precision,
-            &[
-                ("float32", Precision::Float32),
-                ("float16", Precision::Float16),
-            ],
-        )
-        .or_raise()?,
-        source_view: choice(
-            "source_view",
-            source_view,
-            &[("fitted", SourceView::Fitted), ("paper", SourceView::Paper)],
-        )
-        .or_raise()?,
+        precision: precision.0,
+        source_view: source_view.0,
         point_density,
         source_resolution,
     };
@@ -266,7 +201,7 @@ fn pcss<'py>(
     bias: Option<f32>,
     near: Option<f32>,
     seed: u64,
-    backend: &str,
+    backend: Spelling<Backend>,
 ) -> PyResult<Output<'py>> {
     let opts = PcssOptions {
         resolution,
@@ -275,7 +210,7 @@ fn pcss<'py>(
         bias,
         near,
         seed,
-        backend: parse_backend(backend).or_raise()?,
+        backend: backend.0,
     };
     let out = crate::threads::detached(py, || {
         pcss_core(&scene.scene, &light.light, &receivers.receivers, &opts)
@@ -293,31 +228,24 @@ fn cssm<'py>(
     receivers: &NativeReceivers,
     resolution: usize,
     order: usize,
-    prefilter: &str,
+    prefilter: Spelling<Prefilter>,
     near: Option<f32>,
     offset: Option<f32>,
     scale: f32,
     sharpen_a: f32,
     sharpen_b: f32,
-    backend: &str,
+    backend: Spelling<Backend>,
 ) -> PyResult<Output<'py>> {
-    let prefilter = choice(
-        "prefilter",
-        prefilter,
-        &[("sat", Prefilter::Sat), ("mipmap", Prefilter::Mipmap)],
-    )
-    .or_raise()?;
-    let backend = parse_backend(backend).or_raise()?;
     let opts = CssmOptions {
         resolution,
         order,
-        prefilter,
+        prefilter: prefilter.0,
         near,
         offset,
         scale,
         sharpen_a,
         sharpen_b,
-        backend,
+        backend: backend.0,
     };
     let out = crate::threads::detached(py, || {
         cssm_core(&scene.scene, &light.light, &receivers.receivers, &opts)
@@ -388,12 +316,12 @@ fn alias_free<'py>(
     receivers: &NativeReceivers,
     samples: &NativeSamples,
     resolution: usize,
-    caster_faces: &str,
+    caster_faces: Spelling<CasterFaces>,
     bias: f32,
     lut: Option<LutArg>,
     hull_degree: usize,
     restrict_to_penumbra: bool,
-    backend: &str,
+    backend: Spelling<Backend>,
 ) -> PyResult<Output<'py>> {
     let lut = match lut {
         None => TableSize::Exact,
@@ -404,12 +332,12 @@ fn alias_free<'py>(
     };
     let opts = AliasFreeOptions {
         resolution,
-        caster_faces: parse_caster_faces(caster_faces).or_raise()?,
+        caster_faces: caster_faces.0,
         bias,
         lut,
         hull_degree,
         restrict_to_penumbra,
-        backend: parse_backend(backend).or_raise()?,
+        backend: backend.0,
     };
     let out = crate::threads::detached(py, || {
         alias_free_core(
@@ -523,26 +451,16 @@ fn stsv<'py>(
     epsilon: f32,
     resolution: usize,
     hull_degree: usize,
-    opaque: &str,
+    opaque: Spelling<Opaque>,
     two_sided: bool,
 ) -> PyResult<Output<'py>> {
-    let opaque = choice(
-        "opaque",
-        opaque,
-        &[
-            ("bitmask", Opaque::Bitmask),
-            ("dcs", Opaque::Dcs),
-            ("penumbra_wedge", Opaque::PenumbraWedge),
-        ],
-    )
-    .or_raise()?;
     let opts = StsvOptions {
         object: ObjectOptions {
             epsilon,
             resolution,
             hull_degree,
         },
-        opaque,
+        opaque: opaque.0,
         two_sided,
     };
     let bvh = scene.bvh(py)?;

@@ -151,34 +151,3 @@ pub(crate) fn unavailable() -> Error {
             .into(),
     )
 }
-
-/// Validation of the WGSL shaders with naga, so a broken shader fails `cargo test` on machines
-/// without a GPU: the shared shaders here, each method's beside its module.
-#[cfg(test)]
-pub(crate) mod shader_check {
-    use naga::valid::Capabilities;
-
-    /// The light-frustum helpers every frustum-reading shader is prefixed with.
-    pub const FRUSTUM: &str = include_str!("frustum.wgsl");
-    /// The f64 vector helpers of the shaders that repeat the CPU's f64 arithmetic.
-    pub const VECTOR64: &str = include_str!("vector64.wgsl");
-
-    /// Parses and validates the shader made of `parts`, panicking with naga's message.
-    pub fn validates(name: &str, parts: &[&str], capabilities: Capabilities) {
-        let source = parts.join("\n");
-        let module = naga::front::wgsl::parse_str(&source)
-            .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&source)));
-        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), capabilities)
-            .validate(&module)
-            .unwrap_or_else(|e| panic!("{name}: {e:?}"));
-    }
-
-    #[test]
-    fn multiview_shader_validates() {
-        validates(
-            "multiview.wgsl",
-            &[FRUSTUM, include_str!("multiview.wgsl")],
-            Capabilities::empty(),
-        );
-    }
-}

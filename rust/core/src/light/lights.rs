@@ -119,8 +119,8 @@ fn positive_radius(r: f32) -> Result<()> {
 
 /// An orthonormal basis `(t, b)` of the plane orthogonal to the unit vector `n`, with
 /// `t x b = n`: `t = normalize(n x X)`, or `normalize(n x Y)` when `|n.x| >= 0.9`. The Python
-/// side (`lights._tangent_frame`, shading's disk polygon, Mitsuba's disk) uses the same frame, so a
-/// disk's emission texture has one documented orientation.
+/// side (`DiskLight.tangent_frame`: shading's disk polygon, Mitsuba's disk, the preview) reads
+/// this frame, so a disk's emission texture has one documented orientation.
 pub fn tangent_frame(n: Vec3) -> (Vec3, Vec3) {
     let helper = if n.x.abs() < 0.9 { Vec3::X } else { Vec3::Y };
     let t = n.cross(helper).normalize();
@@ -295,18 +295,24 @@ impl Light {
         }
     }
 
-    /// The largest distance from the center to a point of the light.
-    pub fn extent(&self) -> f32 {
+    /// The largest distance from the center to a point of the light, in world units. Computed
+    /// in f64: in f32, `|u + v|²` of a rectangle overflows once its sides reach 1e19 although
+    /// the extent itself is representable (the Python `extent` is this value).
+    pub fn extent(&self) -> f64 {
         match self.shape {
             Shape::Point { .. } => 0.0,
-            Shape::Rect { u, v, .. } => (u + v).length().max((u - v).length()),
-            Shape::Disk { radius, .. } | Shape::Sphere { radius, .. } => radius,
+            Shape::Rect { u, v, .. } => {
+                let (u, v) = (u.as_dvec3(), v.as_dvec3());
+                (u + v).length().max((u - v).length())
+            }
+            Shape::Disk { radius, .. } | Shape::Sphere { radius, .. } => f64::from(radius),
             // Orthogonal semi-axes: the longest is the farthest point.
             Shape::Ellipsoid { axes, .. } => axes
                 .x_axis
+                .as_dvec3()
                 .length()
-                .max(axes.y_axis.length())
-                .max(axes.z_axis.length()),
+                .max(axes.y_axis.as_dvec3().length())
+                .max(axes.z_axis.as_dvec3().length()),
         }
     }
 

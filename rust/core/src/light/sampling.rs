@@ -36,34 +36,6 @@ pub enum Pattern {
     Halton,
 }
 
-impl Pattern {
-    /// Every pattern by the name the Python API spells it, in the order the documentation
-    /// lists them.
-    pub const NAMES: [(&'static str, Pattern); 5] = [
-        ("uniform", Pattern::Uniform),
-        ("stratified", Pattern::Stratified),
-        ("poisson", Pattern::Poisson),
-        ("sobol", Pattern::Sobol),
-        ("halton", Pattern::Halton),
-    ];
-
-    /// Parses a pattern name as used by the Python API.
-    pub fn parse(name: &str) -> Result<Self> {
-        Self::NAMES
-            .iter()
-            .find(|(spelled, _)| *spelled == name)
-            .map(|(_, pattern)| *pattern)
-            .ok_or_else(|| {
-                let names: Vec<String> =
-                    Self::NAMES.iter().map(|(n, _)| format!("'{n}'")).collect();
-                Error::invalid(
-                    "pattern",
-                    format!("expected one of {}, got {name:?}", names.join(", ")),
-                )
-            })
-    }
-}
-
 /// SplitMix64: a tiny, well-mixed generator; also the hash that derives per-receiver streams.
 #[derive(Debug, Clone)]
 pub struct Rng(u64);
@@ -754,9 +726,9 @@ impl SampleSet {
             .patterns
             .iter()
             .flatten()
-            .map(|y| (*y - center).length())
-            .fold(light.extent(), f32::max);
-        f64::from(farthest) * (1.0 + 1e-6) + 1e-12
+            .map(|y| f64::from((*y - center).length()))
+            .fold(light.extent(), f64::max);
+        farthest * (1.0 + 1e-6) + 1e-12
     }
 
     /// Every sample of every pattern, before any per-receiver rotation.

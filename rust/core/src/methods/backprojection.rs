@@ -1001,6 +1001,30 @@ fn peak(
         .buffer(&[receivers as u64, per_receiver as u64])
 }
 
+/// The stats keys every call returns (beside [`crate::stats::COMMON`]), zeroed at the start:
+/// the one declaration the Python docstring and the key tests read.
+pub const STATS: &[&str] = &[
+    "depth_map_seconds",
+    "acceleration_seconds",
+    "microrects_seconds",
+    "search_seconds",
+    "smoothing_seconds",
+    "backprojection_seconds",
+    "backprojecting_percent",
+    "processed_mean",
+    "processed_std",
+    "processed_max",
+    "backprojected_mean",
+    "backprojected_std",
+    "backprojected_max",
+    "level_mean",
+    "umbra",
+    "lit",
+    "acceleration_bytes",
+    "microrects_bytes",
+    "light_faces",
+];
+
 /// Soft-shadow visibility of every receiver by backprojection soft shadow mapping (see the module
 /// doc). Returns the visibility (receivers' order) and stats: `depth_map_seconds`,
 /// `acceleration_seconds` (HSM and micro-occluder levels), `acceleration_bytes`,
@@ -1080,27 +1104,7 @@ fn backprojection_view(
         Accumulation::Area => 16,
     };
     let plane = LightPlane::new(light, side)?;
-    let mut stats = Stats::default();
-    for name in [
-        "depth_map_seconds",
-        "acceleration_seconds",
-        "microrects_seconds",
-        "search_seconds",
-        "smoothing_seconds",
-        "backprojection_seconds",
-        "backprojecting_percent",
-        "processed_mean",
-        "processed_std",
-        "processed_max",
-        "backprojected_mean",
-        "backprojected_std",
-        "backprojected_max",
-        "level_mean",
-        "umbra",
-        "lit",
-    ] {
-        stats.set(name, 0.0);
-    }
+    let mut stats = Stats::declared(STATS);
     let n = receivers.len();
     let Some(bounds) = receivers.bounds() else {
         return Ok(Backprojected {

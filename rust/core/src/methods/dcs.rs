@@ -213,6 +213,19 @@ pub(crate) fn visible_fraction(origins: &Origins, counts: &[i32]) -> Vec<f32> {
     vis
 }
 
+/// The stats keys every call returns (beside [`crate::stats::COMMON`]), zeroed at the start:
+/// the one declaration the Python docstring and the key tests read.
+pub const STATS: &[&str] = &[
+    "reference_seconds",
+    "silhouettes_seconds",
+    "wedges_seconds",
+    "silhouette_edges",
+    "wedge_tests",
+    "receivers",
+    "light_samples",
+    "light_faces",
+];
+
 /// Visibility of every receiver by depth complexity sampling (see the module doc), on the opaque
 /// meshes of `scene` (perforated meshes are ignored). Returns the visibility (receivers' order)
 /// and stats: `reference_seconds` (the counts to the light's center), `silhouettes_seconds`,
@@ -242,17 +255,7 @@ fn dcs_in_one_frustum(
 ) -> Result<(Vec<f32>, Stats)> {
     opts.validate(scene, receivers)?;
     bvh.check_scene(scene)?;
-    let mut stats = Stats::default();
-    for name in [
-        "reference_seconds",
-        "silhouettes_seconds",
-        "wedges_seconds",
-        "silhouette_edges",
-        "wedge_tests",
-        "receivers",
-    ] {
-        stats.set(name, 0.0);
-    }
+    let mut stats = Stats::declared(STATS);
     stats.set("light_samples", samples.count() as f64);
     let n = receivers.len();
     Peak::default()

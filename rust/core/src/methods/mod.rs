@@ -14,6 +14,22 @@ pub mod vwss;
 use crate::error::{Error, Result};
 use crate::light::lights::Light;
 
+/// Every method's own stats keys by its Python name (its module's `STATS`; every call also
+/// returns [`crate::stats::COMMON`]).
+pub const STATS: &[(&str, &[&str])] = &[
+    ("ray_traced", ray_traced::STATS),
+    ("shadow_map", shadow_map::STATS),
+    ("mvr", mvr::STATS),
+    ("vwss", vwss::STATS),
+    ("pcss", pcss::STATS),
+    ("backprojection", backprojection::STATS),
+    ("cssm", cssm::STATS),
+    ("alias_free", alias_free::STATS),
+    ("dcs", dcs::STATS),
+    ("penumbra_wedge", penumbra_wedge::STATS),
+    ("stsv", stsv::STATS),
+];
+
 /// Which triangles of closed meshes cast shadows (`alias_free`, `ray_traced`, `stsv`'s bitmasks).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum CasterFaces {

@@ -33,6 +33,19 @@ use crate::stats::Stats;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 
+/// The stats keys every call returns (beside [`crate::stats::COMMON`]), zeroed at the start:
+/// the one declaration the Python docstring and the key tests read.
+pub const STATS: &[&str] = &[
+    "hard_seconds",
+    "silhouettes_seconds",
+    "wedges_seconds",
+    "silhouette_edges",
+    "wedge_tests",
+    "receivers",
+    "light_samples",
+    "light_faces",
+];
+
 /// Visibility of every receiver by penumbra wedges (see the module doc) on the opaque meshes of
 /// `scene`. Returns the visibility (receivers' order) and stats: `hard_seconds` (the center's
 /// shadow), `silhouettes_seconds`, `wedges_seconds`, `silhouette_edges`, `wedge_tests`,
@@ -61,17 +74,7 @@ fn wedges_in_one_frustum(
 ) -> Result<(Vec<f32>, Stats)> {
     opts.validate(scene, receivers)?;
     bvh.check_scene(scene)?;
-    let mut stats = Stats::default();
-    for name in [
-        "hard_seconds",
-        "silhouettes_seconds",
-        "wedges_seconds",
-        "silhouette_edges",
-        "wedge_tests",
-        "receivers",
-    ] {
-        stats.set(name, 0.0);
-    }
+    let mut stats = Stats::declared(STATS);
     stats.set("light_samples", samples.count() as f64);
     let n = receivers.len();
     Peak::default()

@@ -68,6 +68,10 @@ pub fn auto_epsilon(scene: &Scene) -> f64 {
     1e-4 * (hi.as_dvec3() - lo.as_dvec3()).length()
 }
 
+/// The stats keys every call returns (beside [`crate::stats::COMMON`]), zeroed at the start:
+/// the one declaration the Python docstring and the key tests read.
+pub const STATS: &[&str] = &["trace_seconds", "rays", "receivers", "samples"];
+
 /// Visibility of every receiver by tracing its shadow rays (see the module doc). Returns one
 /// value in [0, 1] per receiver and the stats `trace_seconds`, `rays` (segments traced),
 /// `receivers` (valid ones) and `samples` (per receiver).
@@ -91,7 +95,7 @@ pub fn ray_traced(
     // or for shared samples a tile's front-facing flags (one byte per receiver and sample).
     let per_thread = limits::bytes(&[samples.count() as u64, 40 + TILE as u64]);
     let threads = rayon::current_num_threads() as u64;
-    let mut stats = Stats::default();
+    let mut stats = Stats::declared(STATS);
     Peak::default()
         .buffer(&[n as u64, 4])
         .buffer(&[per_thread, threads])

@@ -80,6 +80,17 @@ impl ShadowMapOptions {
     }
 }
 
+/// The stats keys every call returns (beside [`crate::stats::COMMON`]), zeroed at the start:
+/// the one declaration the Python docstring and the key tests read.
+pub const STATS: &[&str] = &[
+    "render_seconds",
+    "lookup_seconds",
+    "resolution",
+    "texels_drawn",
+    "fragments",
+    "light_faces",
+];
+
 /// Hard-shadow visibility of every receiver from the light's center by a shadow map.
 ///
 /// Returns the visibility (one value in [0, 1] per receiver, receivers' order) and stats:
@@ -109,17 +120,7 @@ pub fn shadow_map(
             }
             (None, Some(bounds)) => LightFrustum::for_light(light, bounds, opts.resolution)?,
             (None, None) => {
-                let mut stats = Stats::default();
-                for name in [
-                    "render_seconds",
-                    "lookup_seconds",
-                    "resolution",
-                    "texels_drawn",
-                    "fragments",
-                ] {
-                    stats.set(name, 0.0);
-                }
-                return Ok((vec![0.0; part.len()], stats));
+                return Ok((vec![0.0; part.len()], Stats::declared(STATS)));
             }
         };
         through(scene, part, &frustum, opts)
@@ -133,7 +134,7 @@ fn through(
     frustum: &LightFrustum,
     opts: &ShadowMapOptions,
 ) -> Result<(Vec<f32>, Stats)> {
-    let mut stats = Stats::default();
+    let mut stats = Stats::declared(STATS);
     Peak::default()
         .buffer(&[receivers.len() as u64, 4])
         .and(raster_peak(scene, frustum.width, frustum.height))

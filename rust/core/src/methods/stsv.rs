@@ -420,6 +420,19 @@ fn perforated_masks(
     Ok(masks)
 }
 
+/// The stats keys of stsv's own stages (beside [`crate::stats::COMMON`]), zeroed at the start;
+/// its opaque method adds its own. The one declaration the Python docstring and the key
+/// tests read.
+pub const STATS: &[&str] = &[
+    "opaque_seconds",
+    "perforated_seconds",
+    "volumes",
+    "receivers_tested",
+    "receivers_inside",
+    "light_samples",
+    "light_faces",
+];
+
 /// Visibility of every receiver with the perforated meshes' shadows by soft textured shadow
 /// volumes and the opaque meshes' by `opts.opaque` (see the module doc). Returns the visibility
 /// (receivers' order) and stats: `opaque_seconds`, `perforated_seconds`, `volumes`,
@@ -459,16 +472,7 @@ fn stsv_in_one_frustum(
             ),
         ));
     }
-    let mut stats = Stats::default();
-    for name in [
-        "opaque_seconds",
-        "perforated_seconds",
-        "volumes",
-        "receivers_tested",
-        "receivers_inside",
-    ] {
-        stats.set(name, 0.0);
-    }
+    let mut stats = Stats::declared(STATS);
     stats.set("light_samples", s as f64);
     let words = s.div_ceil(64);
     // Every triangle from the moved receiver, as `dcs` and `penumbra_wedge` test, so the opaque

@@ -88,6 +88,17 @@ pub fn shared_eyes(samples: &SampleSet) -> Result<&[glam::Vec3]> {
     Ok(samples.pattern_for(0, 0))
 }
 
+/// The stats keys every call returns (beside [`crate::stats::COMMON`]), zeroed at the start:
+/// the one declaration the Python docstring and the key tests read.
+pub const STATS: &[&str] = &[
+    "depth_maps_seconds",
+    "lighting_seconds",
+    "fragments",
+    "views",
+    "resolution",
+    "light_faces",
+];
+
 /// Soft-shadow visibility of every receiver by multi-view rasterization.
 ///
 /// Returns the visibility (receivers' order) and stats: `depth_maps_seconds`,
@@ -107,10 +118,7 @@ pub fn mvr(
 ) -> Result<(Vec<f32>, Stats)> {
     let (kernel, bias) = opts.shadow_test()?;
     let eyes = shared_eyes(samples)?;
-    let mut stats = Stats::default();
-    for name in ["depth_maps_seconds", "lighting_seconds", "fragments"] {
-        stats.set(name, 0.0);
-    }
+    let mut stats = Stats::declared(STATS);
     stats.set("views", eyes.len() as f64);
     stats.set("resolution", opts.resolution as f64);
     let Some(bounds) = receivers.bounds() else {
@@ -233,19 +241,4 @@ fn around_every_sample(
     stats.set("light_faces", most_faces as f64);
     let total = weights.iter().map(|&w| f64::from(w)).sum();
     Ok(resolve(&sums, total, receivers))
-}
-
-#[cfg(test)]
-mod shader_test {
-    use crate::gpu::shader_check::{validates, FRUSTUM, VECTOR64};
-    use naga::valid::Capabilities;
-
-    #[test]
-    fn shader_validates() {
-        validates(
-            "mvr.wgsl",
-            &[FRUSTUM, VECTOR64, include_str!("mvr.wgsl")],
-            Capabilities::FLOAT64,
-        );
-    }
 }

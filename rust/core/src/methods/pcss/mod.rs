@@ -196,6 +196,17 @@ impl PcssLookup<'_> {
     }
 }
 
+/// The stats keys every call returns (beside [`crate::stats::COMMON`]), zeroed at the start:
+/// the one declaration the Python docstring and the key tests read.
+pub const STATS: &[&str] = &[
+    "depth_map_seconds",
+    "lighting_seconds",
+    "search_near",
+    "no_blocker",
+    "resolution",
+    "light_faces",
+];
+
 /// Soft-shadow visibility of every receiver by percentage-closer soft shadows.
 ///
 /// Returns the visibility (receivers' order) and stats: `depth_map_seconds`, `lighting_seconds`
@@ -228,15 +239,7 @@ fn pcss_view(
     face: Option<usize>,
     opts: &PcssOptions,
 ) -> Result<(Vec<f32>, Stats)> {
-    let mut stats = Stats::default();
-    for name in [
-        "depth_map_seconds",
-        "lighting_seconds",
-        "search_near",
-        "no_blocker",
-    ] {
-        stats.set(name, 0.0);
-    }
+    let mut stats = Stats::declared(STATS);
     stats.set("resolution", opts.resolution as f64);
     let Some(bounds) = receivers.bounds() else {
         return Ok((vec![0.0; receivers.len()], stats));
@@ -315,19 +318,4 @@ fn pcss_view(
         })
         .collect();
     Ok((vis, stats))
-}
-
-#[cfg(test)]
-mod shader_test {
-    use crate::gpu::shader_check::{validates, FRUSTUM};
-    use naga::valid::Capabilities;
-
-    #[test]
-    fn shader_validates() {
-        validates(
-            "pcss.wgsl",
-            &[FRUSTUM, include_str!("pcss.wgsl")],
-            Capabilities::FLOAT64,
-        );
-    }
 }

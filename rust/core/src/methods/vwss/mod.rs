@@ -593,6 +593,21 @@ pub fn warp_fragments(
     )
 }
 
+/// The stats keys every call returns (beside [`crate::stats::COMMON`]), zeroed at the start:
+/// the one declaration the Python docstring and the key tests read.
+pub const STATS: &[&str] = &[
+    "point_generation_seconds",
+    "depth_maps_seconds",
+    "lighting_seconds",
+    "points",
+    "traversals",
+    "maps_per_traversal",
+    "views",
+    "resolution",
+    "source_resolution",
+    "pull_back",
+];
+
 /// Soft-shadow visibility of every receiver by view-warped multi-view soft shadows.
 ///
 /// Returns the visibility (receivers' order) and stats as in the paper's Tables 1–2:
@@ -614,16 +629,7 @@ pub fn vwss(
     let (kernel, bias) = opts.multiview.shadow_test()?;
     opts.validate()?;
     let eyes = shared_eyes(samples)?;
-    let mut stats = Stats::default();
-    for name in [
-        "point_generation_seconds",
-        "depth_maps_seconds",
-        "lighting_seconds",
-        "points",
-        "traversals",
-    ] {
-        stats.set(name, 0.0);
-    }
+    let mut stats = Stats::declared(STATS);
     let per_pass = opts.maps_per_traversal(eyes.len());
     stats.set("maps_per_traversal", per_pass as f64);
     stats.set("views", eyes.len() as f64);
@@ -733,19 +739,4 @@ pub fn vwss(
         }
     };
     Ok((resolve(&sums, views.total_weight(), receivers), stats))
-}
-
-#[cfg(test)]
-mod shader_test {
-    use crate::gpu::shader_check::{validates, FRUSTUM};
-    use naga::valid::Capabilities;
-
-    #[test]
-    fn shader_validates() {
-        validates(
-            "vwss.wgsl",
-            &[FRUSTUM, include_str!("vwss.wgsl")],
-            Capabilities::empty(),
-        );
-    }
 }
