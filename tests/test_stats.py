@@ -86,3 +86,82 @@ def test_the_docstring_lists_every_declared_key(method):
     doc = getattr(ss, method).__doc__
     missing = [key for key in _core.STATS[method] if f"``{key}``" not in doc]
     assert not missing, missing
+
+
+# The work counters (issue: cost per unit of work): each is the count its paper names, checked
+# against an identity the method's structure implies.
+
+
+def stats_of(method, setup, gb, **options):
+    return getattr(ss, method)(setup.scene, setup.light, gb, return_stats=True, **options)[1]
+
+
+@pytest.mark.parametrize("method", ["dcs", "penumbra_wedge"])
+def test_the_wedge_methods_test_each_light_sample_once_per_wedge_test(columns, method):
+    setup, gb = columns
+    stats = stats_of(method, setup, gb, samples=setup.light.samples(48, pattern="poisson", seed=1))
+    assert stats["wedge_tests"] > 0
+    assert stats["sample_tests"] == stats["wedge_tests"] * 48
+
+
+def test_vwss_warps_every_point_into_every_map_of_each_traversal(columns):
+    setup, gb = columns
+    stats = stats_of("vwss", setup, gb)
+    assert stats["points"] > 0
+    assert stats["point_warps"] == stats["points"] * stats["maps_per_traversal"] * stats["traversals"]
+
+
+def test_pcss_reads_its_sample_counts_per_searched_and_filtered_receiver(columns):
+    setup, gb = columns
+    stats = stats_of("pcss", setup, gb, blocker_samples=16, filter_samples=32)
+    filtered = round(gb.mask.sum() * (1 - stats["no_blocker"]))
+    assert filtered > 0
+    assert stats["filter_taps"] == filtered * 32
+    searched, rest = divmod(stats["search_taps"], 16)
+    assert rest == 0 and filtered <= searched <= gb.mask.sum()
+
+
+def test_cssm_reads_one_box_per_stage_from_the_table_and_more_from_the_mipmap(columns):
+    setup, gb = columns
+    sat = stats_of("cssm", setup, gb)["taps"]
+    mipmap = stats_of("cssm", setup, gb, prefilter="mipmap")["taps"]
+    assert 0 < sat <= 2 * gb.mask.sum()
+    assert mipmap > sat
+
+
+def test_backprojection_backprojects_some_of_what_it_processes(columns):
+    setup, gb = columns
+    stats = stats_of("backprojection", setup, gb)
+    assert 0 < stats["backprojected"] < stats["processed"]
+    receivers = round(gb.mask.sum() * stats["backprojecting_percent"] / 100)
+    assert stats["processed"] == pytest.approx(stats["processed_mean"] * receivers, rel=1e-6)
+
+
+def test_alias_free_tests_more_pairs_with_more_casters():
+    setup = ss.scenes.get("columns", width=12, height=12)
+    gb = ss.gbuffer(setup.scene, setup.camera)
+    floor_only = ss.alias_free(ss.Scene([setup.scene.meshes[0]]), setup.light, gb, return_stats=True)[1]
+    stats = stats_of("alias_free", setup, gb)
+    assert 0 <= floor_only["pair_tests"] < stats["pair_tests"]
+    # A pair needs at most the triangle's four bounding planes (section 4.1).
+    assert 0 < stats["plane_mask_ops"] <= 4 * stats["pair_tests"]
+
+
+def test_stsv_projects_every_light_sample_per_volume_test():
+    setup = ss.scenes.get("fence", width=12, height=12)
+    gb = ss.gbuffer(setup.scene, setup.camera)
+    stats = stats_of("stsv", setup, gb, samples=setup.light.samples(40, pattern="poisson", seed=0))
+    projections, rest = divmod(stats["sample_projections"], 40)
+    assert rest == 0 and 0 < projections
+
+
+@pytest.mark.gpu
+@pytest.mark.parametrize("method, keys", [("alias_free", ("pair_tests", "plane_mask_ops")), ("cssm", ("taps",))])
+def test_counters_the_shaders_do_not_keep_are_nan_on_the_gpu(columns, method, keys):
+    try:
+        ss.gpu_info()
+    except RuntimeError as error:
+        pytest.skip(f"no GPU adapter: {error}")
+    setup, gb = columns
+    stats = stats_of(method, setup, gb, backend="gpu")
+    assert all(np.isnan(stats[k]) for k in keys)

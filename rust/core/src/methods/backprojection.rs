@@ -1011,9 +1011,11 @@ pub const STATS: &[&str] = &[
     "smoothing_seconds",
     "backprojection_seconds",
     "backprojecting_percent",
+    "processed",
     "processed_mean",
     "processed_std",
     "processed_max",
+    "backprojected",
     "backprojected_mean",
     "backprojected_std",
     "backprojected_max",
@@ -1029,10 +1031,11 @@ pub const STATS: &[&str] = &[
 /// doc). Returns the visibility (receivers' order) and stats: `depth_map_seconds`,
 /// `acceleration_seconds` (HSM and micro-occluder levels), `acceleration_bytes`,
 /// `search_seconds`, `smoothing_seconds`, `backprojection_seconds`, `backprojecting_percent`
-/// (valid receivers that backproject), `processed_mean`, `processed_std` and `processed_max`
-/// (micro-occluders read per backprojecting receiver, both levels when blending: Table 2's
-/// count), `backprojected_mean`, `_std` and `_max` (those of them in front of the receiver that
-/// project onto the light), `level_mean` (mean LOQ level `ℓ`), `umbra` and `lit` (receivers
+/// (valid receivers that backproject), `processed` (micro-occluders read, summed over the
+/// receivers), `processed_mean`, `processed_std` and `processed_max` (per backprojecting
+/// receiver, both levels when blending: Table 2's count), `backprojected` (those of them in
+/// front of the receiver that project onto the light, summed), `backprojected_mean`, `_std` and
+/// `_max`, `level_mean` (mean LOQ level `ℓ`), `umbra` and `lit` (receivers
 /// classified so).
 ///
 /// A light among the receivers gets a map per face of a cube around its center
@@ -1258,6 +1261,7 @@ fn backprojection_view(
         ),
     ] {
         let (mean, std, max) = moments(&values);
+        stats.set(name, values.iter().map(|&v| f64::from(v)).sum());
         stats.set(&format!("{name}_mean"), mean);
         stats.set(&format!("{name}_std"), std);
         stats.set(&format!("{name}_max"), max);

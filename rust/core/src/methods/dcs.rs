@@ -81,7 +81,7 @@ pub(crate) fn depth_complexity(
         opaque_silhouettes(scene, center.as_dvec3(), radius)
     });
     stats.set("silhouette_edges", silhouettes.len() as f64);
-    let tested = AtomicU64::new(0);
+    let (tested, sample_tests) = (AtomicU64::new(0), AtomicU64::new(0));
     stats.time("wedges", || {
         let shared = samples.is_shared().then(|| samples.pattern_for(0, 0));
         lists.visit_regions(
@@ -105,6 +105,7 @@ pub(crate) fn depth_complexity(
                         &own.0
                     }
                 };
+                sample_tests.fetch_add(c.len().min(ys.len()) as u64, Ordering::Relaxed);
                 for (c, y) in c.iter_mut().zip(ys) {
                     if sweep.crosses(y.as_dvec3()) {
                         *c += sweep.delta;
@@ -115,6 +116,7 @@ pub(crate) fn depth_complexity(
         recount_samples_past_faces(scene, bvh, origins, radius, &mut counts)
     })?;
     stats.set("wedge_tests", tested.into_inner() as f64);
+    stats.set("sample_tests", sample_tests.into_inner() as f64);
     Ok(counts)
 }
 
@@ -221,6 +223,7 @@ pub const STATS: &[&str] = &[
     "wedges_seconds",
     "silhouette_edges",
     "wedge_tests",
+    "sample_tests",
     "receivers",
     "light_samples",
     "light_faces",
@@ -230,7 +233,8 @@ pub const STATS: &[&str] = &[
 /// meshes of `scene` (perforated meshes are ignored). Returns the visibility (receivers' order)
 /// and stats: `reference_seconds` (the counts to the light's center), `silhouettes_seconds`,
 /// `wedges_seconds` (the per-sample updates), `silhouette_edges`, `wedge_tests` (receiver and
-/// silhouette pairs updated), `receivers` (those facing the light), `light_samples`.
+/// silhouette pairs updated), `sample_tests` (light samples tested against a wedge's sweep),
+/// `receivers` (those facing the light), `light_samples`.
 pub fn dcs(
     scene: &Scene,
     bvh: &Bvh,

@@ -41,6 +41,7 @@ pub const STATS: &[&str] = &[
     "wedges_seconds",
     "silhouette_edges",
     "wedge_tests",
+    "sample_tests",
     "receivers",
     "light_samples",
     "light_faces",
@@ -49,7 +50,7 @@ pub const STATS: &[&str] = &[
 /// Visibility of every receiver by penumbra wedges (see the module doc) on the opaque meshes of
 /// `scene`. Returns the visibility (receivers' order) and stats: `hard_seconds` (the center's
 /// shadow), `silhouettes_seconds`, `wedges_seconds`, `silhouette_edges`, `wedge_tests`,
-/// `receivers`, `light_samples`.
+/// `sample_tests` (light samples tested against a wedge's sweep), `receivers`, `light_samples`.
 pub fn penumbra_wedge(
     scene: &Scene,
     bvh: &Bvh,
@@ -158,7 +159,7 @@ pub(crate) fn wedge_occlusion(
         opaque_silhouettes(scene, center.as_dvec3(), 0.0)
     });
     stats.set("silhouette_edges", silhouettes.len() as f64);
-    let tested = AtomicU64::new(0);
+    let (tested, sample_tests) = (AtomicU64::new(0), AtomicU64::new(0));
     stats.time("wedges", || {
         lists.visit_regions(
             &origins.bounds,
@@ -177,6 +178,7 @@ pub(crate) fn wedge_occlusion(
                 let (mut ys, mut ws) = (Vec::new(), Vec::new());
                 fill(k, &mut ys, &mut ws);
                 let (p, n) = origins.receiver(k);
+                sample_tests.fetch_add(ys.len() as u64, Ordering::Relaxed);
                 let (mut covered, mut front) = (0.0f64, 0.0f64);
                 for (y, &w) in ys.iter().zip(&ws) {
                     if (*y - p).dot(n) > 0.0 {
@@ -193,5 +195,6 @@ pub(crate) fn wedge_occlusion(
         )
     })?;
     stats.set("wedge_tests", tested.into_inner() as f64);
+    stats.set("sample_tests", sample_tests.into_inner() as f64);
     Ok(occ)
 }

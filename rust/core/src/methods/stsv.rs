@@ -237,12 +237,12 @@ impl Volume {
     }
 
     /// Sets in `blocked` the samples `ys` that the triangle's opaque texels hide from `p`
-    /// (equations 1–5).
-    fn block(&self, p: DVec3, ys: &[Vec3], texture: &AlphaTexture, blocked: &mut [u64]) {
+    /// (equations 1–5); returns how many samples it projected.
+    fn block(&self, p: DVec3, ys: &[Vec3], texture: &AlphaTexture, blocked: &mut [u64]) -> usize {
         let r = self.to_triangle * (self.v0 - p);
         let e = r.z;
         if e == 0.0 {
-            return;
+            return 0;
         }
         // W of equation 3: p as the projective center; the third row scales by the distance so
         // that s_h.z = 1 / t for the segment parameter t of the plane's crossing.
@@ -263,6 +263,7 @@ impl Volume {
                 blocked[k / 64] |= 1 << (k % 64);
             }
         }
+        ys.len().min(blocked.len() * 64)
     }
 }
 
@@ -359,7 +360,8 @@ pub fn stsv_volumes(
 }
 
 /// Per list entry of `origins`, the bitmask of the samples that the perforated triangles block
-/// (`words` per entry); stats `volumes`, `receivers_tested`, `receivers_inside`.
+/// (`words` per entry); stats `volumes`, `receivers_tested`, `receivers_inside`,
+/// `sample_projections`.
 fn perforated_masks(
     scene: &Scene,
     origins: &Origins,
@@ -381,7 +383,7 @@ fn perforated_masks(
         bounds,
     );
     stats.set("volumes", volumes.len() as f64);
-    let (tested, inside) = (AtomicU64::new(0), AtomicU64::new(0));
+    let (tested, inside, projections) = (AtomicU64::new(0), AtomicU64::new(0), AtomicU64::new(0));
     let mut masks = vec![0u64; lists.entries.len() * words];
     let shared = origins
         .samples
@@ -405,18 +407,20 @@ fn perforated_masks(
             let Some(texture) = &scene.meshes[r.mesh as usize].alpha else {
                 return;
             };
-            match shared {
+            let projected = match shared {
                 Some(ys) => volume.block(p, ys, texture, mask),
                 None => {
                     let (mut ys, mut ws) = (Vec::new(), Vec::new());
                     origins.fill(k, &mut ys, &mut ws);
-                    volume.block(p, &ys, texture, mask);
+                    volume.block(p, &ys, texture, mask)
                 }
-            }
+            };
+            projections.fetch_add(projected as u64, Ordering::Relaxed);
         },
     )?;
     stats.set("receivers_tested", tested.into_inner() as f64);
     stats.set("receivers_inside", inside.into_inner() as f64);
+    stats.set("sample_projections", projections.into_inner() as f64);
     Ok(masks)
 }
 
@@ -429,6 +433,7 @@ pub const STATS: &[&str] = &[
     "volumes",
     "receivers_tested",
     "receivers_inside",
+    "sample_projections",
     "light_samples",
     "light_faces",
 ];
@@ -436,8 +441,9 @@ pub const STATS: &[&str] = &[
 /// Visibility of every receiver with the perforated meshes' shadows by soft textured shadow
 /// volumes and the opaque meshes' by `opts.opaque` (see the module doc). Returns the visibility
 /// (receivers' order) and stats: `opaque_seconds`, `perforated_seconds`, `volumes`,
-/// `receivers_tested` and `receivers_inside` (receiver and volume pairs), `light_samples`, and
-/// the opaque method's own.
+/// `receivers_tested` and `receivers_inside` (receiver and volume pairs), `sample_projections`
+/// (light samples projected onto a perforated triangle and looked up, section 2.4),
+/// `light_samples`, and the opaque method's own.
 pub fn stsv(
     scene: &Scene,
     bvh: &Bvh,

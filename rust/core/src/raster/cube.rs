@@ -221,8 +221,18 @@ pub(crate) fn by_light_face(
 }
 
 /// The stats that count work per receiver or per map: added over the faces.
-const ADDED_STATS: [&str; 9] = [
+const ADDED_STATS: [&str; 19] = [
     "receivers",
+    "pair_tests",
+    "plane_mask_ops",
+    "sample_tests",
+    "sample_projections",
+    "processed",
+    "backprojected",
+    "search_taps",
+    "filter_taps",
+    "taps",
+    "point_warps",
     "view_samples",
     "exact_view_samples",
     "inside_view_samples",

@@ -480,6 +480,7 @@ fn blocked_by(
     full: &[u64],
     out: &mut [u64],
     scratch: &mut [u64],
+    work: &mut Work,
 ) -> bool {
     let Some(bounds) = bounding_planes(t, p) else {
         return false;
@@ -497,6 +498,7 @@ fn blocked_by(
     out.copy_from_slice(full);
     for (k, (m, bound)) in bounds.iter().enumerate() {
         if straddling[k] {
+            work.plane_mask_ops += 1;
             planes.and_below(*m, *bound, out, scratch);
             if out.iter().all(|w| *w == 0) {
                 return false;
@@ -588,6 +590,8 @@ pub const STATS: &[&str] = &[
     "exact_view_samples",
     "inside_view_samples",
     "lut_bins",
+    "pair_tests",
+    "plane_mask_ops",
     "light_faces",
 ];
 
@@ -599,7 +603,9 @@ pub const STATS: &[&str] = &[
 /// occupied texels), `occupied_texels_percent` (the paper's Figure 9 inlay), `light_samples`,
 /// `exact_view_samples` (view samples that test their planes exactly although a table was asked
 /// for, [`TABLE_MAX_SPREAD`]), `inside_view_samples` (view samples inside a closed mesh, which
-/// culling does not serve).
+/// culling does not serve), `pair_tests` (the (view sample, caster) pairs tested, section 3.3)
+/// and `plane_mask_ops` (plane masks built or looked up and AND-ed, section 4.1), both counted
+/// on the CPU backend only (NaN on the GPU).
 ///
 /// Errors: invalid options; no samples or more than [`MAX_SAMPLES`]; explicit samples of a
 /// point light off its position; rotated or interleaved samples; the light's center inside the
@@ -818,7 +824,12 @@ pub(crate) fn sample_masks(
     };
     let masks = match opts.backend {
         Backend::Cpu => cpu_masks(&setup, stats)?,
-        Backend::Gpu => gpu::masks(&setup, stats)?,
+        Backend::Gpu => {
+            // The shaders do not count their tests: NaN says "not counted", where 0 would lie.
+            stats.set("pair_tests", f64::NAN);
+            stats.set("plane_mask_ops", f64::NAN);
+            gpu::masks(&setup, stats)?
+        }
     };
     for (k, s) in view.iter().enumerate() {
         let r = s.receiver as usize;
@@ -868,7 +879,9 @@ fn cpu_masks(setup: &TexelTests<'_>, stats: &mut Stats) -> Result<Vec<u64>> {
         lists: &lists,
         bins: &bins,
     };
-    stats.time("visibility", || tester.run(&mut masks))?;
+    stats
+        .time("visibility", || tester.run(&mut masks))?
+        .record(stats);
     let mut by_view = vec![0u64; masks.len()];
     for (e, &i) in lists.entries.iter().enumerate() {
         let i = i as usize;
@@ -1147,6 +1160,27 @@ fn penumbra_texels(
     (flags, silhouettes.len())
 }
 
+/// The CPU's work counters of the per-texel tests (the stats `pair_tests`, `plane_mask_ops`).
+#[derive(Debug, Clone, Copy, Default)]
+struct Work {
+    pair_tests: u64,
+    plane_mask_ops: u64,
+}
+
+impl Work {
+    fn plus(self, other: Work) -> Work {
+        Work {
+            pair_tests: self.pair_tests + other.pair_tests,
+            plane_mask_ops: self.plane_mask_ops + other.plane_mask_ops,
+        }
+    }
+
+    fn record(&self, stats: &mut Stats) {
+        stats.add("pair_tests", self.pair_tests as f64);
+        stats.add("plane_mask_ops", self.plane_mask_ops as f64);
+    }
+}
+
 /// The CPU's per-texel tests over the lists, with the casters binned by bands of rows.
 struct Tester<'a> {
     setup: &'a TexelTests<'a>,
@@ -1156,15 +1190,17 @@ struct Tester<'a> {
 
 impl Tester<'_> {
     /// Tests every band of rows in parallel, each over its own part of `masks` (the bitmasks of
-    /// the list entries, in list order). Errors: interrupted (each band stops at its next
-    /// caster once the call is asked to stop).
-    fn run(&self, masks: &mut [u64]) -> Result<()> {
+    /// the list entries, in list order), returning the work done. Errors: interrupted (each
+    /// band stops at its next caster once the call is asked to stop).
+    fn run(&self, masks: &mut [u64]) -> Result<Work> {
         let parts = self.lists.split_by_band(masks, self.setup.full.len());
         let watch = crate::interrupt::watch();
-        parts
+        let work = parts
             .into_par_iter()
-            .for_each(|(b, rows, base, band_masks)| self.band(b, rows, base, band_masks, &watch));
-        crate::interrupt::check()
+            .map(|(b, rows, base, band_masks)| self.band(b, rows, base, band_masks, &watch))
+            .reduce(Work::default, Work::plus);
+        crate::interrupt::check()?;
+        Ok(work)
     }
 
     /// Tests the casters binned to band `b` (rows `rows`, list entries from `base` on) against
@@ -1176,14 +1212,15 @@ impl Tester<'_> {
         base: usize,
         band_masks: &mut [u64],
         watch: &crate::interrupt::Watch,
-    ) {
+    ) -> Work {
         let setup = self.setup;
         let (w, words, full) = (setup.frustum.width, setup.full.len(), &setup.full);
         let (lists, view, casters) = (self.lists, setup.view, setup.casters);
         let mut blocked = vec![0u64; words];
         let mut scratch = vec![0u64; words];
+        let mut work = Work::default();
         let Some(band_frustum) = lists.band_frustum(&rows) else {
-            return;
+            return work;
         };
         let (center, radius) = (setup.center, setup.radius);
         let unrotated = Planes {
@@ -1228,6 +1265,7 @@ impl Tester<'_> {
                             t
                         };
                         let p = if t.moved { s.moved } else { s.p };
+                        work.pair_tests += 1;
                         if umbra_or_lit {
                             // All of the light is blocked or none: the center decides.
                             if blocks_point(t, p, center) {
@@ -1240,7 +1278,7 @@ impl Tester<'_> {
                             lut: setup.lut.filter(|_| !s.exact_planes),
                             ..unrotated
                         };
-                        if blocked_by(t, p, &planes, full, &mut blocked, &mut scratch) {
+                        if blocked_by(t, p, &planes, full, &mut blocked, &mut scratch, &mut work) {
                             if t.alpha {
                                 alpha_test(
                                     setup.scene,
@@ -1257,6 +1295,7 @@ impl Tester<'_> {
                 }
             }
         }
+        work
     }
 }
 

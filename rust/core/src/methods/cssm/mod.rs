@@ -288,8 +288,9 @@ enum Filtered {
 impl Filtered {
     /// Box means of every basis image over `center ± half` (texel units) into `out`. A filter
     /// narrower than a texel reads the texel containing `center`, so a point light gives exactly
-    /// the (CSM-reconstructed) hard shadow test of that texel.
-    fn box_mean(&self, center: Vec2, half: Vec2, out: &mut [f64], scratch: &mut [f32]) {
+    /// the (CSM-reconstructed) hard shadow test of that texel. Returns the taps read (a box of
+    /// the summed-area table, or a trilinear lookup of the mipmap, each over every basis image).
+    fn box_mean(&self, center: Vec2, half: Vec2, out: &mut [f64], scratch: &mut [f32]) -> usize {
         let (mut c, h) = (
             center.as_dvec2(),
             half.as_dvec2().max(glam::DVec2::splat(0.5)),
@@ -299,7 +300,8 @@ impl Filtered {
         }
         match self {
             Filtered::Sat(sat) => {
-                sat.box_mean_into(c.x - h.x, c.y - h.y, c.x + h.x, c.y + h.y, out)
+                sat.box_mean_into(c.x - h.x, c.y - h.y, c.x + h.x, c.y + h.y, out);
+                1
             }
             Filtered::Mipmap(mip) => {
                 // Square trilinear lookups of the short side, spread along the long side.
@@ -319,6 +321,7 @@ impl Filtered {
                         .zip(scratch.iter())
                         .for_each(|(o, s)| *o += f64::from(*s) / steps as f64);
                 }
+                steps
             }
         }
     }
@@ -420,9 +423,10 @@ struct CssmLookup<'a> {
 }
 
 impl CssmLookup<'_> {
-    fn receiver(&self, p: Vec3, n: Vec3) -> f32 {
+    /// The receiver's visibility and the taps its filters read.
+    fn receiver(&self, p: Vec3, n: Vec3) -> (f32, usize) {
         let (center, half, depth, d) = match self.projection.start(p, n) {
-            Start::Done(v) => return v,
+            Start::Done(v) => return (v, 0),
             Start::Look {
                 center,
                 half,
@@ -440,17 +444,18 @@ impl CssmLookup<'_> {
         let channels = 4 * opts.order + 1;
         let (mut means, mut scratch) = (vec![0.0f64; channels], vec![0.0f32; channels]);
         // Stage 1: the blockers' average depth over the initial filter (Figure 2a-b).
-        self.filtered
+        let mut taps = self
+            .filtered
             .box_mean(center, half, &mut means, &mut scratch);
         let (test, z_part) = reconstruct(&means, opts.order, d);
         let blocked = 1.0 - test;
         if blocked < 1e-4 {
-            return 1.0;
+            return (1.0, taps);
         }
         let z_avg_n = (z_part / blocked).clamp(0.0, d);
         let z_avg = (range.lo as f64 + z_avg_n * range.span as f64).max(f64::from(*near)) as f32;
         // Stage 2: the filtered shadow test over the penumbra (Figure 2c-d).
-        self.filtered.box_mean(
+        taps += self.filtered.box_mean(
             center,
             footprint.through(depth, z_avg),
             &mut means,
@@ -461,7 +466,7 @@ impl CssmLookup<'_> {
         let p = 1.0
             + f64::from(opts.sharpen_a)
                 * (-f64::from(opts.sharpen_b) * (d - z_avg_n).max(0.0)).exp();
-        v.powf(p) as f32
+        (v.powf(p) as f32, taps)
     }
 }
 
@@ -475,6 +480,7 @@ pub const STATS: &[&str] = &[
     "search_near",
     "resolution",
     "basis_images",
+    "taps",
     "depth_min",
     "depth_span",
     "light_faces",
@@ -484,7 +490,9 @@ pub const STATS: &[&str] = &[
 ///
 /// Returns the visibility (receivers' order) and stats: `shadow_map_seconds`, `basis_seconds`,
 /// `prefilter_seconds`, `lookup_seconds`, `resolution`, `basis_images` (`4M + 1`), `search_near`,
-/// and the normalization `depth_min`, `depth_span` (`ẑ = (z − depth_min) / depth_span`).
+/// the normalization `depth_min`, `depth_span` (`ẑ = (z − depth_min) / depth_span`), and `taps`
+/// (filtered lookups of all the basis images, two per receiver in penumbra: Figure 2; counted on
+/// the CPU backend only, NaN on the GPU).
 ///
 /// A light among the receivers gets a map per face of a cube around its center
 /// ([`crate::raster::cube`]), each with its own basis images and normalization, every receiver
@@ -570,6 +578,8 @@ fn cssm_view(
         ] {
             stats.set(name, seconds);
         }
+        // The shader does not count its taps: NaN says "not counted", where 0 would lie.
+        stats.set("taps", f64::NAN);
         return Ok((vis, stats));
     }
     let basis = stats.time("basis", || basis_images(&map, range, opts.order))?;
@@ -589,16 +599,17 @@ fn cssm_view(
         filtered: &filtered,
         projection,
     };
-    let vis = stats.time("lookup", || {
+    let looked_up = stats.time("lookup", || {
         interrupt::par_map(receivers.len(), channel_count * 32, |i| {
             if receivers.valid[i] {
                 lookup.receiver(receivers.points[i], receivers.normals[i])
             } else {
-                0.0
+                (0.0, 0)
             }
         })
     })?;
-    Ok((vis, stats))
+    stats.add("taps", looked_up.iter().map(|(_, t)| *t as f64).sum());
+    Ok((looked_up.into_iter().map(|(v, _)| v).collect(), stats))
 }
 
 /// The memory of the maps of [`cssm`] at `width × height`: the shadow map, then its basis images

@@ -1,7 +1,7 @@
 //! `pcss` on the GPU (`pcss.wgsl`): the blocker search and the filter per receiver, over the
 //! CPU's depth map; receivers in chunks that fit a binding, dispatches within the workgroup limit.
 
-use super::GpuLookup;
+use super::{GpuLookup, Outcome};
 use crate::error::{Error, Result};
 use crate::geometry::receivers::Receivers;
 use crate::gpu::context::{context, Gpu, PerContext};
@@ -17,12 +17,23 @@ fn pipeline(gpu: &Gpu) -> &'static wgpu::ComputePipeline {
     })
 }
 
-/// The visibility of every receiver of `rx`, equal to the CPU's lookups, and the fraction of
-/// valid receivers whose blocker search found no blocker.
+/// The outcome that `lookup` in `pcss.wgsl` codes as `code`, with visibility `v` (`None`: an
+/// invalid receiver).
+fn outcome(code: f32, v: f32) -> Option<Outcome> {
+    match code as u32 {
+        1 => Some(Outcome::Unsearched),
+        2 => Some(Outcome::FacingAway),
+        3 => Some(Outcome::NoBlocker),
+        4 => Some(Outcome::Filtered(v)),
+        _ => None,
+    }
+}
+
+/// The outcome of every receiver of `rx` (`None` for an invalid one), equal to the CPU's lookups.
 ///
 /// Errors: `Unavailable` without an adapter, or one without 64-bit floats (the blockers' sum);
 /// a map larger than a storage binding.
-pub fn pcss(lookup: &GpuLookup<'_>, rx: &Receivers) -> Result<(Vec<f32>, f64)> {
+pub(super) fn pcss(lookup: &GpuLookup<'_>, rx: &Receivers) -> Result<Vec<Option<Outcome>>> {
     let gpu = context()?;
     if !gpu.device.features().contains(wgpu::Features::SHADER_F64) {
         return Err(Error::Unavailable(format!("backend=\"gpu\" pcss needs 64-bit floats in shaders (the blockers' sum), which {} lacks", gpu.name())));
@@ -47,7 +58,7 @@ pub fn pcss(lookup: &GpuLookup<'_>, rx: &Receivers) -> Result<(Vec<f32>, f64)> {
             wgpu::BufferUsages::STORAGE,
         );
         let layout = pipeline(gpu).get_bind_group_layout(0);
-        let (mut out, mut valid, mut free) = (Vec::with_capacity(rx.len()), 0usize, 0usize);
+        let mut out = Vec::with_capacity(rx.len());
         for (receivers, count) in receiver_chunks(gpu, rx) {
             let results = gpu.storage("pcss results", (count.max(1) * 8) as u64);
             let mut encoder = gpu
@@ -84,20 +95,12 @@ pub fn pcss(lookup: &GpuLookup<'_>, rx: &Receivers) -> Result<(Vec<f32>, f64)> {
                 )
             });
             let words = gpu.finish_and_read(encoder, &results)?;
-            for pair in words[..2 * count].chunks(2) {
-                let outcome = f32::from_bits(pair[1]);
-                valid += usize::from(outcome > 0.0);
-                free += usize::from(outcome == 1.0);
-                out.push(f32::from_bits(pair[0]));
-            }
+            out.extend(
+                words[..2 * count]
+                    .chunks(2)
+                    .map(|pair| outcome(f32::from_bits(pair[1]), f32::from_bits(pair[0]))),
+            );
         }
-        Ok((
-            out,
-            if valid > 0 {
-                free as f64 / valid as f64
-            } else {
-                0.0
-            },
-        ))
+        Ok(out)
     })
 }

@@ -136,11 +136,27 @@ struct PcssLookup<'a> {
     bias: DepthBias,
 }
 
-/// The outcome of one receiver's lookup.
+/// The outcome of one receiver's lookup (coded 1 to 4 by `lookup` in `pcss.wgsl`).
+#[derive(Debug, Clone, Copy, PartialEq)]
 enum Outcome {
-    /// No blocker found: lit without filtering.
+    /// Outside the map or nearer than the search's near plane: lit, no tap read.
+    Unsearched,
+    /// Facing away from the light's center: unlit, no tap read.
+    FacingAway,
+    /// The blocker search found no blocker: lit without filtering.
     NoBlocker,
+    /// Searched and filtered, with the fraction of the filter's taps lit.
     Filtered(f32),
+}
+
+impl Outcome {
+    fn visibility(self) -> f32 {
+        match self {
+            Outcome::FacingAway => 0.0,
+            Outcome::Unsearched | Outcome::NoBlocker => 1.0,
+            Outcome::Filtered(v) => v,
+        }
+    }
 }
 
 impl PcssLookup<'_> {
@@ -162,10 +178,10 @@ impl PcssLookup<'_> {
 
     fn receiver(&self, p: Vec3, n: Vec3) -> Outcome {
         if n.dot(self.frustum.eye - p) <= 0.0 {
-            return Outcome::Filtered(0.0);
+            return Outcome::FacingAway;
         }
         let Some(s) = self.frustum.project(p) else {
-            return Outcome::NoBlocker;
+            return Outcome::Unsearched;
         };
         if !(s.x >= 0.0
             && s.y >= 0.0
@@ -173,7 +189,7 @@ impl PcssLookup<'_> {
             && s.y < self.map.height as f32)
             || s.z <= self.near
         {
-            return Outcome::NoBlocker;
+            return Outcome::Unsearched;
         }
         let receiver = ReceiverDepth::new(self.frustum, p, n, s, self.bias);
         let search = self.footprint.through(s.z, self.near);
@@ -203,6 +219,8 @@ pub const STATS: &[&str] = &[
     "lighting_seconds",
     "search_near",
     "no_blocker",
+    "search_taps",
+    "filter_taps",
     "resolution",
     "light_faces",
 ];
@@ -211,7 +229,8 @@ pub const STATS: &[&str] = &[
 ///
 /// Returns the visibility (receivers' order) and stats: `depth_map_seconds`, `lighting_seconds`
 /// (blocker search and filtering), `resolution`, `search_near` (`z_n`), `no_blocker` (the fraction
-/// of valid receivers whose search found no blocker).
+/// of valid receivers lit without filtering: no blocker found, or no search), `search_taps` and
+/// `filter_taps` (depth-map taps read by the blocker searches and the filters).
 ///
 /// A light among the receivers gets a map per face of a cube around its center
 /// ([`crate::raster::cube`]), each receiver searched and filtered in its own face's map, the
@@ -285,10 +304,9 @@ fn pcss_view(
             filter_taps: &lookup.filter_taps,
             bias: lookup.bias,
         };
-        let (vis, no_blocker) =
+        let outcomes =
             crate::gpu::timed_stage(&mut stats, "lighting", || gpu::pcss(&gpu_lookup, receivers))?;
-        stats.set("no_blocker", no_blocker);
-        return Ok((vis, stats));
+        return Ok((record_outcomes(&outcomes, opts, &mut stats), stats));
     }
     let taps = (opts.blocker_samples + opts.filter_samples) as u64;
     let outcomes: Vec<Option<Outcome>> = stats.time("lighting", || {
@@ -296,11 +314,22 @@ fn pcss_view(
             receivers.valid[i].then(|| lookup.receiver(receivers.points[i], receivers.normals[i]))
         })
     })?;
-    let valid = outcomes.iter().filter(|o| o.is_some()).count();
-    let free = outcomes
-        .iter()
-        .filter(|o| matches!(o, Some(Outcome::NoBlocker)))
-        .count();
+    let vis = record_outcomes(&outcomes, opts, &mut stats);
+    Ok((vis, stats))
+}
+
+/// The visibility of the receivers' outcomes (0 for an invalid one), recording the stats
+/// `no_blocker`, `search_taps` and `filter_taps`.
+fn record_outcomes(
+    outcomes: &[Option<Outcome>],
+    opts: &PcssOptions,
+    stats: &mut Stats,
+) -> Vec<f32> {
+    let count = |pred: fn(&Outcome) -> bool| outcomes.iter().flatten().filter(|o| pred(o)).count();
+    let valid = count(|_| true);
+    let free = count(|o| matches!(o, Outcome::Unsearched | Outcome::NoBlocker));
+    let filtered = count(|o| matches!(o, Outcome::Filtered(_)));
+    let searched = filtered + count(|o| *o == Outcome::NoBlocker);
     stats.set(
         "no_blocker",
         if valid > 0 {
@@ -309,13 +338,10 @@ fn pcss_view(
             0.0
         },
     );
-    let vis = outcomes
-        .into_iter()
-        .map(|o| match o {
-            None => 0.0,
-            Some(Outcome::NoBlocker) => 1.0,
-            Some(Outcome::Filtered(v)) => v,
-        })
-        .collect();
-    Ok((vis, stats))
+    stats.add("search_taps", (searched * opts.blocker_samples) as f64);
+    stats.add("filter_taps", (filtered * opts.filter_samples) as f64);
+    outcomes
+        .iter()
+        .map(|o| o.map_or(0.0, Outcome::visibility))
+        .collect()
 }

@@ -45,24 +45,27 @@ fn tap_texel(s: vec3<f32>, q: vec2<f32>, region: vec2<f32>) -> vec2<i32> {
     return vec2<i32>(i32(floor(s.x + q.x * region.x)), i32(floor(s.y + q.y * region.y)));
 }
 
-const NO_BLOCKER: f32 = 1.0;
-const FILTERED: f32 = 2.0;
+// The outcomes that `outcome` in gpu.rs decodes (0: an invalid receiver).
+const UNSEARCHED: f32 = 1.0;
+const FACING_AWAY: f32 = 2.0;
+const NO_BLOCKER: f32 = 3.0;
+const FILTERED: f32 = 4.0;
 
-// The visibility and the outcome of Lookup::receiver.
+// The visibility and the outcome of PcssLookup::receiver.
 fn lookup(p: vec3<f32>, n: vec3<f32>) -> vec2<f32> {
     let view = views[0];
     if (dot3(n, view.eye_near.xyz - p) <= 0.0) {
-        return vec2<f32>(0.0, FILTERED);
+        return vec2<f32>(0.0, FACING_AWAY);
     }
     let v = to_view(view, p);
     if (!(v.z >= view.eye_near.w)) {
-        return vec2<f32>(1.0, NO_BLOCKER);
+        return vec2<f32>(1.0, UNSEARCHED);
     }
     let w = f32(params.width);
     let h = f32(params.height);
     let s = texel_coords(view, v, w, h);
     if (!inside_map(s, w, h) || s.z <= params.near) {
-        return vec2<f32>(1.0, NO_BLOCKER);
+        return vec2<f32>(1.0, UNSEARCHED);
     }
     let r = receiver_depth(view, v, n, s, w, h, params.constant_bias == 1u, params.bias);
     let search = footprint(s.z, params.near);

@@ -600,6 +600,7 @@ pub const STATS: &[&str] = &[
     "depth_maps_seconds",
     "lighting_seconds",
     "points",
+    "point_warps",
     "traversals",
     "maps_per_traversal",
     "views",
@@ -612,7 +613,8 @@ pub const STATS: &[&str] = &[
 ///
 /// Returns the visibility (receivers' order) and stats as in the paper's Tables 1–2:
 /// `point_generation_seconds` (0 when unbuffered), `depth_maps_seconds`, `lighting_seconds`,
-/// `points` (buffered; the fragments streamed per traversal when unbuffered), `maps_per_traversal`,
+/// `points` (buffered; the fragments streamed per traversal when unbuffered), `point_warps`
+/// (points warped into a view's map, summed over the traversals), `maps_per_traversal`,
 /// `traversals`, `views`, `resolution`, `source_resolution`, `pull_back` (`d` of eq. 1, world
 /// units).
 ///
@@ -706,6 +708,7 @@ pub fn vwss(
                 stats.add("depth_maps_seconds", warp);
                 stats.add("lighting_seconds", light);
                 stats.set("points", points.len() as f64);
+                stats.add("point_warps", (points.len() * targets.len()) as f64);
                 stats.add("traversals", 1.0);
             }
             stats.time_add("lighting", || lighting.sums())?
@@ -725,6 +728,7 @@ pub fn vwss(
                     Ok::<_, Error>(count)
                 })?;
                 stats.set("points", count as f64);
+                stats.add("point_warps", (count * targets.len()) as f64);
                 stats.add("traversals", 1.0);
                 let indexed: Vec<(usize, &DepthMap)> = maps[..targets.len()]
                     .iter()
