@@ -33,6 +33,14 @@ def columns():
     return setup, ss.gbuffer(setup.scene, setup.camera)
 
 
+@pytest.fixture(scope="module")
+def gpu_adapter():
+    try:
+        return ss.gpu_info()
+    except RuntimeError as error:
+        pytest.skip(f"no GPU adapter: {error}")
+
+
 def allowed(method, options):
     """The keys a call may return: its own, and for stsv its opaque method's."""
     keys = set(_core.STATS[method]) | PYTHON_KEYS.get(method, set())
@@ -71,11 +79,7 @@ def test_an_early_exit_returns_the_declared_keys_too(columns, method):
 
 @pytest.mark.gpu
 @pytest.mark.parametrize("method", GPU_METHODS)
-def test_the_gpu_backend_returns_the_declared_keys(columns, method):
-    try:
-        ss.gpu_info()
-    except RuntimeError as error:
-        pytest.skip(f"no GPU adapter: {error}")
+def test_the_gpu_backend_returns_the_declared_keys(columns, method, gpu_adapter):
     setup, gb = columns
     _, stats = getattr(ss, method)(setup.scene, setup.light, gb, return_stats=True, backend="gpu")
     check_keys(method, stats, {})
@@ -157,11 +161,7 @@ def test_stsv_projects_every_light_sample_per_volume_test():
 
 @pytest.mark.gpu
 @pytest.mark.parametrize("method, keys", [("alias_free", ("pair_tests", "plane_mask_ops")), ("cssm", ("taps",))])
-def test_counters_the_shaders_do_not_keep_are_nan_on_the_gpu(columns, method, keys):
-    try:
-        ss.gpu_info()
-    except RuntimeError as error:
-        pytest.skip(f"no GPU adapter: {error}")
+def test_counters_the_shaders_do_not_keep_are_nan_on_the_gpu(columns, method, keys, gpu_adapter):
     setup, gb = columns
     stats = stats_of(method, setup, gb, backend="gpu")
     assert all(np.isnan(stats[k]) for k in keys)
