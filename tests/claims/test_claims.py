@@ -61,10 +61,11 @@ def test_a_rule_reading_a_value_the_measurement_lacks_names_it():
         claims.AtMost("ratio", 1.0).verdict({"other": 1.0})
 
 
-def test_tolerances_accept_drift_within_and_refuse_beyond():
+def test_deterministic_values_must_re_measure_and_clocked_ones_never_fail():
     assert claims.DETERMINISTIC.accepts(1.01, 1.0) and not claims.DETERMINISTIC.accepts(1.05, 1.0)
-    assert claims.TIMING.accepts(2.0, 1.0) and claims.TIMING.accepts(0.5, 1.0) and not claims.TIMING.accepts(3.0, 1.0)
     assert not claims.DETERMINISTIC.accepts(math.nan, 1.0) and claims.DETERMINISTIC.accepts(math.nan, math.nan)
+    # The ratio that moved ninefold between two runs of one commit, and a wall time of another machine.
+    assert claims.TIMING.accepts(0.039, 0.34) and claims.TIMING.accepts(3.0, 1.0)
     assert claims.WALL_CLOCK.accepts(10.7, 27.9) and claims.WALL_CLOCK.accepts(300.0, 27.9)
 
 
@@ -92,8 +93,8 @@ def test_compare_expected_reports_a_changed_verdict_with_both_values(tmp_path, m
 
 
 @pytest.mark.parametrize("tolerance, remeasured, reported", [
-    ({"speedup": claims.TIMING}, 0.9, False),  # a time ratio within its timing noise: the load
-    ({"speedup": claims.TIMING}, 1.9, True),  # beyond it: a change
+    ({"speedup": claims.TIMING}, 0.9, False),  # a time ratio: the machine's load, never a test failure
+    ({"speedup": claims.TIMING}, 1.9, False),
     ({}, 0.9, True),  # a deterministic value: every flip is a change
 ])
 def test_a_verdict_that_timing_noise_flips_is_no_change(tmp_path, monkeypatch, tolerance, remeasured, reported):
@@ -133,7 +134,7 @@ def test_every_paper_has_claims_and_every_claim_is_well_formed():
 def test_no_verdict_reads_an_absolute_time():
     """Absolute seconds depend on the machine; a verdict must rest on ratios measured side by side."""
     for c in claims.CLAIMS.values():
-        clocked = {k for k, t in c.tolerance.items() if t is claims.WALL_CLOCK}
+        clocked = {k for k, t in c.tolerance.items() if t.absolute}
         assert not clocked & set(ledger._rule_keys(c.rule)), c.id
 
 

@@ -124,46 +124,47 @@ class Measured:
 @dataclasses.dataclass(frozen=True)
 class Tol:
     """How far a re-measured value may drift from its recorded one: within ``rtol * |recorded| +
-    atol``, or, with ``factor``, within ``[recorded / factor, recorded * factor]`` (for times,
-    whose ratios move with the machine's load).
+    atol``; or, for a value read off the machine's clock (``clocked``), any distance.
+
+    A clocked value (a ratio of seconds measured side by side, a slope or a fit of times, absolute
+    seconds) is judged by the ledger's rules and printed, but a re-measurement never fails on it:
+    speed is the benchmarks' to measure, and on a shared machine one fast-tier ratio moved ninefold
+    between two runs of the same code (0.34 recorded, 0.039 on a fresh CI machine).
 
     Examples
     --------
     >>> from softshadows import claims
     >>> claims.Tol(rtol=0.02).accepts(1.01, 1.0), claims.Tol(rtol=0.02).accepts(1.05, 1.0)
     (True, False)
-    >>> claims.TIMING.accepts(2.0, 1.0), claims.WALL_CLOCK.accepts(300.0, 1.0)
+    >>> claims.TIMING.accepts(9.0, 1.0), claims.WALL_CLOCK.accepts(300.0, 1.0)
     (True, True)
     """
 
     rtol: float = 0.0
     atol: float = 0.0
-    factor: float | None = None
-    #: False for values that are printed for the reader but depend on the machine that measured
-    #: them (:data:`WALL_CLOCK`): any re-measured value is accepted.
-    compared: bool = True
+    #: The value comes from the machine's clock: any re-measured value is accepted.
+    clocked: bool = False
+    #: Absolute seconds (:data:`WALL_CLOCK`), which no rule may read.
+    absolute: bool = False
 
     def accepts(self, value: float, recorded: float) -> bool:
-        if not self.compared:
+        if self.clocked:
             return True
         if math.isnan(value) or math.isnan(recorded):
             return math.isnan(value) and math.isnan(recorded)
-        if self.factor is not None:
-            if recorded == 0 or value == 0 or (value > 0) != (recorded > 0):
-                return abs(value - recorded) <= self.atol
-            return recorded / self.factor <= value <= recorded * self.factor or abs(value - recorded) <= self.atol
         return abs(value - recorded) <= self.rtol * abs(recorded) + self.atol
 
 
 #: Deterministic quantities (errors, counts, memory) re-measure to the same bits on one machine;
 #: this leaves room for another BLAS or libm.
 DETERMINISTIC = Tol(rtol=0.02, atol=1e-4)
-#: Ratios of seconds measured side by side.
-TIMING = Tol(factor=2.5, atol=0.05)
+#: Ratios of seconds measured side by side, and the slopes, fits and savings made of them: the
+#: ledger's verdicts read them, the fast tier's test does not compare them.
+TIMING = Tol(clocked=True)
 #: Absolute seconds: they say how fast the recording machine was, not whether a claim holds (a
 #: fresh CI machine built the YSM in 10.7 ms where the recording one took 27.9), so no rule reads
-#: them and a re-measurement never fails on them.
-WALL_CLOCK = Tol(compared=False)
+#: them.
+WALL_CLOCK = Tol(clocked=True, absolute=True)
 
 
 class Rule(abc.ABC):
@@ -687,12 +688,11 @@ def _rule_keys(rule) -> list:
 
 
 def _timing_noise(claim, values, recorded) -> bool:
-    """Whether a changed verdict is the machine's load: the rule reads a timing measurement (a
-    value the claim gives a tolerance of its own, not :data:`DETERMINISTIC`), and every value it
-    reads lies within its tolerance of the recorded one (the deterministic ones within theirs:
-    unchanged), so the verdict's threshold lies inside the run-to-run spread of a timing."""
+    """Whether a changed verdict is the machine's load: the rule reads a clocked value, and every
+    value it reads lies within its tolerance of the recorded one (the deterministic ones within
+    theirs: unchanged), so only a timing moved it."""
     keys = _rule_keys(claim.rule)
-    return any(key in claim.tolerance for key in keys) and all(
+    return any(claim.tol(key).clocked for key in keys) and all(
         key in values and key in recorded and claim.tol(key).accepts(float(values[key]), float(recorded[key]))
         for key in keys
     )
@@ -700,8 +700,7 @@ def _timing_noise(claim, values, recorded) -> bool:
 
 def compare_expected(frame, path) -> list:
     """The differences between a fast-tier run and the recorded expectations at ``path``: one
-    message per changed verdict (but for a verdict that timings within their tolerances decide,
-    :func:`_timing_noise`), drifted value, or claim missing from either side.
+    message per changed verdict (but for a verdict that only timings moved, :func:`_timing_noise`), drifted value, or claim missing from either side.
 
     Examples
     --------

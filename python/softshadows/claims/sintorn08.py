@@ -21,15 +21,11 @@ import numpy as np
 from ..lights import PointLight, SphereLight
 from ..methods import alias_free, dcs, mvr, ray_traced, shadow_map
 from ._measure import identical_fraction, reference, rmse, staged
-from .ledger import TIMING, WALL_CLOCK, AllOf, AtLeast, AtMost, Measured, Tol, claim
+from .ledger import TIMING, WALL_CLOCK, AllOf, AtLeast, AtMost, Measured, claim
 
 #: The paper's settings (section 5: 512² shadow maps; section 4.1: hexagons; section 4.3: the
 #: table, back-face culling of closed casters and the penumbra restriction).
 PAPER = {"resolution": 512, "lut": "auto", "hull_degree": 6, "caster_faces": "backfacing", "restrict_to_penumbra": True}
-
-#: A fit's R² re-measures within this (it is made of timings).
-FIT = Tol(atol=0.05)
-
 
 def _samples(light, n: int):
     """``n`` Poisson-disk samples on ``light``, the same for every method compared."""
@@ -263,7 +259,7 @@ KNOTS = ((75, 8), (192, 16), (375, 16), (750, 16))
     rule=AllOf(AtMost("loglog_slope", 1.15, in_kind=1.5), AtLeast("affine_fit_r2", 0.98, in_kind=0.9)),
     ours="time ∝ triangles^{loglog_slope:.2f} from 1.2K to 24K; affine fit R² {affine_fit_r2:.3f}; "
          "{ratio_12k_to_24k:.2f}x the time from 12K to 24K",
-    tolerance={"loglog_slope": Tol(atol=0.2), "affine_fit_r2": FIT, "ratio_12k_to_24k": TIMING, "seconds_24k": WALL_CLOCK},
+    tolerance={"loglog_slope": TIMING, "affine_fit_r2": TIMING, "ratio_12k_to_24k": TIMING, "seconds_24k": WALL_CLOCK},
 )
 def _triangles(tier):
     """Per-frame seconds on torus knots of 1.2K to 24K triangles."""
@@ -558,7 +554,7 @@ def _penumbra_restriction(tier):
     paper_value="up to 50% less time",
     rule=AtLeast("saving", 0.35, in_kind=0.15),
     ours="{saving:.0%} less time casting with light back-facing triangles only (best of two scenes)",
-    tolerance={"saving": Tol(atol=0.2), "saving_columns": Tol(atol=0.2), "saving_torus_knot": Tol(atol=0.2)},
+    tolerance={"saving": TIMING, "saving_columns": TIMING, "saving_torus_knot": TIMING},
 )
 def _caster_culling(tier):
     """Per-frame seconds with back-facing casters against every triangle casting."""
