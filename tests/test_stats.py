@@ -151,12 +151,17 @@ def test_alias_free_tests_more_pairs_with_more_casters():
     assert 0 < stats["plane_mask_ops"] <= 4 * stats["pair_tests"]
 
 
-def test_stsv_projects_every_light_sample_per_volume_test():
-    setup = ss.scenes.get("fence", width=12, height=12)
+def test_stsv_projects_only_the_light_samples_a_volume_can_hide():
+    # Per receiver inside a volume, equations 1-5 project the samples that count and are not
+    # blocked yet; samples shared by the receivers are projected only where they lie in the
+    # bounding box of the triangle's cone from the receiver on the light: small leaves hide a
+    # small part of a large light.
+    setup = ss.scenes.get("leaves", n=40, width=24, height=24)
     gb = ss.gbuffer(setup.scene, setup.camera)
-    stats = stats_of("stsv", setup, gb, samples=setup.light.samples(40, pattern="poisson", seed=0))
-    projections, rest = divmod(stats["sample_projections"], 40)
-    assert rest == 0 and 0 < projections
+    samples = setup.light.samples(64, pattern="poisson", seed=0)
+    for rotate, most in (("per_receiver", 1.0), (None, 0.25)):
+        stats = stats_of("stsv", setup, gb, samples=samples, rotate=rotate)
+        assert 0 < stats["sample_projections"] <= most * 64 * stats["receivers_inside"], rotate
 
 
 @pytest.mark.gpu

@@ -28,7 +28,7 @@ use crate::limits::Peak;
 use crate::raster::cube::enclosing_face;
 use crate::raster::depth::{band_rows, bin_row_ranges};
 use crate::raster::frustum::{check_resolution, LightFrustum, NEAR_FRACTION};
-use crate::raster::region::conservative_rows;
+use crate::raster::region::{conservative_row_range, conservative_rows, conservative_span};
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
 use rayon::prelude::*;
@@ -96,6 +96,9 @@ pub(crate) struct Origins<'a> {
     pub ids: Vec<u32>,
     pub origins: Vec<Vec3>,
     pub lists: ReceiverLists,
+    /// Per pattern of `samples`, its samples' weights: the receivers' own where the samples are
+    /// not rotated per receiver.
+    pattern_weights: Vec<Vec<f32>>,
 }
 
 impl<'a> Origins<'a> {
@@ -130,6 +133,11 @@ impl<'a> Origins<'a> {
             .map(|&i| receivers.points[i as usize] + receivers.normals[i as usize] * opts.epsilon)
             .collect();
         let lists = ReceiverLists::build(light, &origins, opts.resolution)?;
+        let pattern_weights = samples
+            .patterns()
+            .iter()
+            .map(|pattern| pattern.iter().map(|&y| light.weight(y)).collect())
+            .collect();
         Ok(Some(Origins {
             light,
             receivers,
@@ -138,7 +146,28 @@ impl<'a> Origins<'a> {
             ids,
             origins,
             lists,
+            pattern_weights,
         }))
+    }
+
+    /// The samples and weights of origin `k`: its pattern's own where the samples are not
+    /// rotated per receiver, else written into the buffers ([`Origins::fill`]).
+    pub fn samples_of<'s>(
+        &'s self,
+        k: usize,
+        ys: &'s mut Vec<Vec3>,
+        ws: &'s mut Vec<f32>,
+    ) -> (&'s [Vec3], &'s [f32]) {
+        if self.samples.rotation_for(0).is_some() {
+            self.fill(k, ys, ws);
+            return (ys, ws);
+        }
+        let (x, y) = self.receivers.pixel(self.ids[k] as usize);
+        let pattern = self.samples.pattern_index(x, y);
+        (
+            &self.samples.patterns()[pattern],
+            &self.pattern_weights[pattern],
+        )
     }
 
     /// The samples and weights of origin `k` (its receiver's samples) into the buffers.
@@ -265,9 +294,10 @@ impl ReceiverLists {
         let (w, h) = (self.frustum.width, self.frustum.height);
         match hull {
             None => rows.clone().map(|y| (y, 0, w)).collect(),
-            Some(hull) => conservative_rows(hull, w, h)
+            Some(hull) => conservative_row_range(hull, h)
                 .into_iter()
-                .filter(|r| rows.contains(&r.0))
+                .flat_map(|(first, last)| first.max(rows.start)..=last.min(rows.end - 1))
+                .filter_map(|y| conservative_span(hull, y, w).map(|(x0, x1)| (y, x0, x1)))
                 .collect(),
         }
     }

@@ -762,9 +762,35 @@ impl SampleSet {
         self.rotate.map(|seed| rotation_seed(seed, index as u64))
     }
 
+    /// The patterns built, before any per-receiver rotation ([`SampleSet::pattern_index`] says
+    /// which a receiver uses).
+    pub fn patterns(&self) -> &[Vec<Vec3>] {
+        &self.patterns
+    }
+
+    /// The index among [`SampleSet::patterns`] of the pattern of receiver pixel `(x, y)`.
+    pub fn pattern_index(&self, x: usize, y: usize) -> usize {
+        self.tile.position(x, y)
+    }
+
     /// The pattern of receiver pixel `(x, y)` before any per-receiver rotation.
     pub fn pattern_for(&self, x: usize, y: usize) -> &[Vec3] {
-        &self.patterns[self.tile.position(x, y)]
+        &self.patterns[self.pattern_index(x, y)]
+    }
+
+    /// Writes receiver `index`'s samples (at pixel `(x, y)`) into `out`.
+    pub fn fill_points(
+        &self,
+        light: &Light,
+        index: usize,
+        (x, y): (usize, usize),
+        out: &mut Vec<Vec3>,
+    ) {
+        out.clear();
+        out.extend_from_slice(self.pattern_for(x, y));
+        if let Some(r) = self.rotation_for(index) {
+            out.iter_mut().for_each(|y| *y = light.rotate(*y, r));
+        }
     }
 
     /// Writes receiver `index`'s samples (at pixel `(x, y)`) and their weights into the buffers.
@@ -772,15 +798,11 @@ impl SampleSet {
         &self,
         light: &Light,
         index: usize,
-        (x, y): (usize, usize),
+        pixel: (usize, usize),
         out: &mut Vec<Vec3>,
         weights: &mut Vec<f32>,
     ) {
-        out.clear();
-        out.extend_from_slice(self.pattern_for(x, y));
-        if let Some(r) = self.rotation_for(index) {
-            out.iter_mut().for_each(|y| *y = light.rotate(*y, r));
-        }
+        self.fill_points(light, index, pixel, out);
         weights.clear();
         weights.extend(out.iter().map(|&y| light.weight(y)));
     }

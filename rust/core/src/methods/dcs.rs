@@ -185,6 +185,15 @@ fn opaque_face_within(scene: &Scene, center: DVec3, radius: f64) -> bool {
 /// is 0, scattered to the receivers' order.
 pub(crate) fn visible_fraction(origins: &Origins, counts: &[i32]) -> Vec<f32> {
     let s = origins.samples.count();
+    unblocked_fraction(origins, |e, k| counts[e * s + k] != 0)
+}
+
+/// The weighted fraction of each receiver's samples in front of its tangent plane that are not
+/// `blocked(list entry, sample)`, scattered to the receivers' order.
+pub(crate) fn unblocked_fraction(
+    origins: &Origins,
+    blocked: impl Fn(usize, usize) -> bool + Sync,
+) -> Vec<f32> {
     let lists = &origins.lists;
     let values: Vec<(usize, f32)> = lists
         .entries
@@ -193,16 +202,16 @@ pub(crate) fn visible_fraction(origins: &Origins, counts: &[i32]) -> Vec<f32> {
         .map_init(
             || (Vec::new(), Vec::new()),
             |(ys, ws), (e, &k)| {
-                origins.fill(k as usize, ys, ws);
+                let (ys, ws) = origins.samples_of(k as usize, ys, ws);
                 let i = origins.ids[k as usize] as usize;
                 let (p, n) = origins.receiver(k as usize);
                 let total: f64 = ws.iter().map(|&w| f64::from(w)).sum();
                 let lit: f64 = ys
                     .iter()
                     .zip(ws.iter())
-                    .zip(&counts[e * s..(e + 1) * s])
-                    .filter(|((y, _), &c)| c == 0 && (**y - p).dot(n) > 0.0)
-                    .map(|((_, &w), _)| f64::from(w))
+                    .enumerate()
+                    .filter(|&(k, (y, _))| !blocked(e, k) && (*y - p).dot(n) > 0.0)
+                    .map(|(_, (_, &w))| f64::from(w))
                     .fold(0.0, plus_zero_sum);
                 (i, lit_fraction(lit, total))
             },

@@ -40,17 +40,20 @@ use crate::geometry::mesh::{AlphaTexture, Scene};
 use crate::geometry::polygon::clip_to_side;
 use crate::geometry::receivers::Receivers;
 use crate::influence::{check_hull_degree, LightBounds, ObjectOptions, Origins};
-use crate::light::lights::Light;
+use crate::light::lights::{tangent_frame, Light};
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, object_work, Peak};
-use crate::methods::alias_free::{masks_peak, sample_masks, AliasFreeOptions, TableSize};
-use crate::methods::dcs::{depth_complexity, depth_complexity_peak, visible_fraction};
+use crate::methods::alias_free::{
+    masks_peak, sample_masks, AliasFreeOptions, TableSize, MAX_SAMPLES,
+};
+use crate::methods::dcs::{
+    depth_complexity, depth_complexity_peak, unblocked_fraction, visible_fraction,
+};
 use crate::methods::penumbra_wedge::{wedge_occlusion, wedge_occlusion_peak};
 use crate::methods::CasterFaces;
 use crate::raster::cube::by_light_face;
-use crate::stats::Stats;
+use crate::stats::{Stats, Tally};
 use glam::{DMat3, DVec2, DVec3, Vec3};
-use std::sync::atomic::{AtomicU64, Ordering};
 
 /// How the opaque meshes cast (Forest et al. 2009, section 3 and Algorithm 2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -75,17 +78,41 @@ pub struct StsvOptions {
 /// One soft textured shadow volume.
 struct Volume {
     face: u32,
+    /// The mesh holding the triangle's alpha texture.
+    mesh: usize,
     /// The triangle's vertices (for its influence region).
     triangle: [Vec3; 3],
-    /// Inside: `m · x >= k` for the front cap and the three outer planes (a plane is left out
-    /// where the light reaches past it: conservative).
-    planes: Vec<(DVec3, f64)>,
+    /// Inside: on the inner side of the first `bounding` of `planes`, the front cap and the three
+    /// outer planes (a plane is left out where the light reaches past it: conservative).
+    planes: [Bound; 4],
+    bounding: usize,
     /// The closed volume's corners: the front cap t', then the back cap.
     corners: [DVec3; 6],
     /// `M'` of equation 2, `S` of equation 4, the triangle's first vertex.
     to_triangle: DMat3,
     to_texture: DMat3,
     v0: DVec3,
+    /// The triangle's vertices in the coordinates of the [`SamplePlane`] (set where the samples
+    /// are binned).
+    in_plane: [DVec3; 3],
+}
+
+/// A plane of a volume, inside where `m · x >= k`, with the slack of [`Volume::contains`].
+#[derive(Clone, Copy, Default)]
+struct Bound {
+    m: DVec3,
+    k: f64,
+    slack: f64,
+}
+
+impl Bound {
+    fn new((m, k): (DVec3, f64)) -> Self {
+        Self {
+            m,
+            k,
+            slack: 1e-9 * m.length(),
+        }
+    }
 }
 
 /// The plane through the line `a b` that touches `light` with every light point outside and `c`
@@ -144,6 +171,7 @@ impl Volume {
     /// the light's polytope on one side of it, seen from `center`; `None` for a degenerate triangle.
     fn build(
         face: u32,
+        mesh: usize,
         tri: [Vec3; 3],
         uv: [DVec2; 3],
         light: &[DVec3],
@@ -217,53 +245,93 @@ impl Volume {
             DVec3::new(uv[0].x, uv[0].y, 1.0),
         );
         let corners = [front[0], front[1], front[2], back[0], back[1], back[2]];
+        let mut bounds = [Bound::default(); 4];
+        for (b, &plane) in bounds.iter_mut().zip(&planes) {
+            *b = Bound::new(plane);
+        }
         Some(Volume {
             face,
+            mesh,
             triangle: tri,
-            planes,
+            planes: bounds,
+            bounding: planes.len(),
             corners,
             to_triangle,
             to_texture,
             v0: v[0],
+            in_plane: [DVec3::ZERO; 3],
         })
     }
 
     /// Whether `p` lies inside (section 2.3), with a relative tolerance that keeps the test
     /// conservative against round-off.
     fn contains(&self, p: DVec3) -> bool {
-        self.planes
+        let scale = 1.0 + p.abs().max_element();
+        self.planes[..self.bounding]
             .iter()
-            .all(|(m, k)| m.dot(p) - k >= -1e-9 * m.length() * (1.0 + p.abs().max_element()))
+            .all(|b| b.m.dot(p) - b.k >= -b.slack * scale)
     }
 
-    /// Sets in `blocked` the samples `ys` that the triangle's opaque texels hide from `p`
-    /// (equations 1–5); returns how many samples it projected.
-    fn block(&self, p: DVec3, ys: &[Vec3], texture: &AlphaTexture, blocked: &mut [u64]) -> usize {
-        let r = self.to_triangle * (self.v0 - p);
-        let e = r.z;
-        if e == 0.0 {
+    /// The receiver `p`, the projective center of equations 1 and 3, in triangle space
+    /// (`M' (p − v0)`, see [`Volume::hides`]); `None` when `p` lies in the triangle's plane.
+    fn center(&self, p: DVec3) -> Option<DVec3> {
+        let q = self.to_triangle * (p - self.v0);
+        (q.z != 0.0).then_some(q)
+    }
+
+    /// Whether an opaque texel of the triangle hides sample `y` from the receiver of
+    /// [`Volume::center`] `c` (equations 1–5).
+    ///
+    /// With `(α, β, γ) = M' (x − v0)` the triangle-space coordinates of a point `x` (γ its
+    /// distance across the plane), the homogeneous barycentrics `s_h = J (y − p)` of equation 1
+    /// are, times `γ_p`, `(γ_p α_y − α_p γ_y, γ_p β_y − β_p γ_y, γ_p − γ_y)`: the same tests
+    /// (`s_h` inside the triangle, and `y` across the plane from `p`), without building `J` per
+    /// receiver. Then the texture coordinates `S s_h / s_h.z` (equations 4 and 5) are looked up.
+    #[inline]
+    fn hides(&self, c: DVec3, y: Vec3, texture: &AlphaTexture) -> bool {
+        let q = self.to_triangle * (y.as_dvec3() - self.v0);
+        // Both sides of the plane alike: every γ times the sign of γ_p.
+        let side = c.z.signum();
+        let (g, qz) = (c.z * side, q.z * side);
+        let (a, b) = (g * q.x - c.x * qz, g * q.y - c.y * qz);
+        let d = g - qz;
+        if !(qz < 0.0 && a >= 0.0 && b >= 0.0 && a + b <= d) {
+            return false;
+        }
+        let st = self.to_texture * DVec3::new(a / d, b / d, 1.0);
+        texture.is_opaque(glam::Vec2::new(st.x as f32, st.y as f32))
+    }
+
+    /// Sets in `blocked` the samples of `candidates` (a bitmask over `ys`) that the triangle's
+    /// opaque texels hide from `p` (equations 1–5); returns how many it projected: the
+    /// candidates not blocked yet, since a sample blocked once stays blocked.
+    fn block(
+        &self,
+        p: DVec3,
+        ys: &[Vec3],
+        candidates: &[u64],
+        texture: &AlphaTexture,
+        blocked: &mut [u64],
+    ) -> u64 {
+        if candidates.iter().zip(&*blocked).all(|(c, b)| c & !b == 0) {
             return 0;
         }
-        // W of equation 3: p as the projective center; the third row scales by the distance so
-        // that s_h.z = 1 / t for the segment parameter t of the plane's crossing.
-        let w = DMat3::from_cols(
-            DVec3::new(1.0, 0.0, 0.0),
-            DVec3::new(0.0, 1.0, 0.0),
-            DVec3::new(-r.x / e, -r.y / e, 1.0 / e),
-        );
-        let j = w * self.to_triangle;
-        for (k, y) in ys.iter().enumerate().take(blocked.len() * 64) {
-            let s = j * (y.as_dvec3() - p);
-            if !(s.z > 1.0 && s.x >= 0.0 && s.y >= 0.0 && s.x + s.y <= s.z) {
-                continue;
-            }
-            let st = self.to_texture * s;
-            let uv = glam::Vec2::new((st.x / st.z) as f32, (st.y / st.z) as f32);
-            if texture.is_opaque(uv) {
-                blocked[k / 64] |= 1 << (k % 64);
+        let Some(center) = self.center(p) else {
+            return 0;
+        };
+        let mut projected = 0;
+        for (word, (&c, b)) in candidates.iter().zip(blocked.iter_mut()).enumerate() {
+            let mut bits = c & !*b;
+            projected += u64::from(bits.count_ones());
+            while bits != 0 {
+                let bit = bits.trailing_zeros();
+                if self.hides(center, ys[word * 64 + bit as usize], texture) {
+                    *b |= 1 << bit;
+                }
+                bits &= bits - 1;
             }
         }
-        ys.len().min(blocked.len() * 64)
+        projected
     }
 }
 
@@ -306,7 +374,15 @@ fn volumes(
             } else {
                 part.iter().sum::<DVec3>() / part.len() as f64
             };
-            out.extend(Volume::build(id, tri, uv, &part, part_center, bounds));
+            out.extend(Volume::build(
+                id,
+                r.mesh as usize,
+                tri,
+                uv,
+                &part,
+                part_center,
+                bounds,
+            ));
         }
     }
     out
@@ -359,9 +435,206 @@ pub fn stsv_volumes(
     Ok(volumes)
 }
 
+/// The plane through the light's center in which the light samples are binned: the light's own
+/// for a rectangle or a disk, else the one facing the receivers (normal `forward`).
+struct SamplePlane {
+    origin: DVec3,
+    /// World to plane coordinates `(a, b, z)`: rows the plane's two axes and its unit normal.
+    to_plane: DMat3,
+}
+
+impl SamplePlane {
+    fn new(light: &Light, forward: Vec3) -> Self {
+        let n = light.normal().unwrap_or(forward);
+        let (t, b) = tangent_frame(n);
+        Self {
+            origin: light.center().as_dvec3(),
+            to_plane: DMat3::from_cols(t.as_dvec3(), b.as_dvec3(), n.as_dvec3()).transpose(),
+        }
+    }
+
+    fn coordinates(&self, x: DVec3) -> DVec3 {
+        self.to_plane * (x - self.origin)
+    }
+}
+
+/// A pattern of light samples shared by receivers, binned along each axis of a [`SamplePlane`].
+///
+/// A sample that a triangle hides from a receiver `p` lies in the cone from `p` through the
+/// triangle, whose section by the plane is the triangle of the vertices' projections from `p`.
+/// Equations 1–5 project every light sample for every receiver in the volume (Algorithm 1, line
+/// 5); only the samples in the bounding box of that section, found by four table lookups, are
+/// projected here: the others cannot be hidden, so the bits are the same.
+struct SampleBins {
+    /// The largest distance of a sample from the plane.
+    thickness: f64,
+    /// Per axis, the samples' lowest and highest coordinates and the bins per unit between.
+    low: [f64; 2],
+    high: [f64; 2],
+    scale: [f64; 2],
+    bins: usize,
+    words: usize,
+    /// Per axis, `words` per bin `j`: the samples in bins `>= j`, and in bins `<= j`.
+    from: [Vec<u64>; 2],
+    upto: [Vec<u64>; 2],
+    /// Every sample.
+    all: Vec<u64>,
+}
+
+impl SampleBins {
+    fn new(plane: &SamplePlane, samples: &[Vec3]) -> Self {
+        let words = samples.len().div_ceil(64);
+        let at: Vec<DVec3> = samples
+            .iter()
+            .map(|y| plane.coordinates(y.as_dvec3()))
+            .collect();
+        let bins = samples.len().clamp(8, 256);
+        let mut out = Self {
+            thickness: at.iter().map(|c| c.z.abs()).fold(0.0, f64::max),
+            low: [f64::INFINITY; 2],
+            high: [f64::NEG_INFINITY; 2],
+            scale: [0.0; 2],
+            bins,
+            words,
+            from: [vec![0; bins * words], vec![0; bins * words]],
+            upto: [vec![0; bins * words], vec![0; bins * words]],
+            all: every_sample(samples.len()),
+        };
+        for axis in 0..2 {
+            for c in &at {
+                out.low[axis] = out.low[axis].min(c[axis]);
+                out.high[axis] = out.high[axis].max(c[axis]);
+            }
+            let span = out.high[axis] - out.low[axis];
+            out.scale[axis] = if span > 0.0 { bins as f64 / span } else { 0.0 };
+            let mut per_bin = vec![0u64; bins * words];
+            for (k, c) in at.iter().enumerate() {
+                per_bin[out.bin(axis, c[axis]) * words + k / 64] |= 1 << (k % 64);
+            }
+            let (from, upto) = (&mut out.from[axis], &mut out.upto[axis]);
+            for j in 0..bins {
+                for w in 0..words {
+                    let below = if j > 0 { upto[(j - 1) * words + w] } else { 0 };
+                    upto[j * words + w] = below | per_bin[j * words + w];
+                    let i = bins - 1 - j;
+                    let above = if j > 0 { from[(i + 1) * words + w] } else { 0 };
+                    from[i * words + w] = above | per_bin[i * words + w];
+                }
+            }
+        }
+        out
+    }
+
+    /// The bin of coordinate `x` along `axis` (monotone in `x`, clamped to the bins).
+    fn bin(&self, axis: usize, x: f64) -> usize {
+        // Clamped in f64 (NaN to 0 too), then one conversion instruction.
+        let bin = ((x - self.low[axis]) * self.scale[axis]).clamp(0.0, (self.bins - 1) as f64);
+        bin as u32 as usize
+    }
+
+    /// Into `out`, the samples that may lie in the cone from `p` through the triangle `tri`
+    /// (both in plane coordinates): those binned in [`SampleBins::cone_box`], or every sample
+    /// where the box is unbounded.
+    fn candidates(&self, p: DVec3, tri: &[DVec3; 3], out: &mut [u64]) {
+        let Some((lo, hi)) = self.cone_box(p, tri) else {
+            out.copy_from_slice(&self.all);
+            return;
+        };
+        if (0..2).any(|axis| hi[axis] < self.low[axis] || lo[axis] > self.high[axis]) {
+            out.fill(0);
+            return;
+        }
+        let w = self.words;
+        let [a0, b0] = [0, 1].map(|axis| self.bin(axis, lo[axis]) * w);
+        let [a1, b1] = [0, 1].map(|axis| self.bin(axis, hi[axis]) * w);
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = self.from[0][a0 + k]
+                & self.upto[0][a1 + k]
+                & self.from[1][b0 + k]
+                & self.upto[1][b1 + k];
+        }
+    }
+
+    /// The bounding box `(low, high)` of the section of the cone from `p` through `tri` by the
+    /// plane, widened by the samples' distance from the plane times the cone's slope (a sample
+    /// off the plane is binned where the plane's normal through it meets the plane, its segment
+    /// from `p` meets the plane within that of it) and by a relative margin against round-off;
+    /// `None` when `p` lies within the samples' slab or a vertex is not strictly nearer the plane
+    /// than `p`.
+    fn cone_box(&self, p: DVec3, tri: &[DVec3; 3]) -> Option<([f64; 2], [f64; 2])> {
+        let height = p.z.abs();
+        if height <= self.thickness {
+            return None;
+        }
+        let toward = -p.z.signum();
+        let (mut lo, mut hi, mut slope) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2], [0.0; 2]);
+        for v in tri {
+            let dz = (v.z - p.z) * toward;
+            if dz <= 0.0 {
+                return None;
+            }
+            let per_height = 1.0 / dz;
+            for axis in 0..2 {
+                let d = v[axis] - p[axis];
+                let x = p[axis] + d * (height * per_height);
+                lo[axis] = f64::min(lo[axis], x);
+                hi[axis] = f64::max(hi[axis], x);
+                slope[axis] = f64::max(slope[axis], d.abs() * per_height);
+            }
+        }
+        for axis in 0..2 {
+            let size = height + p[axis].abs() + lo[axis].abs().max(hi[axis].abs());
+            let margin = self.thickness * slope[axis] + 1e-7 * size;
+            lo[axis] -= margin;
+            hi[axis] += margin;
+        }
+        lo.iter()
+            .chain(&hi)
+            .all(|x| x.is_finite())
+            .then_some((lo, hi))
+    }
+}
+
+/// The bitmask of `count` samples, every bit set.
+fn every_sample(count: usize) -> Vec<u64> {
+    (0..count.div_ceil(64))
+        .map(|w| match count - 64 * w {
+            left if left >= 64 => !0,
+            left => (1 << left) - 1,
+        })
+        .collect()
+}
+
+thread_local! {
+    /// A worker's buffers for one receiver's samples and weights.
+    static OWN_SAMPLES: std::cell::RefCell<(Vec<Vec3>, Vec<f32>)> =
+        const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
+}
+
+/// The words of one list entry in the perforated pass: `words` of the samples blocked so far,
+/// `words` of the samples that count (in front of the receiver's tangent plane and of non-zero
+/// weight: the others never count, docs/design.md section 3), and one that is 1 once those are
+/// known (found at the receiver's first volume: most receivers lie in none).
+fn entry_words(data: &mut [u64], words: usize) -> (&mut [u64], &mut [u64], &mut u64) {
+    let (blocked, rest) = data.split_at_mut(words);
+    let (counted, known) = rest.split_at_mut(words);
+    (blocked, counted, &mut known[0])
+}
+
+/// Sets in `counted` the samples `ys` of weights `ws` that count for the receiver `(p, n)`,
+/// as `ray_traced` tells them.
+fn counted_samples(ys: &[Vec3], ws: &[f32], (p, n): (Vec3, Vec3), counted: &mut [u64]) {
+    counted.fill(0);
+    for (k, (y, &w)) in ys.iter().zip(ws).enumerate() {
+        if w != 0.0 && (*y - p).dot(n) > 0.0 {
+            counted[k / 64] |= 1 << (k % 64);
+        }
+    }
+}
+
 /// Per list entry of `origins`, the bitmask of the samples that the perforated triangles block
-/// (`words` per entry); stats `volumes`, `receivers_tested`, `receivers_inside`,
-/// `sample_projections`.
+/// (`words` per entry; samples that do not count may be left out); stats `volumes`,
+/// `receivers_tested`, `receivers_inside`, `sample_projections`.
 fn perforated_masks(
     scene: &Scene,
     origins: &Origins,
@@ -370,12 +643,17 @@ fn perforated_masks(
     stats: &mut Stats,
 ) -> Result<Vec<u64>> {
     let lists = &origins.lists;
+    let per_entry = 2 * words + 1;
     limits::check_memory(
         "stsv bitmasks",
-        limits::bytes(&[lists.entries.len() as u64, words as u64, 8]),
+        limits::bytes(&[
+            lists.entries.len() as u64,
+            per_entry as u64 + words as u64,
+            8,
+        ]),
     )?;
     let bounds = padded_bounds(scene, &origins.origins);
-    let volumes = volumes(
+    let mut volumes = volumes(
         scene,
         &origins.bounds,
         opts.object.hull_degree,
@@ -383,45 +661,122 @@ fn perforated_masks(
         bounds,
     );
     stats.set("volumes", volumes.len() as f64);
-    let (tested, inside, projections) = (AtomicU64::new(0), AtomicU64::new(0), AtomicU64::new(0));
-    let mut masks = vec![0u64; lists.entries.len() * words];
-    let shared = origins
-        .samples
-        .is_shared()
-        .then(|| origins.samples.pattern_for(0, 0));
+    // Receivers that share a pattern (not rotated) find the samples worth projecting in its bins.
+    let samples = origins.samples;
+    let plane = SamplePlane::new(origins.light, lists.frustum.forward);
+    let bins: Option<Vec<SampleBins>> = (samples.rotation_for(0).is_none()).then(|| {
+        samples
+            .patterns()
+            .iter()
+            .map(|pattern| SampleBins::new(&plane, pattern))
+            .collect()
+    });
+    for v in &mut volumes {
+        v.in_plane = v.triangle.map(|x| plane.coordinates(x.as_dvec3()));
+    }
+    let single_pattern = samples.patterns().len() == 1;
+    let tally = Tally::<3>::new();
+    let mut data = vec![0u64; lists.entries.len() * per_entry];
     lists.visit_regions(
         &origins.bounds,
         opts.object.hull_degree,
         &volumes,
         |v| &v.triangle,
-        &mut masks,
-        words,
-        |volume, k, mask| {
-            tested.fetch_add(1, Ordering::Relaxed);
-            let p = origins.origins[k].as_dvec3();
-            if !volume.contains(p) {
+        &mut data,
+        per_entry,
+        |volume, k, data| {
+            let (blocked, counted, known) = entry_words(data, words);
+            if *known == 0 {
+                OWN_SAMPLES.with_borrow_mut(|(ys, ws)| {
+                    let (ys, ws) = origins.samples_of(k, ys, ws);
+                    counted_samples(ys, ws, origins.receiver(k), counted);
+                });
+                *known = 1;
+            }
+            // Every sample that counts is blocked already: the volume cannot change the bits.
+            if counted.iter().zip(&*blocked).all(|(c, b)| c & !b == 0) {
                 return;
             }
-            inside.fetch_add(1, Ordering::Relaxed);
-            let r = scene.face_ref(volume.face);
-            let Some(texture) = &scene.meshes[r.mesh as usize].alpha else {
+            let p = origins.origins[k].as_dvec3();
+            if !volume.contains(p) {
+                tally.add([1, 0, 0]);
+                return;
+            }
+            let Some(texture) = &scene.meshes[volume.mesh].alpha else {
                 return;
             };
-            let projected = match shared {
-                Some(ys) => volume.block(p, ys, texture, mask),
-                None => {
-                    let (mut ys, mut ws) = (Vec::new(), Vec::new());
-                    origins.fill(k, &mut ys, &mut ws);
-                    volume.block(p, &ys, texture, mask)
+            let mut candidates = [0u64; MAX_SAMPLES / 64];
+            let candidates = &mut candidates[..words];
+            let projected = match &bins {
+                Some(bins) => {
+                    let pattern = if single_pattern {
+                        0
+                    } else {
+                        let (x, y) = origins.receivers.pixel(origins.ids[k] as usize);
+                        samples.pattern_index(x, y)
+                    };
+                    bins[pattern].candidates(plane.coordinates(p), &volume.in_plane, candidates);
+                    candidates
+                        .iter_mut()
+                        .zip(&*counted)
+                        .for_each(|(c, n)| *c &= n);
+                    volume.block(
+                        p,
+                        &samples.patterns()[pattern],
+                        candidates,
+                        texture,
+                        blocked,
+                    )
                 }
+                None => OWN_SAMPLES.with_borrow_mut(|(ys, ws)| {
+                    origins.fill(k, ys, ws);
+                    candidates.copy_from_slice(counted);
+                    volume.block(p, ys, candidates, texture, blocked)
+                }),
             };
-            projections.fetch_add(projected as u64, Ordering::Relaxed);
+            tally.add([1, 1, projected]);
         },
     )?;
-    stats.set("receivers_tested", tested.into_inner() as f64);
-    stats.set("receivers_inside", inside.into_inner() as f64);
-    stats.set("sample_projections", projections.into_inner() as f64);
-    Ok(masks)
+    let [tested, inside, projections] = tally.totals();
+    stats.set("receivers_tested", tested as f64);
+    stats.set("receivers_inside", inside as f64);
+    stats.set("sample_projections", projections as f64);
+    Ok(data
+        .chunks(per_entry)
+        .flat_map(|entry| &entry[..words])
+        .copied()
+        .collect())
+}
+
+/// Whether some opaque triangle of `scene` may cut a segment from an origin of `origins` to a
+/// light sample: a triangle whose plane has the origins' bounding box and the bounds of the light
+/// and its samples strictly on one side (beyond a relative margin) cuts none, and the ground under
+/// a fence or a tree is such a triangle.
+fn opaque_can_block(scene: &Scene, origins: &Origins, degree: usize) -> bool {
+    let (lo, hi) = origins
+        .origins
+        .iter()
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(l, h), &o| {
+            (l.min(o), h.max(o))
+        });
+    let ends: Vec<DVec3> = box_corners((lo.as_dvec3(), hi.as_dvec3()))
+        .into_iter()
+        .chain(origins.bounds.polytope(degree))
+        .collect();
+    scene
+        .triangles()
+        .filter(|&(id, _)| !scene.is_perforated_face(id))
+        .any(|(_, t)| {
+            let v = t.map(|x| x.as_dvec3());
+            let n = (v[1] - v[0]).cross(v[2] - v[0]);
+            let side: Vec<f64> = ends.iter().map(|x| n.dot(*x - v[0])).collect();
+            let reach = ends
+                .iter()
+                .map(|x| (*x - v[0]).length())
+                .fold(0.0, f64::max);
+            let margin = 1e-6 * n.length() * reach;
+            !(side.iter().all(|&d| d > margin) || side.iter().all(|&d| d < -margin))
+        })
 }
 
 /// The stats keys of stsv's own stages (beside [`crate::stats::COMMON`]), zeroed at the start;
@@ -520,6 +875,15 @@ fn stsv_in_one_frustum(
         stats.add("perforated_seconds", start.elapsed().as_secs_f64());
         masks
     };
+    if opts.opaque != Opaque::PenumbraWedge
+        && !opaque_can_block(scene, &origins, opts.object.hull_degree)
+    {
+        // The exact frameworks would add no blocked sample: the volumes' bits are the answer.
+        let vis = unblocked_fraction(&origins, |e, k| {
+            perforated[e * words + k / 64] >> (k % 64) & 1 == 1
+        });
+        return Ok((vis, stats));
+    }
     let start = std::time::Instant::now();
     match opts.opaque {
         Opaque::Bitmask => {
