@@ -52,8 +52,9 @@ use crate::methods::dcs::{
 use crate::methods::penumbra_wedge::{wedge_occlusion, wedge_occlusion_peak};
 use crate::methods::CasterFaces;
 use crate::raster::cube::by_light_face;
-use crate::stats::{Stats, Tally};
+use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
+use rayon::prelude::*;
 
 /// How the opaque meshes cast (Forest et al. 2009, section 3 and Algorithm 2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -82,10 +83,9 @@ struct Volume {
     mesh: usize,
     /// The triangle's vertices (for its influence region).
     triangle: [Vec3; 3],
-    /// Inside: on the inner side of the first `bounding` of `planes`, the front cap and the three
-    /// outer planes (a plane is left out where the light reaches past it: conservative).
+    /// Inside: on the inner side of the front cap and the three outer planes (a plane is left out,
+    /// [`Bound::EVERYWHERE`], where the light reaches past it: conservative).
     planes: [Bound; 4],
-    bounding: usize,
     /// The closed volume's corners: the front cap t', then the back cap.
     corners: [DVec3; 6],
     /// `M'` of equation 2, `S` of equation 4, the triangle's first vertex.
@@ -98,7 +98,7 @@ struct Volume {
 }
 
 /// A plane of a volume, inside where `m · x >= k`, with the slack of [`Volume::contains`].
-#[derive(Clone, Copy, Default)]
+#[derive(Clone, Copy)]
 struct Bound {
     m: DVec3,
     k: f64,
@@ -106,6 +106,13 @@ struct Bound {
 }
 
 impl Bound {
+    /// No bound: every point is inside.
+    const EVERYWHERE: Bound = Bound {
+        m: DVec3::ZERO,
+        k: -1.0,
+        slack: 0.0,
+    };
+
     fn new((m, k): (DVec3, f64)) -> Self {
         Self {
             m,
@@ -245,7 +252,7 @@ impl Volume {
             DVec3::new(uv[0].x, uv[0].y, 1.0),
         );
         let corners = [front[0], front[1], front[2], back[0], back[1], back[2]];
-        let mut bounds = [Bound::default(); 4];
+        let mut bounds = [Bound::EVERYWHERE; 4];
         for (b, &plane) in bounds.iter_mut().zip(&planes) {
             *b = Bound::new(plane);
         }
@@ -254,7 +261,6 @@ impl Volume {
             mesh,
             triangle: tri,
             planes: bounds,
-            bounding: planes.len(),
             corners,
             to_triangle,
             to_texture,
@@ -267,9 +273,10 @@ impl Volume {
     /// conservative against round-off.
     fn contains(&self, p: DVec3) -> bool {
         let scale = 1.0 + p.abs().max_element();
-        self.planes[..self.bounding]
-            .iter()
-            .all(|b| b.m.dot(p) - b.k >= -b.slack * scale)
+        // Every plane, without a branch per plane: receivers fall on either side at random.
+        self.planes.iter().fold(true, |inside, b| {
+            inside & (b.m.dot(p) - b.k >= -b.slack * scale)
+        })
     }
 
     /// The receiver `p`, the projective center of equations 1 and 3, in triangle space
@@ -611,14 +618,32 @@ thread_local! {
         const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
 }
 
-/// The words of one list entry in the perforated pass: `words` of the samples blocked so far,
-/// `words` of the samples that count (in front of the receiver's tangent plane and of non-zero
-/// weight: the others never count, docs/design.md section 3), and one that is 1 once those are
-/// known (found at the receiver's first volume: most receivers lie in none).
-fn entry_words(data: &mut [u64], words: usize) -> (&mut [u64], &mut [u64], &mut u64) {
-    let (blocked, rest) = data.split_at_mut(words);
-    let (counted, known) = rest.split_at_mut(words);
-    (blocked, counted, &mut known[0])
+/// The words of one list entry in the perforated pass beside its two bitmasks.
+const ENTRY_COUNTS: usize = 4;
+
+/// One list entry's words in the perforated pass (`2 words + ENTRY_COUNTS`).
+struct Entry<'a> {
+    /// The samples blocked so far.
+    blocked: &'a mut [u64],
+    /// The samples that count: in front of the receiver's tangent plane and of non-zero weight
+    /// (the others never count, docs/design.md section 3).
+    counted: &'a mut [u64],
+    /// 1 once `counted` is known (found at the receiver's first volume: most lie in none), then
+    /// the entry's volumes tested, volumes it lies inside and samples projected: counted in the
+    /// entry, where no two workers meet, and summed at the end.
+    counts: &'a mut [u64],
+}
+
+impl<'a> Entry<'a> {
+    fn new(data: &'a mut [u64], words: usize) -> Self {
+        let (blocked, rest) = data.split_at_mut(words);
+        let (counted, counts) = rest.split_at_mut(words);
+        Self {
+            blocked,
+            counted,
+            counts,
+        }
+    }
 }
 
 /// Sets in `counted` the samples `ys` of weights `ws` that count for the receiver `(p, n)`,
@@ -643,12 +668,13 @@ fn perforated_masks(
     stats: &mut Stats,
 ) -> Result<Vec<u64>> {
     let lists = &origins.lists;
-    let per_entry = 2 * words + 1;
+    let per_entry = 2 * words + ENTRY_COUNTS;
     limits::check_memory(
         "stsv bitmasks",
         limits::bytes(&[
             lists.entries.len() as u64,
-            per_entry as u64 + words as u64,
+            // the entries, the masks returned, the origins in the samples' plane (3 f64)
+            per_entry as u64 + words as u64 + 3,
             8,
         ]),
     )?;
@@ -675,7 +701,14 @@ fn perforated_masks(
         v.in_plane = v.triangle.map(|x| plane.coordinates(x.as_dvec3()));
     }
     let single_pattern = samples.patterns().len() == 1;
-    let tally = Tally::<3>::new();
+    let in_plane: Vec<DVec3> = match bins {
+        Some(_) => origins
+            .origins
+            .par_iter()
+            .map(|o| plane.coordinates(o.as_dvec3()))
+            .collect(),
+        None => Vec::new(),
+    };
     let mut data = vec![0u64; lists.entries.len() * per_entry];
     lists.visit_regions(
         &origins.bounds,
@@ -685,29 +718,35 @@ fn perforated_masks(
         &mut data,
         per_entry,
         |volume, k, data| {
-            let (blocked, counted, known) = entry_words(data, words);
-            if *known == 0 {
+            let entry = Entry::new(data, words);
+            if entry.counts[0] == 0 {
                 OWN_SAMPLES.with_borrow_mut(|(ys, ws)| {
                     let (ys, ws) = origins.samples_of(k, ys, ws);
-                    counted_samples(ys, ws, origins.receiver(k), counted);
+                    counted_samples(ys, ws, origins.receiver(k), entry.counted);
                 });
-                *known = 1;
+                entry.counts[0] = 1;
             }
             // Every sample that counts is blocked already: the volume cannot change the bits.
-            if counted.iter().zip(&*blocked).all(|(c, b)| c & !b == 0) {
+            if entry
+                .counted
+                .iter()
+                .zip(&*entry.blocked)
+                .all(|(c, b)| c & !b == 0)
+            {
                 return;
             }
+            entry.counts[1] += 1;
             let p = origins.origins[k].as_dvec3();
             if !volume.contains(p) {
-                tally.add([1, 0, 0]);
                 return;
             }
+            entry.counts[2] += 1;
             let Some(texture) = &scene.meshes[volume.mesh].alpha else {
                 return;
             };
             let mut candidates = [0u64; MAX_SAMPLES / 64];
             let candidates = &mut candidates[..words];
-            let projected = match &bins {
+            entry.counts[3] += match &bins {
                 Some(bins) => {
                     let pattern = if single_pattern {
                         0
@@ -715,32 +754,30 @@ fn perforated_masks(
                         let (x, y) = origins.receivers.pixel(origins.ids[k] as usize);
                         samples.pattern_index(x, y)
                     };
-                    bins[pattern].candidates(plane.coordinates(p), &volume.in_plane, candidates);
+                    bins[pattern].candidates(in_plane[k], &volume.in_plane, candidates);
                     candidates
                         .iter_mut()
-                        .zip(&*counted)
+                        .zip(&*entry.counted)
                         .for_each(|(c, n)| *c &= n);
-                    volume.block(
-                        p,
-                        &samples.patterns()[pattern],
-                        candidates,
-                        texture,
-                        blocked,
-                    )
+                    let ys = &samples.patterns()[pattern];
+                    volume.block(p, ys, candidates, texture, entry.blocked)
                 }
                 None => OWN_SAMPLES.with_borrow_mut(|(ys, ws)| {
                     origins.fill(k, ys, ws);
-                    candidates.copy_from_slice(counted);
-                    volume.block(p, ys, candidates, texture, blocked)
+                    candidates.copy_from_slice(entry.counted);
+                    volume.block(p, ys, candidates, texture, entry.blocked)
                 }),
             };
-            tally.add([1, 1, projected]);
         },
     )?;
-    let [tested, inside, projections] = tally.totals();
-    stats.set("receivers_tested", tested as f64);
-    stats.set("receivers_inside", inside as f64);
-    stats.set("sample_projections", projections as f64);
+    let total = |i: usize| -> f64 {
+        data.chunks(per_entry)
+            .map(|entry| entry[2 * words + i] as f64)
+            .sum()
+    };
+    stats.set("receivers_tested", total(1));
+    stats.set("receivers_inside", total(2));
+    stats.set("sample_projections", total(3));
     Ok(data
         .chunks(per_entry)
         .flat_map(|entry| &entry[..words])
@@ -857,7 +894,7 @@ fn stsv_in_one_frustum(
     Peak::default()
         .buffer(&[n as u64, 4])
         .and(Origins::peak(n, &opts.object))
-        .buffer(&[n as u64, words as u64, 8])
+        .buffer(&[n as u64, (3 * words + ENTRY_COUNTS + 3) as u64, 8])
         .buffer(&[
             scene.num_faces() as u64,
             2 * std::mem::size_of::<Volume>() as u64 + 16 * 8,
