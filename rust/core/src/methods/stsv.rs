@@ -709,15 +709,18 @@ fn perforated_masks(
             .collect(),
         None => Vec::new(),
     };
+    // A triangle's volumes (one per side of its plane that the light reaches) share its influence
+    // region and its projection: a receiver inside either has each sample projected once.
+    let triangles: Vec<&[Volume]> = volumes.chunk_by(|a, b| a.face == b.face).collect();
     let mut data = vec![0u64; lists.entries.len() * per_entry];
     lists.visit_regions(
         &origins.bounds,
         opts.object.hull_degree,
-        &volumes,
-        |v| &v.triangle,
+        &triangles,
+        |sides| &sides[0].triangle,
         &mut data,
         per_entry,
-        |volume, k, data| {
+        |sides, k, data| {
             let entry = Entry::new(data, words);
             if entry.counts[0] == 0 {
                 OWN_SAMPLES.with_borrow_mut(|(ys, ws)| {
@@ -735,12 +738,14 @@ fn perforated_masks(
             {
                 return;
             }
-            entry.counts[1] += 1;
             let p = origins.origins[k].as_dvec3();
-            if !volume.contains(p) {
+            let inside = sides.iter().filter(|v| v.contains(p)).count();
+            entry.counts[1] += sides.len() as u64;
+            entry.counts[2] += inside as u64;
+            if inside == 0 {
                 return;
             }
-            entry.counts[2] += 1;
+            let volume = &sides[0];
             let Some(texture) = &scene.meshes[volume.mesh].alpha else {
                 return;
             };
