@@ -169,6 +169,21 @@ def test_samples_off_the_light_give_the_oracles_bits(opaque, kind):
     np.testing.assert_array_equal(vis, exact)
 
 
+@pytest.mark.parametrize("kind", ["rect", "disk", "sphere", "ellipsoid"])
+@pytest.mark.parametrize("scale", [1, 2])
+def test_shared_samples_give_the_oracles_bits_on_and_off_every_light(kind, scale):
+    # Samples shared by every receiver are binned in the light's plane and only those in the box
+    # of a triangle's cone from the receiver are projected: volumetric lights and samples off
+    # the light lie off that plane, and the box widens by the samples' distance from it.
+    light, scene, gb = mixed(size=32, light=kind)
+    center = np.asarray(light.center, np.float32)
+    samples = center + scale * (light.samples(32, seed=3) - center)
+    exact = ss.ray_traced(scene, light, gb, samples=samples, rotate=None)
+    assert np.mean((exact > 0) & (exact < 1) & gb.mask) > 0.02, "the case needs a penumbra"
+    vis = ss.stsv(scene, light, gb, samples=samples, opaque="dcs", rotate=None)
+    np.testing.assert_array_equal(vis, exact)
+
+
 def leaf_card_under_an_overhead_light(size=96):
     """A vertical leaf card over a ground quad, its plane through the overhead light's center."""
     ground = ss.Mesh(np.float32([[-2, 0, -2], [2, 0, -2], [2, 0, 2], [-2, 0, 2]]), np.uint32([[0, 2, 1], [0, 3, 2]]))

@@ -778,31 +778,20 @@ impl SampleSet {
         &self.patterns[self.pattern_index(x, y)]
     }
 
-    /// Writes receiver `index`'s samples (at pixel `(x, y)`) into `out`.
-    pub fn fill_points(
+    /// Writes receiver `index`'s samples (at pixel `(x, y)`) and their weights into the buffers.
+    pub fn fill(
         &self,
         light: &Light,
         index: usize,
         (x, y): (usize, usize),
         out: &mut Vec<Vec3>,
+        weights: &mut Vec<f32>,
     ) {
         out.clear();
         out.extend_from_slice(self.pattern_for(x, y));
         if let Some(r) = self.rotation_for(index) {
             out.iter_mut().for_each(|y| *y = light.rotate(*y, r));
         }
-    }
-
-    /// Writes receiver `index`'s samples (at pixel `(x, y)`) and their weights into the buffers.
-    pub fn fill(
-        &self,
-        light: &Light,
-        index: usize,
-        pixel: (usize, usize),
-        out: &mut Vec<Vec3>,
-        weights: &mut Vec<f32>,
-    ) {
-        self.fill_points(light, index, pixel, out);
         weights.clear();
         weights.extend(out.iter().map(|&y| light.weight(y)));
     }

@@ -2,7 +2,7 @@
 //! Soft Textured Shadow Volume)
 //! for perforated triangles, combined with an object-based method for the opaque meshes.
 //!
-//! For each perforated triangle `t` and each receiver inside its volume, every light sample is
+//! For each perforated triangle `t` and each receiver inside its volume, the light samples are
 //! projected through the receiver onto `t`'s plane and looked up in the alpha texture (Algorithm 1):
 //!
 //! 1. **Volume** (section 2.2): the front cap `t'` is `t` with its vertices moved towards the
@@ -20,10 +20,16 @@
 //!    paper's z-fail rasterization). Receivers are found through the triangle's influence region in the
 //!    light-space lists (the paper rasterizes the volume in screen space).
 //! 3. **Transmittance** (section 2.4, equations 1–5): per triangle `M'` (world to triangle
-//!    space) and `S` (barycentric to texture space); per receiver `J = W M'` with `p` as the
-//!    projective center; per sample `s_h = J (y − p)` gives homogeneous barycentrics, tested
-//!    inside the triangle and beyond its plane, and `S s_h` the texture coordinates of the
-//!    alpha lookup. An opaque texel blocks the sample.
+//!    space) and `S` (barycentric to texture space); per receiver `p`, the projective center of
+//!    `J = W M'`, in triangle space; per sample the homogeneous barycentrics `s_h = J (y − p)`
+//!    ([`Volume::hides`] forms them without building `J`), tested inside the triangle and
+//!    beyond its plane, and `S s_h` the texture coordinates of the alpha lookup. An opaque texel blocks the sample. Where the paper projects every light
+//!    sample for every receiver in the volume (Algorithm 1, line 5), only the samples that can be
+//!    hidden are projected here, which leaves the bits as they are: samples that do not count
+//!    for the receiver (behind its tangent plane, of weight 0) or are blocked already are
+//!    skipped, and samples shared by the receivers (not rotated per receiver) are binned in the
+//!    light's plane ([`SampleBins`]), where only those in the bounding box of the triangle's
+//!    cone from the receiver are looked up. A triangle's two volumes are visited together.
 //!
 //! A one-sided volume is built on the side of `t` that holds the light's center; with
 //! `two_sided`, a second one on the other side, for the part of the light behind `t`'s plane
@@ -32,6 +38,8 @@
 //! (each blocked sample adds one to its depth complexity) or `Opaque::PenumbraWedge` (the
 //! STSV's occluded fraction is added to the wedges' visibility coefficient: approximate, the
 //! overlaps of opaque and perforated occluders count twice, Forest et al. 2009, Figure 4a).
+//! The exact frameworks are not run where no opaque triangle can cut a segment from a receiver
+//! to a sample (a ground plane under a fence: [`opaque_can_block`]).
 
 use crate::backend::Backend;
 use crate::error::{Error, Result};
