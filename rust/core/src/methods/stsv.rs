@@ -317,13 +317,13 @@ impl Volume {
         texture.is_opaque(glam::Vec2::new(st.x as f32, st.y as f32))
     }
 
-    /// Sets in `blocked` the samples of `candidates` (a bitmask over `ys`) that the triangle's
-    /// opaque texels hide from `p` (equations 1–5); returns how many it projected: the
-    /// candidates not blocked yet, since a sample blocked once stays blocked.
+    /// Sets in `blocked` the samples of `candidates` (sample `k` at `sample(k)`) that the
+    /// triangle's opaque texels hide from `p` (equations 1–5); returns how many it projected:
+    /// the candidates not blocked yet, since a sample blocked once stays blocked.
     fn block(
         &self,
         p: DVec3,
-        ys: &[Vec3],
+        sample: impl Fn(usize) -> Vec3,
         candidates: &[u64],
         texture: &AlphaTexture,
         blocked: &mut [u64],
@@ -340,7 +340,7 @@ impl Volume {
             projected += u64::from(bits.count_ones());
             while bits != 0 {
                 let bit = bits.trailing_zeros();
-                if self.hides(center, ys[word * 64 + bit as usize], texture) {
+                if self.hides(center, sample(word * 64 + bit as usize), texture) {
                     *b |= 1 << bit;
                 }
                 bits &= bits - 1;
@@ -773,13 +773,18 @@ fn perforated_masks(
                         .zip(&*entry.counted)
                         .for_each(|(c, n)| *c &= n);
                     let ys = &samples.patterns()[pattern];
-                    volume.block(p, ys, candidates, texture, entry.blocked)
+                    volume.block(p, |s| ys[s], candidates, texture, entry.blocked)
                 }
-                None => OWN_SAMPLES.with_borrow_mut(|(ys, ws)| {
-                    origins.fill(k, ys, ws);
+                None => {
+                    // Each sample rotated as the receiver's own (`SampleSet::fill`), and only
+                    // those projected.
+                    let i = origins.ids[k] as usize;
+                    let (x, y) = origins.receivers.pixel(i);
+                    let (ys, rotation) = (samples.pattern_for(x, y), samples.rotation_for(i));
+                    let own = |s: usize| rotation.map_or(ys[s], |r| origins.light.rotate(ys[s], r));
                     candidates.copy_from_slice(entry.counted);
-                    volume.block(p, ys, candidates, texture, entry.blocked)
-                }),
+                    volume.block(p, own, candidates, texture, entry.blocked)
+                }
             };
         },
     )?;
