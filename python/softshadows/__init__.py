@@ -24,6 +24,7 @@ from .gpu import gpu_info
 from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight
 from .methods import METHODS, SetupWarning, alias_free, backprojection, cssm, dcs, mvr, pcss, penumbra_wedge, ray_traced, resolve_msaa, shadow_map, stsv, vwss
 from .scene import Mesh, Scene, load
+from .temporal import History, accumulate
 
 __version__ = "0.1.0"
 
@@ -179,12 +180,14 @@ if hasattr(_os, "register_at_fork"):
 
 
 __all__ = [
+    "accumulate",
     "alias_free",
     "claims",
     "evaluate",
     "sweep",
     "backprojection",
     "dcs",
+    "History",
     "penumbra_wedge",
     "stsv",
     "resolve_msaa",
