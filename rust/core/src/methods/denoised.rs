@@ -381,7 +381,8 @@ type Pair = [f32; 2];
 
 /// One pass of a separable cross-bilateral filter along rows (`horizontal`) or columns over
 /// `input` pairs: each valid pixel `c` sums its taps `q` within `reach(c)` pixels, weighted by
-/// `kernel(c, q)` and the edge-stopping weight. Returns the pairs and the taps weighed.
+/// `kernel(c, q)` and the edge-stopping weight. Returns the pairs and the taps weighed (those
+/// whose pair is not zero).
 fn pass(
     guide: &Guide,
     input: &[Pair],
@@ -399,15 +400,21 @@ fn pass(
         let (x, y) = (c % w, c / w);
         let (pos, len, stride) = if horizontal { (x, w, 1) } else { (y, h, w) };
         let (lo, hi) = (pos.saturating_sub(k), (pos + k).min(len - 1));
-        let mut sum = [0.0f32; 2];
+        let (mut sum, mut taps) = ([0.0f32; 2], 0u64);
         for t in lo..=hi {
             let q = c + t * stride - pos * stride;
+            // A pair of zeros adds nothing whatever its weight (the weights are finite): most
+            // pixels of the blocker search, which have no blocked ray.
+            if input[q] == [0.0; 2] {
+                continue;
+            }
             let offset = t.abs_diff(pos);
             let weight = kernel(c, q) * guide.weight(c, q, offset);
             sum[0] += weight * input[q][0];
             sum[1] += weight * input[q][1];
+            taps += 1;
         }
-        (sum, (hi - lo + 1) as u64)
+        (sum, taps)
     })?;
     let taps = pixels.iter().map(|p| p.1).sum();
     Ok((pixels.into_iter().map(|p| p.0).collect(), taps))
