@@ -22,8 +22,9 @@ from .envmap import environment
 from .evaluation import evaluate, sweep
 from .gpu import gpu_info
 from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight
-from .methods import METHODS, SetupWarning, alias_free, backprojection, cssm, dcs, mvr, pcss, penumbra_wedge, ray_traced, resolve_msaa, shadow_map, stsv, vwss
+from .methods import METHODS, SetupWarning, alias_free, backprojection, cssm, dcs, denoised, mvr, pcss, penumbra_wedge, ray_traced, resolve_msaa, shadow_map, stsv, vwss
 from .scene import Mesh, Scene, load
+from .temporal import History, accumulate
 
 __version__ = "0.1.0"
 
@@ -179,12 +180,15 @@ if hasattr(_os, "register_at_fork"):
 
 
 __all__ = [
+    "accumulate",
     "alias_free",
     "claims",
     "evaluate",
     "sweep",
     "backprojection",
     "dcs",
+    "denoised",
+    "History",
     "penumbra_wedge",
     "stsv",
     "resolve_msaa",
