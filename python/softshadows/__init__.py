@@ -25,6 +25,7 @@ from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLigh
 from .methods import METHODS, SetupWarning, alias_free, backprojection, cssm, dcs, mvr, pcss, penumbra_wedge, ray_traced, resolve_msaa, shadow_map, stsv, vwss
 from .scene import Mesh, Scene, load
 from .scenes import sequence
+from .temporal import History, accumulate
 
 __version__ = "0.1.0"
 
@@ -180,6 +181,7 @@ if hasattr(_os, "register_at_fork"):
 
 
 __all__ = [
+    "accumulate",
     "alias_free",
     "claims",
     "evaluate",
@@ -187,6 +189,7 @@ __all__ = [
     "sweep",
     "backprojection",
     "dcs",
+    "History",
     "penumbra_wedge",
     "stsv",
     "resolve_msaa",

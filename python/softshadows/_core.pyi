@@ -7,10 +7,12 @@ import numpy.typing as npt
 
 __all__ = [
     "NativeCamera",
+    "NativeHistory",
     "NativeLight",
     "NativeReceivers",
     "NativeSamples",
     "NativeScene",
+    "accumulate",
     "after_fork_in_child",
     "alias_free",
     "backprojection",
@@ -33,6 +35,7 @@ __all__ = [
     "UnsupportedSetup",
     "PATTERNS",
     "STATS",
+    "TEMPORAL_STATS",
     "shadow_map",
     "stsv",
     "stsv_volumes",
@@ -84,6 +87,10 @@ class NativeReceivers:
     def __new__(cls, points: _F32, normals: _F32, mask: npt.NDArray[np.bool_], width: int, height: int) -> Self: ...
 
 @final
+class NativeHistory:
+    def __new__(cls, camera: NativeCamera, receivers: NativeReceivers, visibility: _F32, length: _F32) -> Self: ...
+
+@final
 class NativeSamples:
     @staticmethod
     def generate(
@@ -113,6 +120,7 @@ def work_limit() -> int: ...
 
 PATTERNS: tuple[str, ...]
 STATS: dict[str, tuple[str, ...]]
+TEMPORAL_STATS: tuple[str, ...]
 
 class WorkLimitError(RuntimeError): ...
 class UnsupportedSetup(ValueError): ...
@@ -126,6 +134,14 @@ def ray_traced(
     epsilon: float,
     caster_faces: str,
 ) -> tuple[_F32, dict[str, float]]: ...
+def accumulate(
+    visibility: _F32,
+    receivers: NativeReceivers,
+    history: NativeHistory | None,
+    alpha: float,
+    depth_tolerance: float,
+    normal_tolerance: float,
+) -> tuple[_F32, _F32, dict[str, float]]: ...
 def shadow_map(
     scene: NativeScene,
     light: NativeLight,

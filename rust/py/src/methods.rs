@@ -40,12 +40,17 @@ use softshadows_core::Stats;
 
 type Output<'py> = (Bound<'py, PyArray1<f32>>, Bound<'py, PyDict>);
 
-fn output<'py>(py: Python<'py>, (vis, stats): (Vec<f32>, Stats)) -> PyResult<Output<'py>> {
+/// `stats` as a Python dict, in their order.
+pub fn stats_dict(py: Python<'_>, stats: Stats) -> PyResult<Bound<'_, PyDict>> {
     let dict = PyDict::new(py);
     for (name, value) in stats.entries {
         dict.set_item(name, value)?;
     }
-    Ok((vis.into_pyarray(py), dict))
+    Ok(dict)
+}
+
+fn output<'py>(py: Python<'py>, (vis, stats): (Vec<f32>, Stats)) -> PyResult<Output<'py>> {
+    Ok((vis.into_pyarray(py), stats_dict(py, stats)?))
 }
 
 /// Exact sampled visibility by BVH shadow rays (the oracle).
