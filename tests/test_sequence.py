@@ -193,6 +193,21 @@ def test_temporal_jitter_is_the_methods_own_frame_jitter_and_converges(cache, co
     assert metrics.rmse(images["fixed"].mean(axis=0), ref, mask) == pytest.approx(summary.loc["fixed", "rmse"], rel=1e-6)
 
 
+def test_under_a_moving_light_accumulation_flickers_less_than_per_frame_samples(cache):
+    setup = ss.scenes.get("columns", width=32, height=32)
+    turning = ss.sequence(setup, frames=8, light_path=Orbit(30))
+    entries = {"jittered": OverTime("ray_traced"), "accumulated": OverTime("ray_traced", accumulate=True)}
+    summary = ss.evaluate_sequence(turning, entries, size=32, samples=8, reference_samples=256, keep_images=True,
+                                   progress=False).set_index("method")
+    assert summary.loc["accumulated", "temporal.flicker"] < 0.6 * summary.loc["jittered", "temporal.flicker"]
+    # The accumulated entry is the jittered frames through softshadows.accumulate, frame by frame.
+    images, history = summary.attrs["images"]["columns"], ss.History()
+    gb = ss.gbuffer(setup.scene, setup.camera)
+    by_hand = [ss.accumulate(frame, gb, history) for frame in images["jittered"]]
+    assert np.array_equal(images["accumulated"], np.stack(by_hand))
+    assert summary.loc["accumulated", "frames"] == 8 and history.frames == 8
+
+
 def test_entries_are_checked_before_any_reference(cache, columns, monkeypatch):
     from softshadows import reference
 
@@ -244,7 +259,7 @@ def _moving_light():
 def test_sequences_give_the_same_records_in_a_process_pool_and_on_dask(cache):
     distributed = pytest.importorskip("distributed", reason='needs pip install "softshadows[test]" (dask.distributed)')
     seq = _moving_light()
-    entries = ["pcss", OverTime("alias_free")]
+    entries = ["pcss", OverTime("alias_free"), OverTime("alias_free", accumulate=0.2)]
     kwargs = dict(size=24, samples=8, reference_samples=64, progress=False)
     local = ss.evaluate_sequence(seq, entries, **kwargs)
     with ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("spawn")) as pool:

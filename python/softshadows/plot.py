@@ -77,12 +77,7 @@ def comparison_grid(reference, results: dict, mask=None, *, path=None, titles: d
     from .metrics import _inputs, error_heatmap
 
     # Checked here, so that a refusal names this function's arguments, not error_heatmap's.
-    reference = v.array("reference", reference, np.float64, (None, None))
-    if reference.size == 0:
-        raise ValueError(f"reference: expected a non-empty (H, W) image, got shape {reference.shape}")
-    if not isinstance(results, dict) or not all(isinstance(k, str) for k in results):
-        raise ValueError(f"results: expected a dict of method name to visibility, got {type(results).__name__}")
-    results = {k: v.array("results", r, np.float64, reference.shape) for k, r in results.items()}
+    reference, results = _panels(reference, results, frames=False)
     if mask is not None:
         mask = _inputs(reference, reference, mask)[2]  # as the metrics take it: bool or 0/1, (H, W), not empty
     vmax = v.positive("vmax", vmax)
@@ -173,12 +168,7 @@ def animation(reference, results: dict, mask=None, *, path, fps: float = 8.0, ti
 
     from . import _validate as v
 
-    reference = v.array("reference", reference, np.float64, (None, None, None))
-    if reference.size == 0:
-        raise ValueError(f"reference: expected a non-empty (F, H, W) stack, got shape {reference.shape}")
-    if not isinstance(results, dict) or not all(isinstance(k, str) for k in results):
-        raise ValueError(f"results: expected a dict of method name to visibility, got {type(results).__name__}")
-    results = {k: v.array("results", r, np.float64, reference.shape) for k, r in results.items()}
+    reference, results = _panels(reference, results, frames=True)
     if mask is not None:
         mask = v.array("mask", mask, bool, reference.shape)
     fps, dpi = v.positive("fps", fps), v.positive("dpi", dpi)
@@ -204,6 +194,20 @@ def animation(reference, results: dict, mask=None, *, path, fps: float = 8.0, ti
                 draw(frame)
             writer.grab_frame()
     return path
+
+
+def _panels(reference, results, *, frames: bool) -> tuple:
+    """The reference and each method's images, as float64 arrays: a non-empty (H, W) reference,
+    or with ``frames`` an (F, H, W) stack, and a dict of results of its shape."""
+    from . import _validate as v
+
+    reference = v.array("reference", reference, np.float64, (None,) * (3 if frames else 2))
+    if reference.size == 0:
+        what = "(F, H, W) stack" if frames else "(H, W) image"
+        raise ValueError(f"reference: expected a non-empty {what}, got shape {reference.shape}")
+    if not isinstance(results, dict) or not all(isinstance(k, str) for k in results):
+        raise ValueError(f"results: expected a dict of method name to visibility, got {type(results).__name__}")
+    return reference, {k: v.array("results", r, np.float64, reference.shape) for k, r in results.items()}
 
 
 def show_samples(light, samples, *, ax=None, title: str | None = None):
