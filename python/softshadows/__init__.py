@@ -22,7 +22,7 @@ from .envmap import environment
 from .evaluation import evaluate, evaluate_sequence, sweep
 from .gpu import gpu_info
 from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight
-from .methods import METHODS, SetupWarning, alias_free, backprojection, cssm, dcs, mvr, pcss, penumbra_wedge, ray_traced, resolve_msaa, shadow_map, stsv, vwss
+from .methods import METHODS, SetupWarning, alias_free, backprojection, cssm, dcs, denoised, mvr, pcss, penumbra_wedge, ray_traced, resolve_msaa, shadow_map, stsv, vwss
 from .scene import Mesh, Scene, load
 from .scenes import sequence
 from .temporal import History, accumulate
@@ -189,6 +189,7 @@ __all__ = [
     "sweep",
     "backprojection",
     "dcs",
+    "denoised",
     "History",
     "penumbra_wedge",
     "stsv",

@@ -19,6 +19,7 @@ __all__ = [
     "cssm",
     "cube_solid_angles",
     "dcs",
+    "denoised",
     "fit_area_lights",
     "gpu_info",
     "memory_limit",
@@ -142,6 +143,25 @@ def accumulate(
     depth_tolerance: float,
     normal_tolerance: float,
 ) -> tuple[_F32, _F32, dict[str, float]]: ...
+def denoised(
+    scene: NativeScene,
+    light: NativeLight,
+    receivers: NativeReceivers,
+    camera: NativeCamera,
+    spp: int,
+    seed: int,
+    frame: int,
+    epsilon: float,
+    search_radius: int,
+    max_radius: int,
+    sigma_z: float,
+    sigma_n: float,
+    temporal: bool,
+    history: NativeHistory | None,
+    alpha: float,
+    depth_tolerance: float,
+    normal_tolerance: float,
+) -> tuple[_F32, _F32, _F32, dict[str, float]]: ...
 def shadow_map(
     scene: NativeScene,
     light: NativeLight,
