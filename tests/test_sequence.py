@@ -208,6 +208,16 @@ def test_under_a_moving_light_accumulation_flickers_less_than_per_frame_samples(
     assert summary.loc["accumulated", "frames"] == 8 and history.frames == 8
 
 
+def test_a_method_with_a_temporal_stage_of_its_own_gets_the_frame_and_one_history(cache):
+    setup = ss.scenes.get("columns", width=24, height=24)
+    panning = ss.sequence(setup, frames=4, camera_path=Orbit(8))
+    summary = ss.evaluate_sequence(panning, {"denoised": OverTime("denoised", history=True)}, size=24, reference_samples=64,
+                                   keep_images=True, progress=False)
+    history = ss.History()
+    by_hand = [ss.denoised(s.scene, s.light, ss.gbuffer(s.scene, s.camera), frame=i, history=history) for i, s in enumerate(panning)]
+    assert np.array_equal(summary.attrs["images"]["columns"]["denoised"], np.stack(by_hand)) and history.frames == 4
+
+
 def test_entries_are_checked_before_any_reference(cache, columns, monkeypatch):
     from softshadows import reference
 
