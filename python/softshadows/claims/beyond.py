@@ -129,11 +129,15 @@ def _over_time(tier_name: str):
                                 reference_samples=s["reference_samples"], progress=False)
 
 
-def _setup_note(s, *, over_time: bool) -> str:
-    if over_time:
-        return (f"{', '.join(s['sequences'])}: the rect light turns {TURN:g}° about the occluders over {s['frames']} frames, "
-                f"{s['sequence_size']}² receivers")
-    return f"{len(s['scenes'])} scenes ({', '.join(s['scenes'])}) under their rect light, {s['size']}² receivers"
+def _front_claim(tier, groups: dict, title: str, note: str) -> Measured:
+    """The baseline's place on each group's time-versus-RMSE chart (a scene, or a sequence)."""
+    figure = _pareto_figure(groups, title) if tier.figures else None
+    return Measured(_front_values(groups.values()), figure=figure, note=f"{note} {_HONEST}")
+
+
+def _turning_note(s) -> str:
+    return (f"{', '.join(s['sequences'])}: the rect light turns {TURN:g}° about the occluders over {s['frames']} frames, "
+            f"{s['sequence_size']}² receivers")
 
 
 _HONEST = ("Seconds are CPU seconds of this package's implementations, side by side in one run: they rank "
@@ -154,13 +158,11 @@ _HONEST = ("Seconds are CPU seconds of this package's implementations, side by s
 def _on_the_still_front(tier):
     """The baseline's place on each scene's time-versus-RMSE chart."""
     s = _settings(tier)
-    frame = _still(tier.name)
-    groups = {scene: rows for scene, rows in frame.groupby("scene", sort=False)}
-    values = _front_values(groups.values())
-    figure = _pareto_figure(groups, "one frame: denoised (red) among the papers' methods") if tier.figures else None
-    note = (f"{_setup_note(s, over_time=False)}, {s['samples']} shared light samples, reference: Mitsuba ray_test on "
-            f"{s['reference_samples']} Sobol samples; seconds: the fastest of {s['repeat']} runs. {_HONEST}")
-    return Measured(values, figure=figure, note=note)
+    return _front_claim(tier, dict(tuple(_still(tier.name).groupby("scene", sort=False))),
+                        "one frame: denoised (red) among the papers' methods",
+                        f"{len(s['scenes'])} scenes ({', '.join(s['scenes'])}) under their rect light, {s['size']}² receivers, "
+                        f"{s['samples']} shared light samples, reference: Mitsuba ray_test on {s['reference_samples']} Sobol "
+                        f"samples; seconds: the fastest of {s['repeat']} runs.")
 
 
 @claim(
@@ -177,13 +179,10 @@ def _on_the_still_front(tier):
 def _on_the_front_over_time(tier):
     """The baseline's place on each sequence's chart of seconds per frame against mean RMSE."""
     s = _settings(tier)
-    summary = _over_time(tier.name)
-    groups = {name: rows for name, rows in summary.groupby("sequence", sort=False)}
-    values = _front_values(groups.values())
-    figure = _pareto_figure(groups, "over time: denoised with its history (red), seconds per frame") if tier.figures else None
-    note = (f"{_setup_note(s, over_time=True)}, {s['samples']} shared light samples, each frame against Mitsuba ray_test "
-            f"on {s['reference_samples']} Sobol samples; mean RMSE and seconds per frame over the frames. {_HONEST}")
-    return Measured(values, figure=figure, note=note)
+    return _front_claim(tier, dict(tuple(_over_time(tier.name).groupby("sequence", sort=False))),
+                        "over time: denoised with its history (red), seconds per frame",
+                        f"{_turning_note(s)}, {s['samples']} shared light samples, each frame against Mitsuba ray_test on "
+                        f"{s['reference_samples']} Sobol samples; mean RMSE and seconds per frame over the frames.")
 
 
 @claim(
@@ -208,7 +207,7 @@ def _flickers_least(tier):
         steadiest.append(others.idxmin())
     values = {"flicker_ratio": float(np.median(ratios)), "flicker": float(np.mean([m[0] for m in mine])),
               "temporal_std": float(np.mean([m[1] for m in mine]))}
-    note = (f"{_setup_note(s, over_time=True)}; flicker: the mean change of a pixel from frame to frame against the "
+    note = (f"{_turning_note(s)}; flicker: the mean change of a pixel from frame to frame against the "
             f"reference's own change; the steadiest entries: {', '.join(steadiest)}.")
     return Measured(values, note=note)
 
