@@ -124,6 +124,8 @@ def test_bad_sequences_are_refused_naming_the_argument(columns):
         ss.sequence(columns, frames=0)
     with pytest.raises(ValueError, match=r"light_path: expected shape \(3, 3\)"):
         ss.sequence(columns, frames=3, light_path=np.zeros((4, 3)))
+    with pytest.raises(ValueError, match=r"camera_path: expected a scenes.Orbit, a scenes.Slide or positions of shape \(3, 3\)"):
+        ss.sequence(columns, frames=3, camera_path="orbit")
     with pytest.raises(ValueError, match=r"moving: no single mesh 'pillars'; the scene's meshes are \['ground', 'columns'\]"):
         ss.sequence(columns, moving={"pillars": Slide((1, 0, 0))})
     with pytest.raises(ValueError, match="axis"):

@@ -437,7 +437,7 @@ def evaluate_sequence(
         ``ssim``, ``flip``, ``rmse.umbra``, ``rmse.penumbra``, ``rmse.lit``; a region over the
         frames that have it), ``temporal.std`` and ``temporal.flicker`` (NaN with fewer than two
         frames or when a frame was refused), ``seconds`` (the mean per frame, accumulation
-        included) and ``error`` (the first frame's refusal, as in :func:`evaluate`).
+        included) and ``error`` (the first refusal, as in :func:`evaluate`).
         ``frame.attrs["frames"]`` holds one row per sequence, method and frame, as
         :func:`evaluate`'s rows (``frame`` is its index; its stats as ``stats.<name>``), with
         the frame's ``flicker`` against the frame before it (NaN in the first).
@@ -474,9 +474,10 @@ def evaluate_sequence(
         for case in run_all(_sequence_case, [(setup, size, samples, reference_samples) for s in sequences for setup in s]):
             cases.append(case)
             bar.update()
-        starts = np.cumsum([0] + [len(s) for s in sequences])
-        tasks = [(s.name, label, entry, cases[a:b], options.get(label, {}), keep_images)
-                 for s, a, b in zip(sequences, starts[:-1], starts[1:]) for label, entry in entries.items()]
+        bounds = np.cumsum([0] + [len(s) for s in sequences])
+        framed = [(s.name, cases[a:b]) for s, a, b in zip(sequences, bounds[:-1], bounds[1:])]
+        tasks = [(name, label, entry, frames_of, options.get(label, {}), keep_images)
+                 for name, frames_of in framed for label, entry in entries.items()]
         results = []
         if executor is None:  # in this process: the bar moves frame by frame
             for task in tasks:
@@ -490,8 +491,7 @@ def evaluate_sequence(
     summary = pd.DataFrame([row for row, _, _ in results])
     summary.attrs["frames"] = pd.DataFrame([r for _, rows, _ in results for r in rows])
     if keep_images:
-        summary.attrs["images"] = {s.name: _kept_images(s.name, cases[a:b], results)
-                                   for s, a, b in zip(sequences, starts[:-1], starts[1:])}
+        summary.attrs["images"] = {name: _kept_images(name, frames_of, results) for name, frames_of in framed}
     summary.attrs["setup"] = {"size": size, "samples": samples, "reference": f"mitsuba ray_test, {reference_samples} Sobol samples"}
     return summary
 
@@ -508,8 +508,10 @@ def _sequence_runs(task, tick=None) -> tuple:
     ``tick()`` after each frame."""
     from . import metrics
 
+    from .temporal import History
+
     name, label, entry, cases, options, keep = task
-    histories = _histories(entry)
+    histories = {"method": History(), "accumulated": History()}  # the entry's state over the sequence
     records, images = [], []
     for index, case in enumerate(cases):
         record, vis = entry._frame(case, index, options, histories)
@@ -529,15 +531,6 @@ def _sequence_runs(task, tick=None) -> tuple:
            **{k: _mean(r[k] for r in records) for k in metrics.SUMMARY_KEYS}, **temporal,
            "seconds": _mean(r["seconds"] for r in records), "error": errors[0] if errors else None}
     return row, records, np.stack(images) if keep and not errors else None
-
-
-def _histories(entry) -> dict:
-    """A fresh state of ``entry`` for one sequence: the method's own History, the accumulation's."""
-    if not (entry.history or entry.accumulate is not False):
-        return {}
-    from .temporal import History
-
-    return {"method": History(), "accumulated": History()}
 
 
 def _mean(values) -> float:

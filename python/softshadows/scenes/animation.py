@@ -220,6 +220,9 @@ def _moves(argument: str, path, times, *, anchor, pivot) -> list | None:
         return None
     if isinstance(path, (Orbit, Slide)):
         return [path.matrix(t, pivot) for t in times]
+    if isinstance(path, (str, bytes)) or not hasattr(path, "__len__"):
+        raise ValueError(f"{argument}: expected a scenes.Orbit, a scenes.Slide or positions of shape ({len(times)}, 3), "
+                         f"got {path!r}")
     positions = _v.array(argument, path, np.float64, (len(times), 3))
     return [_rigid(np.eye(3), p - np.asarray(anchor, np.float64)) for p in positions]
 
