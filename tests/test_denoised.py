@@ -93,7 +93,7 @@ def test_explicit_receivers_are_refused_with_advice(columns):
 
 
 @pytest.mark.parametrize("option, value", [("spp", 0), ("spp", 5000), ("max_radius", 300), ("sigma_n", 0.0),
-                                           ("epsilon", -1.0), ("alpha", 1.5)])
+                                           ("epsilon", -1.0), ("alpha", 1.5), ("frame", 2**32)])
 def test_bad_options_are_named(columns, option, value):
     setup, gb, _ = columns
     history = ss.History() if option == "alpha" else None

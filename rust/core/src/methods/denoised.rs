@@ -151,6 +151,17 @@ impl DenoisedOptions {
                 ));
             }
         }
+        let spp = self.spp as u64;
+        let end = self.frame.checked_mul(spp).and_then(|f| f.checked_add(spp));
+        if end.is_none_or(|e| e > u64::from(u32::MAX)) {
+            return Err(Error::invalid(
+                "frame",
+                format!(
+                    "frame {} of {spp} rays per pixel runs past the 2^32 points of a pixel's sequence",
+                    self.frame
+                ),
+            ));
+        }
         if let Some(t) = &self.temporal {
             t.validate()?;
         }
@@ -200,10 +211,11 @@ pub fn denoised(
     }
     let n = receivers.len() as u64;
     let mut stats = Stats::declared(STATS);
-    // Traced pixels (12 bytes), the search's and the filter's two passes of pairs (4 x 8), the
-    // radii, the accumulation and its lengths, and the output (4 x 4).
+    // Per receiver while the filter runs: its rays (16 bytes), world size, mean blocker and
+    // standard deviation (12), the accumulation and its lengths (8), the filter's input pairs and
+    // two passes, each collected from (pair, taps) tuples (8 + 2 x 24), and the output (4).
     Peak::default()
-        .buffer(&[n, 60])
+        .buffer(&[n, 96])
         .check("denoised", &mut stats)?;
     let taps = 2 * (2 * (opts.search_radius + opts.max_radius) as u64 + 2);
     Work::default()
@@ -277,16 +289,7 @@ fn trace(
 ) -> Result<Vec<Traced>> {
     let warp = light.emission_warp();
     let dim = light.dim();
-    let first = opts.frame.saturating_mul(opts.spp as u64);
-    if first + opts.spp as u64 > u64::from(u32::MAX) {
-        return Err(Error::invalid(
-            "frame",
-            format!(
-                "frame {} of {} rays per pixel runs past the 2^32 points of a pixel's sequence",
-                opts.frame, opts.spp
-            ),
-        ));
-    }
+    let first = opts.frame * opts.spp as u64;
     interrupt::par_map(receivers.len(), opts.spp as u64 * Work::RAY, |i| {
         if !receivers.valid[i] {
             return Traced::default();
