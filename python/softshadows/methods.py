@@ -960,6 +960,7 @@ def alias_free(
     lut="auto",
     hull_degree: int = 6,
     restrict_to_penumbra: bool = True,
+    cut_at_supporting_plane: bool = True,
     pattern: str = "poisson",
     seed: int = 0,
     rotate: str | None = None,
@@ -1040,8 +1041,14 @@ def alias_free(
         Section 4.3's restriction: only receivers inside the influence region of an edge that is
         a silhouette from some point of the light (or of a perforated caster) test every light
         sample; every other receiver sees all of the light or none of it, and one test against
-        the light's center decides. The result is the same; the cost is lower when penumbrae
-        cover a small part of the map.
+        the light's center decides, tested only against the casters whose projection from the
+        center covers its texel (the paper's hard-shadow test there). The result is the same;
+        the cost is lower when penumbrae cover a small part of the map.
+    cut_at_supporting_plane : bool
+        Section 4.3's cut of each caster's influence region at the triangle's supporting plane:
+        where every light sample lies on one side of a triangle's plane, only receivers on the
+        other side (or within ``bias`` of it) can be shadowed by it, so the rest of its region
+        is not tested. The result is the same.
     pattern, seed, frame
         Choice of ``samples=n`` light samples, as in ``ray_traced``.
     rotate : {None, "per_receiver"}
@@ -1087,6 +1094,7 @@ def alias_free(
         _lut(lut),
         v.positive_int("hull_degree", hull_degree),
         v.flag("restrict_to_penumbra", restrict_to_penumbra),
+        v.flag("cut_at_supporting_plane", cut_at_supporting_plane),
         resolve_backend(backend, "alias_free"),
     )
     return _finish(receivers, out, return_stats)

@@ -345,8 +345,8 @@ fn blocks_point(t: Caster, p: vec3<f64>, y: vec3<f64>) -> bool {
     return true;
 }
 
-// How many of the first n boundaries a predicate true on a prefix holds for, by alias_free.rs
-// leading_true's binary search: polar boundaries (kind 0) or azimuth boundaries (kind 1).
+// How many of the first n boundaries a predicate true on a prefix holds for, by binary search (the
+// count that alias_free/tables.rs's count_from finds from its guides): polar boundaries (kind 0) or azimuth boundaries (kind 1).
 fn leading_true(n: u32, kind: u32, u: vec3<f64>) -> u32 {
     var lo = 0u;
     var hi = n;
@@ -371,7 +371,7 @@ fn theta_at() -> u32 {
     return SAMPLES_AT + 3u * params.samples;
 }
 
-// Lut::phi_bin's predicate for boundary k.
+// PlaneBins::phi_bin's predicate for boundary k.
 fn phi_reached(k: u32, u: vec3<f64>) -> bool {
     let upper = u.y > 0.0lf || (u.y == 0.0lf && u.x > 0.0lf);
     let bound_upper = 2u * (k + 1u) < params.bins;
@@ -382,7 +382,7 @@ fn phi_reached(k: u32, u: vec3<f64>) -> bool {
     return light[at] * u.y - light[at + 1u] * u.x >= 0.0lf;
 }
 
-// Planes::and_below: ANDs into `mask` the (rotated) samples with m · y < k.
+// Planes::below_all, one plane: ANDs into `mask` the (rotated) samples with m · y < k.
 fn and_below(v: u32, m_in: vec3<f64>, k_in: f64, mask: ptr<function, array<u32, MAX_WORDS>>) {
     var m = m_in;
     var k = k_in;
@@ -404,7 +404,7 @@ fn and_below(v: u32, m_in: vec3<f64>, k_in: f64, mask: ptr<function, array<u32, 
         }
         return;
     }
-    // Lut::lookup.
+    // Lut::lookup (PlaneBins::locate).
     let len = sqrt(dot_d(m, m));
     let u = m / len;
     let d = (k / len - dot_d(m / len, c)) / light[4u];
