@@ -101,14 +101,18 @@ pub(crate) use tables::{BracketTable, Lut};
 pub const MAX_SAMPLES: usize = 1024;
 
 /// The widest light the lookup table serves a view sample: the radius of the samples' bounding
-/// sphere over the view sample's distance from the light's center (a cone of 60 degrees). The
+/// sphere over the view sample's distance from the light's center (a cone of 47 degrees). The
 /// table's bins are angles and distances relative to the light (Sintorn et al. 2008, Sample
 /// Based Visibility for Soft Shadows using Alias-free Shadow Maps, section 4.2), so the light
 /// points a binned plane puts on the wrong side span a fixed part of the light, which looks the
 /// wider the nearer the light, while the casters' shadows on it do not grow. Farther from the
 /// light than this, a view sample reads its planes from the table; nearer, it tests them exactly.
-/// The built-in scenes' default lights stay below 0.36.
-pub const TABLE_MAX_SPREAD: f64 = 0.5;
+/// The built-in scenes' default lights stay below 0.36. (At 0.5, a sphere light of radius 1.16
+/// over a small closed sphere, 32 samples, put the table's mean error on the ground at 0.011:
+/// the binned planes of a triangle smaller than a bin in light space form a triangle of about a
+/// bin's size, empty half the time and larger than the true one otherwise, so the table darkens,
+/// the more the wider the light looks.)
+pub const TABLE_MAX_SPREAD: f64 = 0.4;
 
 /// The fewest view samples for which the exact tests build a [`BracketTable`] (a few
 /// milliseconds of work); fewer test every sample against every plane.
@@ -142,13 +146,14 @@ impl TableSize {
 
 /// Bins per parameter of the table for `samples` light samples (Sintorn et al. 2008, section
 /// 4.3: the table's size is chosen relative to the number of samples, to keep its
-/// discretization error down): 8 sqrt(S) rounded up to a multiple of 8, from 32 to 128, and as
-/// many as [`TABLE_BUDGET_BYTES`] hold (S = 16, 64, 128, 256, 512, 1024: 32, 64, 96, 128, 96 and
-/// 80 bins). A bin's width in angle and in distance then stays near the samples' spacing on the
-/// light (its extent over sqrt(S)), up to the budget.
+/// discretization error down, "typically 64^3"): 8 sqrt(S) rounded up to a multiple of 8, from
+/// the paper's 64 to 128, and as many as [`TABLE_BUDGET_BYTES`] hold (S = 16, 64, 128, 256, 512,
+/// 1024: 64, 64, 96, 128, 96 and 80 bins). A bin's width in angle and in distance then stays near
+/// the samples' spacing on the light (its extent over sqrt(S)), up to the budget, and no wider
+/// than the paper's.
 pub fn table_bins_for(samples: usize) -> usize {
     let words = samples.div_ceil(64).max(1) as u64;
-    let wanted = ((8.0 * (samples.max(1) as f64).sqrt() / 8.0).ceil() as usize * 8).clamp(32, 128);
+    let wanted = ((8.0 * (samples.max(1) as f64).sqrt() / 8.0).ceil() as usize * 8).clamp(64, 128);
     let fits = |bins: usize| (bins as u64).pow(3) * words * 8 <= TABLE_BUDGET_BYTES;
     (8..=wanted)
         .rev()
@@ -677,7 +682,7 @@ impl SampleMasks {
 /// The memory of [`sample_masks`] for `receivers` receivers and `samples` light samples: per
 /// receiver its bitmask, its list entry's and its view sample's (or the GPU's, read back), its
 /// view sample and point, and the lists; per caster its set-up, influence region and band bins;
-/// the lookup table; the penumbra flags and the silhouettes. (The row spans of the penumbra
+/// the lookup table and, on the CPU, the bracketing table; the penumbra flags and the silhouettes. (The row spans of the penumbra
 /// regions, transient, are left out.)
 pub(crate) fn masks_peak(
     scene: &Scene,
@@ -697,6 +702,11 @@ pub(crate) fn masks_peak(
     let lut = opts.lut.bins(samples).map_or(Peak::default(), |bins| {
         Peak::default().buffer(&[bins as u64, bins as u64, bins as u64, words, 8])
     });
+    let bracket_bins = BracketTable::bins_for(words as usize) as u64;
+    let brackets = match opts.backend {
+        Backend::Cpu => Peak::default().buffer(&[bracket_bins.pow(3), 2 * words, 8]),
+        Backend::Gpu => Peak::default(),
+    };
     let penumbra = if opts.restrict_to_penumbra {
         Peak::default().buffer(&[res, res]).and(edges_peak(scene))
     } else {
@@ -708,6 +718,7 @@ pub(crate) fn masks_peak(
         .and(ReceiverLists::peak(receivers, opts.resolution))
         .buffer(&[scene.num_faces() as u64, per_caster])
         .and(lut)
+        .and(brackets)
         .and(penumbra)
 }
 
@@ -823,16 +834,19 @@ pub(crate) fn sample_masks(
         _ => None,
     };
     stats.set("lut_bins", lut.as_ref().map_or(0.0, |t| t.grid.bins as f64));
-    // The exact tests read a bracketing table when there are enough tests to repay its build.
-    let brackets = match table_bins {
-        None if light_samples.points.len() > 1
-            && extent > 0.0
-            && opts.backend == Backend::Cpu
-            && view.len() >= BRACKETS_MIN_VIEW_SAMPLES =>
-        {
-            Some(BracketTable::new(&light_samples, center, extent)?)
-        }
-        _ => None,
+    // The exact tests read a bracketing table when there are enough of them to repay its build.
+    let exactly_tested = if table_bins.is_some() {
+        exact_views
+    } else {
+        view.len()
+    };
+    let brackets = match exactly_tested >= BRACKETS_MIN_VIEW_SAMPLES
+        && light_samples.points.len() > 1
+        && extent > 0.0
+        && opts.backend == Backend::Cpu
+    {
+        true => Some(BracketTable::new(&light_samples, center, extent)?),
+        false => None,
     };
     let setup = TexelTests {
         scene,
@@ -1539,7 +1553,7 @@ mod tests {
         let bins: Vec<usize> = [1, 16, 64, 128, 256, 512, 1024]
             .map(table_bins_for)
             .to_vec();
-        assert_eq!(bins, [32, 32, 64, 96, 128, 96, 80]);
+        assert_eq!(bins, [64, 64, 64, 96, 128, 96, 80]);
         for s in 1..=MAX_SAMPLES {
             let b = table_bins_for(s) as u64;
             assert!(
