@@ -404,10 +404,10 @@ fn and_below(v: u32, m_in: vec3<f64>, k_in: f64, mask: ptr<function, array<u32, 
         }
         return;
     }
-    // Lut::lookup (PlaneBins::locate).
-    let len = sqrt(dot_d(m, m));
-    let u = m / len;
-    let d = (k / len - dot_d(m / len, c)) / light[4u];
+    // Lut::lookup (PlaneBins::locate): one reciprocal of the normal's length, as on the CPU.
+    let inv = 1.0lf / sqrt(dot_d(m, m));
+    let u = m * inv;
+    let d = (k * inv - dot_d(u, c)) * (1.0lf / light[4u]);
     if (!(d >= -1.0lf && d < 1.0lf)) {
         if (dot_d(m, c) >= k) {
             for (var w = 0u; w < params.words; w++) {
@@ -437,7 +437,7 @@ fn blocked_by(t: Caster, v: u32, p: vec3<f64>, mask: ptr<function, array<u32, MA
     var straddling: array<bool, 4>;
     for (var k = 0u; k < 4u; k++) {
         let m = planes.m[k];
-        let distance = (planes.k[k] - dot_d(m, c)) / sqrt(dot_d(m, m));
+        let distance = (planes.k[k] - dot_d(m, c)) * (1.0lf / sqrt(dot_d(m, m)));
         if (distance < -radius) {
             return false;
         }

@@ -287,14 +287,18 @@ struct Planes<'a> {
 }
 
 impl Planes<'_> {
-    /// The plane `(m, k)` for the unrotated samples.
-    fn unrotated(&self, (m, k): (DVec3, f64)) -> (DVec3, f64) {
+    /// The plane `(m, k)` (`inv = 1 / |m|`) for the unrotated samples, with its `1 / |m|`.
+    fn unrotated(&self, (m, k, inv): Plane) -> Plane {
         match self.rotation {
             Some(rt) => {
                 let r = rt * m;
-                (r, k - m.dot(self.center) + r.dot(self.center))
+                (
+                    r,
+                    k - m.dot(self.center) + r.dot(self.center),
+                    1.0 / r.length(),
+                )
             }
-            None => (m, k),
+            None => (m, k, inv),
         }
     }
 
@@ -304,7 +308,7 @@ impl Planes<'_> {
     #[allow(clippy::too_many_arguments)]
     fn below_all(
         &self,
-        planes: &[(DVec3, f64)],
+        planes: &[Plane],
         full: &[u64],
         out: &mut [u64],
         scratch: &mut [u64],
@@ -318,9 +322,9 @@ impl Planes<'_> {
             // megabytes) overlap.
             let mut entries: [&[u64]; 4] = [&[]; 4];
             let mut found = 0;
-            for &(m, k) in planes {
+            for &(m, k, inv) in planes {
                 *ops += 1;
-                match lut.lookup(m, k) {
+                match lut.lookup(m, k, inv) {
                     Some(table) => {
                         entries[found] = table;
                         found += 1;
@@ -337,9 +341,9 @@ impl Planes<'_> {
         // Exact: `out` gathers the samples some planes may put below all of them, `sure` those
         // every plane does; the rest of `out` is tested against every plane, sample by sample.
         sure.copy_from_slice(full);
-        for &(m, k) in planes {
+        for &(m, k, inv) in planes {
             *ops += 1;
-            match self.brackets.and_then(|b| b.lookup(m, k)) {
+            match self.brackets.and_then(|b| b.lookup(m, k, inv)) {
                 Some((below, unsure)) => {
                     and_into(sure, below);
                     out.iter_mut()
@@ -363,7 +367,7 @@ impl Planes<'_> {
                 let bit = unsure.trailing_zeros() as usize;
                 unsure &= unsure - 1;
                 let y = self.samples.points[w * 64 + bit];
-                if planes.iter().all(|&(m, k)| m.dot(y) < k) {
+                if planes.iter().all(|&(m, k, _)| m.dot(y) < k) {
                     *word |= 1 << bit;
                 }
             }
@@ -371,6 +375,9 @@ impl Planes<'_> {
         out.iter().any(|w| *w != 0)
     }
 }
+
+/// A plane `m · y < k` and `1 / |m|`.
+type Plane = (DVec3, f64, f64);
 
 /// `a &= b`, word by word.
 fn and_into(a: &mut [u64], b: &[u64]) {
@@ -472,15 +479,16 @@ fn blocked_by(
     };
     // The light's bounding sphere decides most planes without looking at a sample: wholly above a
     // plane, nothing is blocked; wholly below, the plane removes nothing.
-    let mut straddling = [(DVec3::ZERO, 0.0); 4];
+    let mut straddling = [(DVec3::ZERO, 0.0, 0.0); 4];
     let mut count = 0;
     for (m, bound) in bounds {
-        let distance = (bound - m.dot(planes.center)) / m.length();
+        let inv = 1.0 / m.length();
+        let distance = (bound - m.dot(planes.center)) * inv;
         if distance < -planes.radius {
             return false;
         }
         if distance <= planes.radius {
-            straddling[count] = planes.unrotated((m, bound));
+            straddling[count] = planes.unrotated((m, bound, inv));
             count += 1;
         }
     }
@@ -1261,7 +1269,8 @@ impl CasterSet {
                         front_only: front_only(id),
                         culled,
                         near_depth,
-                        center_distance: (normal.dot(v[0]) - normal.dot(center)) / normal.length(),
+                        center_distance: (normal.dot(v[0]) - normal.dot(center))
+                            * (1.0 / normal.length()),
                     }
                 },
             )

@@ -181,13 +181,11 @@ impl PlaneBins {
     }
 
     /// The bin of the plane `m · y < k` (flat index `(i · bins + j) · bins + k`), or `None` when
-    /// it misses the light (its distance from the center is `extent` or more).
-    fn locate(&self, m: DVec3, k: f64) -> Option<usize> {
-        let len = m.length();
-        let (u, d) = (
-            m / len,
-            (k / len - (m / len).dot(self.center)) / self.extent,
-        );
+    /// it misses the light (its distance from the center is `extent` or more); `inv` is
+    /// `1 / |m|` (the shader's arithmetic, one division and one square root per plane).
+    fn locate(&self, m: DVec3, k: f64, inv: f64) -> Option<usize> {
+        let u = m * inv;
+        let d = (k * inv - u.dot(self.center)) * (1.0 / self.extent);
         if !(-1.0..1.0).contains(&d) {
             return None;
         }
@@ -282,10 +280,10 @@ impl Lut {
         Ok(Self { grid, words, masks })
     }
 
-    /// The mask of samples with `m · y < k`, or `None` when the plane misses the light (all or
-    /// none of it behind: the caller decides by the center).
-    pub(crate) fn lookup(&self, m: DVec3, k: f64) -> Option<&[u64]> {
-        let at = self.grid.locate(m, k)? * self.words;
+    /// The mask of samples with `m · y < k` (`inv = 1 / |m|`), or `None` when the plane misses
+    /// the light (all or none of it behind: the caller decides by the center).
+    pub(crate) fn lookup(&self, m: DVec3, k: f64, inv: f64) -> Option<&[u64]> {
+        let at = self.grid.locate(m, k, inv)? * self.words;
         Some(&self.masks[at..at + self.words])
     }
 }
@@ -362,15 +360,16 @@ impl BracketTable {
         Ok(Self { grid, words, masks })
     }
 
-    /// The `(sure, unsure)` masks of the plane `m · y < k`'s bin, or `None` when the plane misses
-    /// the table's span or its round-off could exceed the margin (test every sample then).
-    pub(crate) fn lookup(&self, m: DVec3, k: f64) -> Option<(&[u64], &[u64])> {
+    /// The `(sure, unsure)` masks of the plane `m · y < k`'s bin (`inv = 1 / |m|`), or `None`
+    /// when the plane misses the table's span or its round-off could exceed the margin (test
+    /// every sample then).
+    pub(crate) fn lookup(&self, m: DVec3, k: f64, inv: f64) -> Option<(&[u64], &[u64])> {
         let g = &self.grid;
-        let round_off = 1e-9 * (k.abs() / m.length() + g.center.length() + g.extent);
+        let round_off = 1e-9 * (k.abs() * inv + g.center.length() + g.extent);
         if round_off > 0.25 * SURE_MARGIN * g.extent {
             return None;
         }
-        let at = g.locate(m, k)? * 2 * self.words;
+        let at = g.locate(m, k, inv)? * 2 * self.words;
         let run = &self.masks[at..at + 2 * self.words];
         Some(run.split_at(self.words))
     }
@@ -539,7 +538,7 @@ mod tests {
             let (mut looked_up, mut unsure) = (0, 0);
             for (m, k) in planes(center, &mut rng) {
                 let truth = exact(&light, m, k);
-                let Some((sure, maybe)) = table.lookup(m, k) else {
+                let Some((sure, maybe)) = table.lookup(m, k, 1.0 / m.length()) else {
                     continue;
                 };
                 looked_up += 1;
@@ -570,8 +569,12 @@ mod tests {
         let light = samples(64, DVec3::ZERO, &mut rng);
         let table = BracketTable::new(&light, DVec3::ZERO, 1.0)?;
         let m = DVec3::new(0.0, 1.0, 1e-3);
-        assert!(table.lookup(m, m.dot(DVec3::new(0.0, 0.1, 0.0))).is_some());
-        assert!(table.lookup(m, m.dot(DVec3::new(0.0, 0.1, 1e9))).is_none());
+        assert!(table
+            .lookup(m, m.dot(DVec3::new(0.0, 0.1, 0.0)), 1.0 / m.length())
+            .is_some());
+        assert!(table
+            .lookup(m, m.dot(DVec3::new(0.0, 0.1, 1e9)), 1.0 / m.length())
+            .is_none());
         assert_eq!(BracketTable::bins_for(4), 64);
         assert_eq!(BracketTable::bins_for(16), 48);
         Ok(())
