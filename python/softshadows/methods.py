@@ -1048,13 +1048,18 @@ def alias_free(
         a silhouette from some point of the light (or of a perforated caster) test every light
         sample; every other receiver sees all of the light or none of it, and one test against
         the light's center decides, tested only against the casters whose projection from the
-        center covers its texel (the paper's hard-shadow test there). The result is the same;
-        the cost is lower when penumbrae cover a small part of the map.
+        center covers its texel (the paper's hard-shadow test there). The result is the same.
+        On the CPU the pairs tested hardly change (the columns and the torus knot at 96^2, 256
+        samples: within 0.03%): a receiver in umbra stops testing once its mask is full, and lit
+        receivers seldom lie in an influence region, while finding the silhouettes costs time.
     cut_at_supporting_plane : bool
         Section 4.3's cut of each caster's influence region at the triangle's supporting plane:
         where every light sample lies on one side of a triangle's plane, only receivers on the
-        other side (or within ``bias`` of it) can be shadowed by it, so the rest of its region
-        is not tested. The result is the same.
+        other side (or within ``bias`` of it) can be shadowed by it, and a closed mesh's light
+        back-facing triangle only receivers in front of it, so the rest of its region is not
+        tested. The result is the same. The cut is a half-plane on the light's list map, where
+        a ray holds receivers at many depths: about 3% fewer pairs on the columns and the torus
+        knot.
     pattern, seed, frame
         Choice of ``samples=n`` light samples, as in ``ray_traced``.
     rotate : {None, "per_receiver"}
