@@ -290,5 +290,6 @@ def alias_free(
     lut: int | None,
     hull_degree: int,
     restrict_to_penumbra: bool,
+    cut_at_supporting_plane: bool,
     backend: str,
 ) -> tuple[_F32, dict[str, float]]: ...

@@ -393,6 +393,7 @@ fn alias_free<'py>(
     lut: Option<LutArg>,
     hull_degree: usize,
     restrict_to_penumbra: bool,
+    cut_at_supporting_plane: bool,
     backend: Spelling<Backend>,
 ) -> PyResult<Output<'py>> {
     let lut = match lut {
@@ -409,6 +410,7 @@ fn alias_free<'py>(
         lut,
         hull_degree,
         restrict_to_penumbra,
+        cut_at_supporting_plane,
         backend: backend.0,
     };
     let out = crate::threads::detached(py, || {
