@@ -412,8 +412,8 @@ def mitsuba_visibility(scene: Scene, light, receivers, samples, *, epsilon: floa
         if hit is not None:
             return hit
     tracer = _tracer(scene)
-    vis = np.zeros(len(points), np.float32)
-    vis[mask] = _visibility(tracer, points[mask], normals[mask], pts, eps, weights, progress)
+    vis = np.zeros(len(mask), np.float32)
+    vis[mask] = _visibility(tracer, points, normals, pts, eps, weights, progress)
     vis = vis.reshape(rx.shape)
     if key is not None:
         _cache_write(key, vis)
@@ -427,18 +427,17 @@ def _light_samples(light, samples) -> np.ndarray:
 
 
 def _receiver_arrays(rx):
+    """The hit receivers' points and unit normals, float64 (K, 3) each, and the hit mask."""
     flat = rx._flat()
-    points = np.asarray(flat.points, np.float64)
-    normals = np.array(flat.normals, np.float64)  # a copy: normalized in place below
     mask = np.array(flat.mask, bool)
-    if mask.any():
-        if not np.all(np.isfinite(points[mask])):
-            raise ValueError("receivers: positions of hit pixels contain NaN or Inf")
-        lengths = np.linalg.norm(normals[mask], axis=1)
-        if not np.all(np.isfinite(lengths) & (lengths > 0)):
-            raise ValueError("receivers: normals of hit pixels must be finite and non-zero")
-    normals[mask] /= np.linalg.norm(normals[mask], axis=1, keepdims=True)
-    return points, normals, mask
+    points = np.asarray(flat.points[mask], np.float64)
+    normals = np.asarray(flat.normals[mask], np.float64)
+    if not np.all(np.isfinite(points)):
+        raise ValueError("receivers: positions of hit pixels contain NaN or Inf")
+    lengths = np.linalg.norm(normals, axis=1, keepdims=True)
+    if not np.all(np.isfinite(lengths) & (lengths > 0)):
+        raise ValueError("receivers: normals of hit pixels must be finite and non-zero")
+    return points, normals / lengths, mask
 
 
 def _visibility(tracer, points, normals, samples, eps, weights, progress) -> np.ndarray:
