@@ -530,7 +530,7 @@ def test_rays_built_in_drjit_are_the_numpy_rays_bit_for_bit(scale):
     np.testing.assert_array_equal(np.asarray(rays.maxt)[ray], maxt.astype(np.float32))
 
 
-def test_counts_in_the_kernel_equal_the_per_ray_answers():
+def test_counts_in_the_kernel_equal_the_per_ray_answers(monkeypatch):
     blocker = quad([0.2, 0.1, 0.9], [0.5, 0, 0], [0, 0.4, 0])
     tracer = vectorized_tracer(Scene([GROUND, blocker]))
     assert tracer.counts_in_kernel
@@ -538,6 +538,10 @@ def test_counts_in_the_kernel_equal_the_per_ray_answers():
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
     ys = light_samples(24)
     visible = tracer.visible(pts, normals, ys, 1e-4)
+    np.testing.assert_array_equal(tracer.lit_counts(pts, normals, ys, 1e-4), visible.sum(axis=1))
+    # Past a few blocks of lanes per thread every receiver gets a lane of its own: same counts.
+    assert len(pts) < tracer.lanes_per_receiver_min
+    monkeypatch.setattr(tracer, "lanes_per_receiver_min", len(pts))
     np.testing.assert_array_equal(tracer.lit_counts(pts, normals, ys, 1e-4), visible.sum(axis=1))
     per_receiver = visible.mean(axis=1)
     assert np.mean((per_receiver > 0) & (per_receiver < 1)) > 0.1  # penumbrae: the order of the rays matters

@@ -46,7 +46,8 @@ Choices made here (where the design is silent)
   receiver and sample, so that their set-up fuses into the kernel of ``ray_test`` (same float64
   arithmetic as the numpy set-up of ``scalar_rgb``, so the same rays), and without perforated
   meshes or an emission texture each receiver's clear rays are counted there too: no per-ray
-  array reaches Python. The Mitsuba scenes of a softshadows scene are loaded once and kept
+  array reaches Python (with enough receivers to keep every thread busy, each gets a lane that
+  loops over the samples, so nothing per ray is stored). The Mitsuba scenes of a softshadows scene are loaded once and kept
   with it (a weak reference, per variant): loading builds Embree's BVH, 0.3 s for the bunny.
 * **Perforated meshes.** ``scene.ray_test`` treats a ``mask`` BSDF as opaque, so opaque meshes
   and perforated meshes go into two Mitsuba scenes: rays are first tested against the opaque one
@@ -99,6 +100,8 @@ CACHE_VERSION = 3
 MAX_ALPHA_STEPS = 64
 #: Rays per Mitsuba call: large enough to amortize the JIT, small enough for memory (~200 MB).
 RAYS_PER_CALL = 1 << 22
+#: Dr.Jit's LLVM backend hands a kernel's lanes to its threads in blocks of this many.
+_DRJIT_BLOCK = 16384
 #: Shadow segments stop this fraction of their length short of the light sample.
 _SEGMENT_SHRINK = 1e-6
 #: How far a ray steps past a transparent hit, in units of (1 + max|p|): 2-4 float32 ulps of
@@ -445,14 +448,16 @@ def _visibility(tracer, points, normals, samples, eps, weights, progress) -> np.
     from tqdm.auto import tqdm
 
     n_samples = len(samples)
-    per_batch = max(1, RAYS_PER_CALL // n_samples)
+    counted = weights is None and tracer.counts_in_kernel
+    # Counting keeps no array per ray: a batch may hold enough receivers for a lane each.
+    per_batch = max(1, RAYS_PER_CALL // n_samples, tracer.lanes_per_receiver_min if counted else 1)
     ys = samples.astype(np.float64)
     out = np.empty(len(points), np.float64)
     with tqdm(total=len(points) * n_samples, unit="ray", unit_scale=True, disable=None if progress else True,
               desc="mitsuba_visibility", leave=False) as bar:
         for k0 in range(0, len(points), per_batch):
             p, n = points[k0:k0 + per_batch], normals[k0:k0 + per_batch]
-            if weights is None and tracer.counts_in_kernel:
+            if counted:
                 out[k0:k0 + len(p)] = tracer.lit_counts(p, n, ys, eps) / n_samples
             else:
                 visible = tracer.visible(p, n, ys, eps)
@@ -506,6 +511,9 @@ class _Tracer:
                 self.alpha[self._shape_id(shape)] = scene.meshes[i].alpha >= 0.5
         #: Whether :meth:`lit_counts` serves: the visibility of every ray is known in the kernel.
         self.counts_in_kernel = self.dr is not None and self.perforated is None
+        #: Fewest receivers for which :meth:`lit_counts` gives each its own lane (four blocks of
+        #: lanes per thread keep the threads busy to the end).
+        self.lanes_per_receiver_min = 4 * _DRJIT_BLOCK * self.dr.thread_count() if self.dr is not None else 0
 
     def _load(self, scene, indices):
         if not indices:
@@ -519,9 +527,26 @@ class _Tracer:
 
     def lit_counts(self, p, n, ys, eps) -> np.ndarray:
         """Per receiver (points p (k, 3), unit normals n), how many of the samples ys (S, 3) it
-        sees; vectorized variants and scenes without perforated meshes only."""
-        clear = self.mi.UInt32(self._clear_rays(p, n, ys, eps))
-        return np.asarray(self.dr.block_sum(clear, len(ys), mode="evaluated"), np.int64)
+        sees; vectorized variants and scenes without perforated meshes only.
+
+        Many receivers get a lane each, which loops over the samples: a receiver is gathered
+        once, and no answer per ray is stored (6-10% less kernel time than a lane per ray for
+        the bunny at 512x512). Fewer would leave threads idle: then every ray gets its lane.
+        """
+        mi, dr = self.mi, self.dr
+        if len(p) < self.lanes_per_receiver_min:
+            return np.asarray(dr.block_sum(mi.UInt32(self._clear_rays(p, n, ys, eps)), len(ys), mode="evaluated"), np.int64)
+        point, normal = mi.Vector3d(p.T), mi.Vector3d(n.T)
+        origin = point + dr.opaque(mi.Float64, eps) * normal
+        targets, n_samples = mi.Float64(ys.ravel()), dr.opaque(mi.UInt32, len(ys))
+
+        def step(s, count):
+            front, rays = _shadow_ray(mi, dr, point, normal, origin, dr.gather(mi.Vector3d, targets, s))
+            return s + 1, count + mi.UInt32(front & ~self.opaque.ray_test(rays, front))
+
+        zeros = dr.zeros(mi.UInt32, len(p))
+        _, count = dr.while_loop((zeros, zeros), lambda s, count: s < n_samples, step)
+        return np.asarray(count, np.int64)
 
     def visible(self, p, n, ys, eps) -> np.ndarray:
         """(k, S) bool: whether sample ``ys[s]`` lies in front of receiver ``p[k]`` (unit normal
@@ -617,10 +642,16 @@ def _jit_rays(mi, dr, p, n, ys, eps):
     s = ray - k * n_samples
     point = dr.gather(mi.Vector3d, mi.Float64(p.ravel()), k)
     normal = dr.gather(mi.Vector3d, mi.Float64(n.ravel()), k)
-    target = dr.gather(mi.Vector3d, mi.Float64(ys.ravel()), s)
-    front = _dot(target - point, normal) > 0
     # Opaque, so that every scene's epsilon reuses one compiled kernel.
     origin = point + dr.opaque(mi.Float64, eps) * normal
+    return _shadow_ray(mi, dr, point, normal, origin, dr.gather(mi.Vector3d, mi.Float64(ys.ravel()), s))
+
+
+def _shadow_ray(mi, dr, point, normal, origin, target):
+    """Whether ``target`` lies in front of the tangent plane at ``point`` and the ``Ray3f``
+    segment from ``origin`` to it (Dr.Jit float64 vectors in, float32 ray out): the
+    arithmetic of :func:`_jit_rays`."""
+    front = _dot(target - point, normal) > 0
     d = target - origin
     dist = dr.sqrt(_dot(d, d))
     direction = d / dr.select(dist > 0, dist, 1.0)
