@@ -1,9 +1,13 @@
-"""Shadow-ray throughput: ``ray_traced`` against Mitsuba's ``ray_test`` and Embree (embreex).
+"""Shadow-ray throughput: ``ray_traced`` against Mitsuba's ``ray_test`` and Embree (embreex), and
+our Mitsuba reference ``mitsuba_visibility`` against the bare ``ray_test`` it wraps.
 
-All three trace the very same rays in one run, side by side: every hit pixel of the bunny scene
+All of them trace the very same rays in one run, side by side: every hit pixel of the bunny scene
 at 512x512 receivers times 64 shared Poisson light samples (the rays of docs/design.md section 3:
 origin p + eps n, ending just short of the sample; samples behind the tangent plane are not
-traced). It prints rays per second of each and the ratios, plus how often the three agree.
+traced). Each round runs every contender once, in turn, so that the machine's noise hits them
+alike; each one's fastest round counts. ``ray_test`` and embreex get the rays prebuilt, the other
+two build them from the receivers and samples. It prints rays per second of each and the ratios,
+plus how often the answers agree.
 
 Usage: ``python bench/shadow_rays.py [--size 512] [--samples 64] [--repeat 3]``
 """
@@ -32,24 +36,32 @@ def shadow_rays(gb, samples, eps):
     return o.astype(np.float32), (d / length[:, None]).astype(np.float32), (length * (1 - 1e-6)).astype(np.float32), front
 
 
-def best_of(repeat, fn):
-    """The fastest of ``repeat`` runs (seconds) and the last result."""
-    times, out = [], None
+def side_by_side(repeat, contenders):
+    """Runs every contender (name -> function) once per round for ``repeat`` rounds, in turn;
+    returns each one's fastest round (seconds) and its last result."""
+    seconds, results = {name: float("inf") for name in contenders}, {}
     for _ in range(repeat):
-        start = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - start)
-    return min(times), out
+        for name, fn in contenders.items():
+            start = time.perf_counter()
+            results[name] = fn()
+            seconds[name] = min(seconds[name], time.perf_counter() - start)
+    return seconds, results
 
 
-def ours(setup, gb, samples, eps, repeat):
-    seconds, (vis, stats) = best_of(
-        repeat, lambda: ss.ray_traced(setup.scene, setup.light, gb, samples=samples, epsilon=eps, return_stats=True)
-    )
-    return seconds, vis
+def ours(setup, gb, samples, eps):
+    return lambda: ss.ray_traced(setup.scene, setup.light, gb, samples=samples, epsilon=eps)
 
 
-def mitsuba(setup, o, d, maxt, repeat):
+def reference_visibility(setup, gb, samples, eps):
+    def trace():
+        return reference.mitsuba_visibility(setup.scene, setup.light, gb, samples, epsilon=eps, cache=False,
+                                            progress=False)
+
+    trace()  # the first call loads the Mitsuba scene (kept with the scene) and compiles the kernels
+    return trace
+
+
+def mitsuba(setup, o, d, maxt):
     mi = reference._mitsuba()
     desc = reference.mitsuba_scene(setup.scene, setup.light)
     desc.pop("light", None)
@@ -62,17 +74,17 @@ def mitsuba(setup, o, d, maxt, repeat):
         return np.array(hit, dtype=bool)
 
     trace()  # the first call compiles the kernel
-    return best_of(repeat, trace)
+    return trace
 
 
-def embree(setup, o, d, maxt, repeat):
+def embree(setup, o, d, maxt):
     from embreex import rtcore_scene as rtcs
     from embreex.mesh_construction import TriangleMesh
 
     escene = rtcs.EmbreeScene()
     tris = np.concatenate([m.vertices[m.faces] for m in setup.scene.meshes]).astype(np.float32)
     TriangleMesh(escene, tris)
-    return best_of(repeat, lambda: escene.run(o, d, query="OCCLUDED", dists=maxt) >= 0)
+    return lambda: escene.run(o, d, query="OCCLUDED", dists=maxt) >= 0
 
 
 def main(argv=None):
@@ -92,22 +104,28 @@ def main(argv=None):
     print(f"{args.scene}: {setup.scene.num_faces} triangles, {int(gb.mask.sum())} hit pixels x {args.samples} samples "
           f"= {rays} shadow rays; {os.cpu_count()} cores; Mitsuba variant {reference.variant()}")
 
-    t_ours, vis = ours(setup, gb, samples, eps, args.repeat)
-    t_mi, hit_mi = mitsuba(setup, o, d, maxt, args.repeat)
-    t_em, hit_em = embree(setup, o, d, maxt, args.repeat)
+    seconds, results = side_by_side(args.repeat, {
+        "ray_traced": ours(setup, gb, samples, eps),
+        "mitsuba ray_test": mitsuba(setup, o, d, maxt),
+        "mitsuba_visibility": reference_visibility(setup, gb, samples, eps),
+        "embreex (1 thread)": embree(setup, o, d, maxt),
+    })
 
     def visibility(hits):
         blocked = np.zeros(front.shape, dtype=bool)
         blocked[front] = hits
         return ((~blocked) & front).mean(axis=1)
 
-    for name, seconds in [("ray_traced", t_ours), ("mitsuba ray_test", t_mi), ("embreex (1 thread)", t_em)]:
-        print(f"  {name:<20} {rays / seconds / 1e6:8.2f} Mrays/s  ({seconds:.3f} s)")
-    print(f"  ratio ray_traced / mitsuba ray_test: {t_mi / t_ours:.2f}x")
-    print(f"  ratio ray_traced / embreex:          {t_em / t_ours:.2f}x")
-    ours_hit = vis[gb.mask]
-    print(f"  identical visibility: vs mitsuba {np.mean(ours_hit == visibility(hit_mi)):.4%} of pixels, "
-          f"vs embree {np.mean(ours_hit == visibility(hit_em)):.4%}")
+    for name, t in seconds.items():
+        print(f"  {name:<20} {rays / t / 1e6:8.2f} Mrays/s  ({t:.3f} s)")
+    t_mi = seconds["mitsuba ray_test"]
+    print(f"  ratio ray_traced / mitsuba ray_test:         {t_mi / seconds['ray_traced']:.2f}x")
+    print(f"  ratio ray_traced / embreex:                  {seconds['embreex (1 thread)'] / seconds['ray_traced']:.2f}x")
+    print(f"  ratio mitsuba_visibility / mitsuba ray_test: {t_mi / seconds['mitsuba_visibility']:.2f}x")
+    ours_hit = results["ray_traced"][gb.mask]
+    print(f"  identical visibility: vs mitsuba {np.mean(ours_hit == visibility(results['mitsuba ray_test'])):.4%} of pixels, "
+          f"vs embree {np.mean(ours_hit == visibility(results['embreex (1 thread)'])):.4%}, mitsuba_visibility vs "
+          f"mitsuba {np.mean(results['mitsuba_visibility'][gb.mask] == visibility(results['mitsuba ray_test'])):.4%}")
 
 
 if __name__ == "__main__":

@@ -14,7 +14,8 @@ SCOPE = ("python/softshadows", "rust", "notebooks", "docs", "README.md")
 #: Build outputs and fuzz corpora under rust/ are not documentation.
 SKIP_DIRS = {"target", "corpus", "artifacts", "__pycache__", ".ipynb_checkpoints"}
 
-SEED = re.compile(r"\bseeds? ?0\d\d\b", re.IGNORECASE)
+# The number may sit on the next comment line ("seed\n//! 004").
+SEED = re.compile(r"\bseeds?[\s/!#*]*0\d\d\b", re.IGNORECASE)
 # "DESIGN.md" in any case, except where it is the repository's own docs/design.md.
 OUTSIDE_DESIGN = re.compile(r"(?<!docs/)design\.md", re.IGNORECASE)
 

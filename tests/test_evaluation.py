@@ -95,8 +95,8 @@ def test_report_and_cached_references(cache, tmp_path, monkeypatch):
         assert (tmp_path / "report" / name).stat().st_size > 0
     # A second run reads the references from the cache: Mitsuba traces nothing again...
     calls = []
-    real = reference._Tracer
-    monkeypatch.setattr(reference, "_Tracer", lambda *a: calls.append(1) or real(*a))
+    real = reference._tracer
+    monkeypatch.setattr(reference, "_tracer", lambda *a: calls.append(1) or real(*a))
     again = ss.evaluate(["columns"], ["ray_traced", "pcss"], **kwargs)
     assert not calls and np.allclose(again["rmse"], frame["rmse"])
     # ... until an input changes.

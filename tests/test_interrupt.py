@@ -102,7 +102,8 @@ def test_a_mistyped_view_count_is_refused_before_any_map_is_drawn(tiny_setup):
         ss.mvr(st.scene, st.light, gb, samples=10**5, resolution=4096, pattern="sobol")
 
 
-METHODS_WITH_STATS = ["ray_traced", "shadow_map", "pcss", "cssm", "mvr", "vwss", "backprojection", "alias_free", "dcs", "stsv", "penumbra_wedge"]
+METHODS_WITH_STATS = ["ray_traced", "shadow_map", "pcss", "cssm", "mvr", "vwss", "backprojection", "alias_free", "dcs", "stsv",
+                      "penumbra_wedge", "denoised"]
 
 
 @pytest.mark.parametrize("method", METHODS_WITH_STATS)

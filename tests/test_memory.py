@@ -30,6 +30,8 @@ CASES = [
     ("backprojection", {"resolution": 128}),
     ("backprojection", {"resolution": 128, "occluder": "microrect", "accel": "mssm"}),
     ("backprojection", {"resolution": 128, "accel": "ysm", "ysm_resolution": 32}),
+    ("denoised", {}),
+    ("denoised", {"spp": 4, "max_radius": 64}),
 ]
 
 

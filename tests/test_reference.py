@@ -257,7 +257,7 @@ def test_cache_hit_returns_the_stored_array_without_tracing(cache_dir, monkeypat
     def fail(*args, **kwargs):
         raise AssertionError("a cache hit must not trace rays")
 
-    monkeypatch.setattr(reference, "_Tracer", fail)
+    monkeypatch.setattr(reference, "_tracer", fail)
     second = reference.mitsuba_visibility(scene, LIGHT, rx, light_samples(8))
     np.testing.assert_array_equal(second, first)
     assert second.shape == first.shape and second.dtype == first.dtype
@@ -351,7 +351,7 @@ def test_an_unwritable_cache_folder_fails_before_any_work(tmp_path, monkeypatch)
     def fail(*args, **kwargs):
         raise AssertionError("no reference may be computed before the cache folder is checked")
 
-    monkeypatch.setattr(reference, "_Tracer", fail)
+    monkeypatch.setattr(reference, "_tracer", fail)
     scene, rx, s = small_case()
     with pytest.raises(OSError, match=str(blocker)):
         reference.mitsuba_visibility(scene, LIGHT, rx, s)
@@ -461,7 +461,8 @@ from softshadows.lights import RectLight
 quad = lambda v, **kw: Mesh(v, [[0, 1, 2], [0, 2, 3]], **kw)
 scene = Scene([quad([[-2, -2, 0], [2, -2, 0], [2, 2, 0], [-2, 2, 0]]),
                quad([[-0.9, -0.8, 0.8], [0.9, -0.8, 0.8], [0.9, 0.8, 0.8], [-0.9, 0.8, 0.8]],
-                    uvs=[[0, 0], [2, 0], [2, 1], [0, 1]], alpha=np.array({a1}))])
+                    uvs=[[0, 0], [2, 0], [2, 1], [0, 1]], alpha=np.array({a1})),
+               quad([[-3, -3, 2.6], [3, -3, 2.6], [3, 3, 2.6], [-3, 3, 2.6]])])
 light = RectLight({LIGHT.center.tolist()}, {LIGHT.u.tolist()}, {LIGHT.v.tolist()})
 pts, normals, samples = (np.array(x) for x in json.loads(input()))
 vis = reference.mitsuba_visibility(scene, light, (pts, normals), samples, cache=False, progress=False)
@@ -476,7 +477,8 @@ print(json.dumps([reference.variant(), vis.tolist()]))
     used, scalar = json.loads(out.stdout.strip().splitlines()[-1])
     assert used == "scalar_rgb"
     fence = quad([0.0, 0.0, 0.8], [0.9, 0.0, 0.0], [0.0, 0.8, 0.0], uv_scale=(2.0, 1.0), alpha=np.array(a1))
-    scene = Scene([GROUND, fence])
+    ceiling = quad([0, 0, 2.6], [3, 0, 0], [0, 3, 0])  # beyond the light: blocks no segment
+    scene = Scene([GROUND, fence, ceiling])
     here = reference.mitsuba_visibility(scene, LIGHT, (pts, normals), samples, cache=False)
     np.testing.assert_array_equal(np.float32(scalar), here)
     assert 0 < here.mean() < 1
@@ -493,3 +495,79 @@ def test_rays_past_the_alpha_step_limit_count_as_blocked_with_a_warning(monkeypa
     with pytest.warns(RuntimeWarning, match="transparent texels"):
         limited = reference.mitsuba_visibility(scene, LIGHT, rx, samples, cache=False)
     np.testing.assert_array_equal(limited, 0)
+
+
+def vectorized_tracer(scene):
+    tracer = reference._tracer(scene)
+    if tracer.dr is None:
+        pytest.skip("needs the vectorized llvm_ad_rgb variant (install libllvm19)")
+    return tracer
+
+
+@pytest.mark.parametrize("scale", [1.0, 1e-3, 1e4])
+def test_rays_built_in_drjit_are_the_numpy_rays_bit_for_bit(scale):
+    # The kernel sets its rays up from the receivers and samples; the scalar variant (and the
+    # bench's bare ray_test) set them up in numpy. Same float64 operations, same float32 rays.
+    tracer = vectorized_tracer(Scene([GROUND]))
+    rng = np.random.default_rng(3)
+    p = rng.normal(size=(700, 3)) * scale
+    n = rng.normal(size=(700, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    ys = rng.normal(size=(33, 3)) * scale
+    ys[0] = p[0]  # a zero-length segment: a sample on the receiver
+    eps = 1e-4 * scale
+    front, rays = reference._jit_rays(tracer.mi, tracer.dr, p, n, ys, eps)
+    front = np.asarray(front, bool).reshape(len(p), len(ys))
+    expected = np.einsum("ksc,kc->ks", ys[None] - p[:, None], n) > 0
+    np.testing.assert_array_equal(front, expected)
+    assert 0.3 < front.mean() < 0.7
+    k, s = np.nonzero(front)
+    o = (p + eps * n)[k]
+    d, maxt = reference._segment(o, ys[s])
+    ray = k * len(ys) + s
+    np.testing.assert_array_equal(np.asarray(rays.o).T[ray], o.astype(np.float32))
+    np.testing.assert_array_equal(np.asarray(rays.d).T[ray], d.astype(np.float32))
+    np.testing.assert_array_equal(np.asarray(rays.maxt)[ray], maxt.astype(np.float32))
+
+
+def test_counts_in_the_kernel_equal_the_per_ray_answers(monkeypatch):
+    blocker = quad([0.2, 0.1, 0.9], [0.5, 0, 0], [0, 0.4, 0])
+    tracer = vectorized_tracer(Scene([GROUND, blocker]))
+    assert tracer.counts_in_kernel
+    pts, normals = ground_receivers(300)
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    ys = light_samples(24)
+    visible = tracer.visible(pts, normals, ys, 1e-4)
+    np.testing.assert_array_equal(tracer.lit_counts(pts, normals, ys, 1e-4), visible.sum(axis=1))
+    # Past a few blocks of lanes per thread every receiver gets a lane of its own: same counts.
+    assert len(pts) < tracer.lanes_per_receiver_min
+    monkeypatch.setattr(tracer, "lanes_per_receiver_min", len(pts))
+    np.testing.assert_array_equal(tracer.lit_counts(pts, normals, ys, 1e-4), visible.sum(axis=1))
+    per_receiver = visible.mean(axis=1)
+    assert np.mean((per_receiver > 0) & (per_receiver < 1)) > 0.1  # penumbrae: the order of the rays matters
+
+
+def test_the_mitsuba_scene_is_loaded_once_per_scene(monkeypatch):
+    loads = []
+    real = reference._Tracer
+    monkeypatch.setattr(reference, "_Tracer", lambda *a: loads.append(1) or real(*a))
+    rx, samples = Receivers(*ground_receivers(20)), light_samples(4)
+    scene = Scene([GROUND, quad([0.2, 0.1, 0.9], [0.5, 0, 0], [0, 0.4, 0])])
+    first = reference.mitsuba_visibility(scene, LIGHT, rx, samples, cache=False)
+    again = reference.mitsuba_visibility(scene, LIGHT, rx, light_samples(5), cache=False)
+    assert len(loads) == 1 and first.shape == again.shape
+    reference.mitsuba_visibility(Scene(scene.meshes), LIGHT, rx, samples, cache=False)
+    assert len(loads) == 2
+
+
+@pytest.mark.parametrize("alpha", [None, np.ones((2, 2))])
+def test_surfaces_beyond_the_light_samples_block_nothing(alpha):
+    # A ceiling above the light: every segment ends at its sample, short of the ceiling
+    # (opaque, or perforated with opaque texels, which takes the march through ray_intersect).
+    ceiling = quad([0, 0, 2.6], [3, 0, 0], [0, 3, 0], alpha=alpha)
+    blocker = quad([0.2, 0.1, 0.9], [0.5, 0, 0], [0, 0.4, 0])
+    rx, samples = Receivers(*ground_receivers(60)), light_samples(12)
+    without = reference.mitsuba_visibility(Scene([GROUND, blocker]), LIGHT, rx, samples, cache=False)
+    with_ceiling = reference.mitsuba_visibility(Scene([GROUND, blocker, ceiling]), LIGHT, rx, samples, cache=False)
+    np.testing.assert_array_equal(with_ceiling, without)
+    assert without.mean() > 0.5

@@ -21,6 +21,7 @@ VARIANTS = {
     "dcs": [{}],
     "penumbra_wedge": [{}],
     "stsv": [{"opaque": "bitmask", "rotate": None}, {"opaque": "dcs"}, {"opaque": "penumbra_wedge"}],
+    "denoised": [{}, {"spp": 4, "history": ss.History()}],
 }
 GPU_METHODS = ("shadow_map", "mvr", "vwss", "pcss", "cssm", "alias_free")
 # Keys the Python layer adds after the core: backprojection's multisample resolve (section 7).
@@ -70,8 +71,11 @@ def test_a_call_returns_its_declared_keys(columns, method, options):
 @pytest.mark.parametrize("method", sorted(VARIANTS))
 def test_an_early_exit_returns_the_declared_keys_too(columns, method):
     setup, _ = columns
-    nothing = ss.Receivers(np.zeros((1, 3)), [[0, 1, 0]])
-    nothing.mask[:] = False  # no valid receiver: the methods return before their stages
+    if method == "denoised":  # a G-buffer only: one of the sky, where no pixel hits
+        nothing = ss.gbuffer(setup.scene, ss.Camera.look_at((0, 50, 0), (0, 100, 0), up=(1, 0, 0), width=4, height=4))
+    else:
+        nothing = ss.Receivers(np.zeros((1, 3)), [[0, 1, 0]])
+        nothing.mask[:] = False  # no valid receiver: the methods return before their stages
     options = VARIANTS[method][0]
     _, stats = getattr(ss, method)(setup.scene, setup.light, nothing, return_stats=True, **options)
     check_keys(method, stats, options)

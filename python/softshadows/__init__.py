@@ -19,11 +19,13 @@ import numpy as _np
 from . import _core, _validate, envmap, evaluation, io, metrics, plot, reference, scenes, shading
 from .camera import Camera, GBuffer, Receivers, gbuffer
 from .envmap import environment
-from .evaluation import evaluate, sweep
+from .evaluation import evaluate, evaluate_sequence, sweep
 from .gpu import gpu_info
 from .lights import DiskLight, EllipsoidLight, PointLight, RectLight, SphereLight
-from .methods import METHODS, SetupWarning, alias_free, backprojection, cssm, dcs, mvr, pcss, penumbra_wedge, ray_traced, resolve_msaa, shadow_map, stsv, vwss
+from .methods import METHODS, SetupWarning, alias_free, backprojection, cssm, dcs, denoised, mvr, pcss, penumbra_wedge, ray_traced, resolve_msaa, shadow_map, stsv, vwss
 from .scene import Mesh, Scene, load
+from .scenes import sequence
+from .temporal import History, accumulate
 
 __version__ = "0.1.0"
 
@@ -179,12 +181,16 @@ if hasattr(_os, "register_at_fork"):
 
 
 __all__ = [
+    "accumulate",
     "alias_free",
     "claims",
     "evaluate",
+    "evaluate_sequence",
     "sweep",
     "backprojection",
     "dcs",
+    "denoised",
+    "History",
     "penumbra_wedge",
     "stsv",
     "resolve_msaa",
@@ -211,6 +217,7 @@ __all__ = [
     "plot",
     "reference",
     "scenes",
+    "sequence",
     "shading",
     "cssm",
     "memory_limit",

@@ -7,16 +7,19 @@ import numpy.typing as npt
 
 __all__ = [
     "NativeCamera",
+    "NativeHistory",
     "NativeLight",
     "NativeReceivers",
     "NativeSamples",
     "NativeScene",
+    "accumulate",
     "after_fork_in_child",
     "alias_free",
     "backprojection",
     "cssm",
     "cube_solid_angles",
     "dcs",
+    "denoised",
     "fit_area_lights",
     "gpu_info",
     "memory_limit",
@@ -33,6 +36,7 @@ __all__ = [
     "UnsupportedSetup",
     "PATTERNS",
     "STATS",
+    "TEMPORAL_STATS",
     "shadow_map",
     "stsv",
     "stsv_volumes",
@@ -84,6 +88,10 @@ class NativeReceivers:
     def __new__(cls, points: _F32, normals: _F32, mask: npt.NDArray[np.bool_], width: int, height: int) -> Self: ...
 
 @final
+class NativeHistory:
+    def __new__(cls, camera: NativeCamera, receivers: NativeReceivers, visibility: _F32, length: _F32) -> Self: ...
+
+@final
 class NativeSamples:
     @staticmethod
     def generate(
@@ -113,6 +121,7 @@ def work_limit() -> int: ...
 
 PATTERNS: tuple[str, ...]
 STATS: dict[str, tuple[str, ...]]
+TEMPORAL_STATS: tuple[str, ...]
 
 class WorkLimitError(RuntimeError): ...
 class UnsupportedSetup(ValueError): ...
@@ -126,6 +135,33 @@ def ray_traced(
     epsilon: float,
     caster_faces: str,
 ) -> tuple[_F32, dict[str, float]]: ...
+def accumulate(
+    visibility: _F32,
+    receivers: NativeReceivers,
+    history: NativeHistory | None,
+    alpha: float,
+    depth_tolerance: float,
+    normal_tolerance: float,
+) -> tuple[_F32, _F32, dict[str, float]]: ...
+def denoised(
+    scene: NativeScene,
+    light: NativeLight,
+    receivers: NativeReceivers,
+    camera: NativeCamera,
+    spp: int,
+    seed: int,
+    frame: int,
+    epsilon: float,
+    search_radius: int,
+    max_radius: int,
+    sigma_z: float,
+    sigma_n: float,
+    temporal: bool,
+    history: NativeHistory | None,
+    alpha: float,
+    depth_tolerance: float,
+    normal_tolerance: float,
+) -> tuple[_F32, _F32, _F32, dict[str, float]]: ...
 def shadow_map(
     scene: NativeScene,
     light: NativeLight,
@@ -254,5 +290,6 @@ def alias_free(
     lut: int | None,
     hull_degree: int,
     restrict_to_penumbra: bool,
+    cut_at_supporting_plane: bool,
     backend: str,
 ) -> tuple[_F32, dict[str, float]]: ...

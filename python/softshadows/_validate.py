@@ -128,6 +128,19 @@ def light_points(name: str, value) -> np.ndarray:
     return pts
 
 
+def rigid(name: str, value) -> tuple[np.ndarray, np.ndarray]:
+    """A 4 x 4 rigid transform (a rotation, then a translation) as float64 ``(rotation (3, 3),
+    translation (3,))``: a scale or a mirror would change a light's size or turn a mesh inside
+    out, which moving an object never does."""
+    m = array(name, value, np.float64, (4, 4))
+    rotation = m[:3, :3]
+    if not np.allclose(m[3], [0, 0, 0, 1]) or not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6) \
+            or np.linalg.det(rotation) < 0:
+        raise ValueError(f"{name}: expected a rigid 4 x 4 transform (a rotation and a translation, last row 0 0 0 1), "
+                         f"got {m.tolist()}")
+    return rotation, m[:3, 3]
+
+
 def option(name: str, value) -> str:
     """``value`` if it is a string: an enum option, whose spelling the core's binding checks
     (naming the argument and every value it takes)."""

@@ -137,6 +137,28 @@ class Camera:
         """The same view at another resolution."""
         return Camera.look_at(self.eye, self.target, self.up, self.fov_y, width, height)
 
+    def transformed(self, matrix) -> "Camera":
+        """The same camera moved rigidly: its eye and target carried, its up vector turned.
+
+        Parameters
+        ----------
+        matrix : array_like, shape (4, 4)
+            A rigid transform: a rotation, then a translation (last row 0 0 0 1).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import softshadows as ss
+        >>> back = np.eye(4)
+        >>> back[:3, 3] = (0, 0, 2)
+        >>> camera = ss.Camera.look_at((0, 3, 5), (0, 0, 0), width=64, height=48).transformed(back)
+        >>> camera.eye.tolist(), camera.target.tolist(), camera.width
+        ([0.0, 3.0, 7.0], [0.0, 0.0, 2.0], 64)
+        """
+        rotation, offset = v.rigid("matrix", matrix)
+        return Camera.look_at(rotation @ self.eye + offset, rotation @ self.target + offset, rotation @ self.up, self.fov_y,
+                              self.width, self.height)
+
 
 class Flat(NamedTuple):
     """Receivers as flat arrays: what the core takes, and what per-receiver code loops over."""

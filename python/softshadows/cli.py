@@ -315,8 +315,9 @@ def main(argv=None) -> int:
     e.add_argument("--readme", type=Path, default=None, help="also rewrite the results table of this README")
     sub.add_parser("scenes", help="list the built-in scenes and the light kinds", formatter_class=_Formatter)
     r = sub.add_parser("reproduce", help="measure every claim of the five papers (the claims ledger)", formatter_class=_Formatter)
-    r.add_argument("--papers", type=_name_list(claims.PAPERS, "paper"), default=None,
-                   help=f"comma-separated paper keys from {', '.join(claims.PAPERS)}; default all")
+    r.add_argument("--papers", type=_name_list(claims.SECTIONS, "paper"), default=None,
+                   help=f"comma-separated section keys from {', '.join(claims.SECTIONS)} (a paper's, or beyond the "
+                        "papers); default all")
     r.add_argument("--ids", type=_name_list(claims.CLAIMS, "claim id"), default=None,
                    help="comma-separated claim ids (softshadows.claims.CLAIMS); default all of the papers'")
     r.add_argument("--tier", choices=("fast", "paper"), default="fast",

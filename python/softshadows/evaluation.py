@@ -17,6 +17,9 @@ so a second evaluation of the same setups does not call Mitsuba again.
 
 from __future__ import annotations
 
+import dataclasses
+import functools
+import math
 import os
 import time
 from pathlib import Path
@@ -27,7 +30,7 @@ from . import _core
 from . import _validate as v
 from ._extras import require
 
-__all__ = ["evaluate", "sweep", "report", "latex_table", "pareto_front", "results_table", "update_readme"]
+__all__ = ["evaluate", "evaluate_sequence", "OverTime", "sweep", "report", "latex_table", "pareto_front", "results_table", "update_readme"]
 
 #: The metric columns of :func:`report` and :func:`latex_table`: column, heading, decimals.
 _TABLE_COLUMNS = (
@@ -267,6 +270,317 @@ def _sweep_task(task) -> dict:
     return {"scene": _scene_label(item), "light": light, "method": label, **params, **record}
 
 
+@dataclasses.dataclass(frozen=True)
+class OverTime:
+    """A method entry of :func:`evaluate_sequence` run the way a real-time renderer runs it over
+    frames: with temporal jitter, and with its frames accumulated.
+
+    A plain name or callable in ``methods`` runs on the same light samples in every frame; an
+    ``OverTime`` entry changes that.
+
+    Parameters
+    ----------
+    method : str or callable
+        A name from ``softshadows.METHODS`` (or :func:`register_method`), or a callable as
+        :func:`evaluate` takes them.
+    jitter : bool
+        Jitter over time (Sintorn et al. 2008, section 4.3): frame ``i`` gets the shared light
+        samples of ``light.samples(n, frame=i)``, each frame's whole pattern rotated, so that
+        noise changes from frame to frame instead of standing still; a built-in method that
+        takes ``frame=`` rather than light samples gets ``frame=i``.
+    accumulate : bool or float
+        Accumulate the frames: each frame's visibility goes through
+        :func:`softshadows.accumulate` with one :class:`softshadows.History` for the sequence, an
+        exponential moving average of the frames reprojected into the current one; a float is
+        its ``alpha``, the current frame's weight (True: its default).
+    history : bool
+        Pass one :class:`softshadows.History` for the sequence to the method as ``history=``,
+        for a method with a temporal stage of its own (``denoised``).
+
+    Examples
+    --------
+    >>> import softshadows as ss
+    >>> from softshadows.evaluation import OverTime
+    >>> OverTime("alias_free").label, OverTime("alias_free", accumulate=0.1).label
+    ('alias_free+jitter', 'alias_free+jitter+accumulate(0.1)')
+
+    Entries are checked before the first reference:
+
+    >>> ss.evaluate_sequence(ss.sequence(ss.scenes.get("columns"), frames=2), [OverTime("pcss")])
+    Traceback (most recent call last):
+    ...
+    ValueError: methods: 'pcss+jitter' jitters over frames, but pcss takes neither light samples nor frame=; ...
+    """
+
+    method: object
+    jitter: bool = True
+    accumulate: bool | float = False
+    history: bool = False
+
+    def __post_init__(self):
+        object.__setattr__(self, "jitter", v.flag("jitter", self.jitter))
+        object.__setattr__(self, "history", v.flag("history", self.history))
+        if not isinstance(self.accumulate, (bool, np.bool_)):
+            object.__setattr__(self, "accumulate", v.number("accumulate", self.accumulate))  # its range: accumulate's
+
+    @property
+    def label(self) -> str:
+        """The entry's ``method`` column: the method's name and how it runs over time."""
+        name = self.method if isinstance(self.method, str) else getattr(self.method, "__name__", repr(self.method))
+        alpha = self.accumulate
+        parts = [name] + ["jitter"] * self.jitter + ["history"] * self.history
+        parts += [] if alpha is False else ["accumulate" if alpha is True else f"accumulate({alpha:g})"]
+        return "+".join(parts)
+
+    def _checked(self, label: str) -> "OverTime":
+        """This entry (its method resolved to a callable), refused when it asks the method for
+        what it cannot take."""
+        from .methods import SAMPLED
+
+        builtin = _builtin_name(self.method)
+        if self.jitter and builtin is not None and not (builtin in SAMPLED or _takes(self.method, "frame")):
+            raise ValueError(f"methods: {label!r} jitters over frames, but {builtin} takes neither light samples nor frame=; "
+                             f"pass OverTime(..., jitter=False) or a method that samples the light ({sorted(SAMPLED)})")
+        if self.history and not _takes(self.method, "history"):
+            raise ValueError(f"methods: {label!r} passes a History, but {builtin or label} takes no history=; accumulate "
+                             "any method's frames with OverTime(..., accumulate=True)")
+        return self
+
+    def _frame(self, case, index: int, options: dict, histories: dict) -> tuple:
+        """``(record, visibility)`` of frame ``index`` of a sequence, ``histories`` holding
+        this entry's state over the sequence."""
+        from .methods import SAMPLED
+
+        options = dict(options)
+        if self.jitter:
+            case = case.at_frame(index)
+            if _builtin_name(self.method) not in SAMPLED and _takes(self.method, "frame"):
+                options["frame"] = index
+        if self.history:
+            options["history"] = histories["method"]
+        then = None
+        if self.accumulate is not False:
+            from .temporal import accumulate
+
+            alpha = {} if self.accumulate is True else {"alpha": self.accumulate}
+            then = functools.partial(accumulate, gbuffer=case.gbuffer, history=histories["accumulated"], **alpha)
+        return case.run(self.method, options, then=then)
+
+
+def _takes(method, keyword: str) -> bool:
+    """Whether the callable ``method`` has a parameter named ``keyword``."""
+    import inspect
+
+    try:
+        return keyword in inspect.signature(method).parameters
+    except (TypeError, ValueError):  # a callable without a signature
+        return False
+
+
+def evaluate_sequence(
+    sequences,
+    methods=None,
+    *,
+    size: int = 128,
+    samples: int = 64,
+    reference_samples: int = 1024,
+    options: dict | None = None,
+    executor=None,
+    keep_images: bool = False,
+    progress: bool = True,
+):
+    """Methods over animations, frame by frame against each frame's reference, and how steady
+    their error is over time.
+
+    Each frame is measured as :func:`evaluate` measures a set-up (the same G-buffer, Mitsuba
+    reference and shared light samples, through the same case runner); the frames of each method
+    then give the temporal metrics of :mod:`softshadows.metrics`: ``temporal.std``, the mean over
+    pixels of the standard deviation over frames of the error (noise that moves), and
+    ``temporal.flicker``, the mean change of the result from frame to frame against the
+    reference's own change.
+
+    Parameters
+    ----------
+    sequences : Sequence or sequence of Sequence
+        From :func:`softshadows.sequence`, with distinct names.
+    methods : sequence or dict, optional
+        As in :func:`evaluate` (names, callables, a dict of label to either), plus
+        :class:`OverTime` entries: a method with temporal jitter, its frames accumulated, or with
+        a history of its own (labelled by ``OverTime.label``, or by their keys in a dict). A
+        plain entry runs on the same light samples in every frame. Default every built-in method.
+    size : int
+        Image width and height in pixels.
+    samples : int
+        Light samples of the sample-based methods (Poisson, seed 0, shared by all of them).
+    reference_samples : int
+        Sobol samples of each frame's reference (the same pattern in every frame).
+    options : dict of str to dict, optional
+        Keyword options per method label, e.g. ``{"alias_free": {"lut": None}}``.
+    executor : concurrent.futures.Executor, optional
+        Where the work runs: by default in this process; a process pool or a Dask
+        ``distributed.Client(...).get_executor()`` runs the frames' references in parallel, then
+        each method over each sequence (its frames in order, as its history needs). The
+        records are the same wherever they run, but for the wall times.
+    keep_images : bool
+        Keep every frame's visibility, reference and mask in ``frame.attrs["images"]`` (keyed by
+        sequence name, each a dict of (F, H, W) stacks: ``"reference"``, ``"mask"`` and one per
+        method that ran) for :func:`softshadows.plot.animation`.
+    progress : bool
+        Show a progress bar over the frames (references, then every method's), only when stderr
+        is a terminal.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per sequence and method: ``sequence``, ``method``, ``frames``, the mean over
+        the frames of each metric of :func:`softshadows.metrics.summary` (``rmse``, ``psnr``,
+        ``ssim``, ``flip``, ``rmse.umbra``, ``rmse.penumbra``, ``rmse.lit``; a region over the
+        frames that have it), ``temporal.std`` and ``temporal.flicker`` (NaN with fewer than two
+        frames or when a frame was refused), ``seconds`` (the mean per frame, accumulation
+        included) and ``error`` (the first refusal, as in :func:`evaluate`).
+        ``frame.attrs["frames"]`` holds one row per sequence, method and frame, as
+        :func:`evaluate`'s rows (``frame`` is its index; its stats as ``stats.<name>``), with
+        the frame's ``flicker`` against the frame before it (NaN in the first).
+
+    Examples
+    --------
+    A static sequence: the exact oracle's error does not change over time.
+
+    >>> import softshadows as ss
+    >>> still = ss.sequence(ss.scenes.get("columns"), frames=3)
+    >>> summary = ss.evaluate_sequence(still, ["ray_traced"], size=24, reference_samples=64, progress=False)
+    >>> summary[["method", "frames", "temporal.std", "temporal.flicker"]].to_dict("records")
+    [{'method': 'ray_traced', 'frames': 3, 'temporal.std': 0.0, 'temporal.flicker': 0.0}]
+    >>> summary.attrs["frames"]["frame"].tolist()
+    [0, 1, 2]
+    """
+    pd = require("pandas", extra="evaluation", for_="softshadows.evaluate_sequence")
+    from tqdm.auto import tqdm
+
+    # Everything is checked before the first Mitsuba reference, which can take minutes.
+    sequences = _sequence_items(sequences)
+    entries = _entries(methods)
+    size, samples = v.positive_int("size", size), v.positive_int("samples", samples)
+    reference_samples = v.positive_int("reference_samples", reference_samples)
+    options = _options(options, entries)
+    keep_images = v.flag("keep_images", keep_images)
+    if executor is not None and not callable(getattr(executor, "map", None)):
+        raise ValueError(f"executor: expected a concurrent.futures.Executor, got {type(executor).__name__}")
+    run_all = map if executor is None else executor.map
+    frames = sum(len(s) for s in sequences)
+    with tqdm(total=frames * (1 + len(entries)), desc="evaluate_sequence: references", unit="frame",
+              disable=None if progress else True) as bar:
+        cases = []
+        for case in run_all(_sequence_case, [(setup, size, samples, reference_samples) for s in sequences for setup in s]):
+            cases.append(case)
+            bar.update()
+        bounds = np.cumsum([0] + [len(s) for s in sequences])
+        framed = [(s.name, cases[a:b]) for s, a, b in zip(sequences, bounds[:-1], bounds[1:])]
+        tasks = [(name, label, entry, frames_of, options.get(label, {}), keep_images)
+                 for name, frames_of in framed for label, entry in entries.items()]
+        results = []
+        if executor is None:  # in this process: the bar moves frame by frame
+            for task in tasks:
+                bar.set_description(f"evaluate_sequence: {task[0]}/{task[1]}")
+                results.append(_sequence_runs(task, tick=bar.update))
+        else:
+            bar.set_description("evaluate_sequence: methods")
+            for result in executor.map(_sequence_runs, tasks):
+                results.append(result)
+                bar.update(len(result[1]))
+    summary = pd.DataFrame([row for row, _, _ in results])
+    summary.attrs["frames"] = pd.DataFrame([r for _, rows, _ in results for r in rows])
+    if keep_images:
+        summary.attrs["images"] = {name: _kept_images(name, frames_of, results) for name, frames_of in framed}
+    summary.attrs["setup"] = {"size": size, "samples": samples, "reference": f"mitsuba ray_test, {reference_samples} Sobol samples"}
+    return summary
+
+
+def _sequence_case(task):
+    """One frame's case (a top-level function, so that it pickles to any executor's workers)."""
+    setup, size, samples, reference_samples = task
+    return _Case.build(setup, setup.light.kind, size, samples=samples, reference_samples=reference_samples)
+
+
+def _sequence_runs(task, tick=None) -> tuple:
+    """One method entry over one sequence's frames, in order (a top-level function, so that it
+    pickles to any executor's workers): ``(summary row, frame rows, visibility stack or None)``;
+    ``tick()`` after each frame."""
+    from . import metrics
+
+    from .temporal import History
+
+    name, label, entry, cases, options, keep = task
+    histories = {"method": History(), "accumulated": History()}  # the entry's state over the sequence
+    records, images = [], []
+    for index, case in enumerate(cases):
+        record, vis = entry._frame(case, index, options, histories)
+        records.append({"sequence": name, "method": label, "frame": index, **record})
+        images.append(vis)
+        if tick is not None:
+            tick()
+    temporal, changes = dict.fromkeys(metrics.TEMPORAL_KEYS, np.nan), [np.nan] * len(cases)
+    if len(cases) >= 2 and all(vis is not None for vis in images):
+        stacks = (np.stack(images), np.stack([c.reference for c in cases]), np.stack([c.gbuffer.mask for c in cases]))
+        temporal = {"temporal.std": metrics.temporal_std(*stacks), "temporal.flicker": metrics.flicker(*stacks)}
+        changes = metrics.flicker(*stacks, per_frame=True)
+    for record, change in zip(records, changes):
+        record["flicker"] = float(change)
+    errors = [r["error"] for r in records if r["error"] is not None]
+    row = {"sequence": name, "method": label, "frames": len(cases),
+           **{k: _mean(r[k] for r in records) for k in metrics.SUMMARY_KEYS}, **temporal,
+           "seconds": _mean(r["seconds"] for r in records), "error": errors[0] if errors else None}
+    return row, records, np.stack(images) if keep and not errors else None
+
+
+def _mean(values) -> float:
+    """The mean of the finite-or-infinite values, NaN when every one is NaN (a region no frame has)."""
+    values = np.array(list(values), dtype=float)
+    values = values[~np.isnan(values)]
+    return float(values.mean()) if len(values) else math.nan
+
+
+def _kept_images(name, cases, results) -> dict:
+    """One sequence's stacks for :func:`softshadows.plot.animation`."""
+    kept = {"reference": np.stack([c.reference for c in cases]), "mask": np.stack([c.gbuffer.mask for c in cases])}
+    kept.update({row["method"]: stack for row, _, stack in results if row["sequence"] == name and stack is not None})
+    return kept
+
+
+def _sequence_items(sequences) -> list:
+    """The sequences to evaluate, checked: one Sequence or several, with distinct names."""
+    from .scenes import Sequence
+
+    items = [sequences] if isinstance(sequences, Sequence) else sequences
+    if isinstance(items, (str, bytes)) or not hasattr(items, "__iter__"):
+        raise ValueError(f"sequences: expected a Sequence from softshadows.sequence, or a list of them, got {sequences!r}")
+    items = list(items)
+    bad = [x for x in items if not isinstance(x, Sequence)]
+    if bad or not items:
+        raise ValueError(f"sequences: expected Sequences from softshadows.sequence, got {bad or items!r}")
+    names = [s.name for s in items]
+    if len(set(names)) < len(names):
+        raise ValueError(f"sequences: the names {names} repeat; give each its own with softshadows.sequence(..., name=...)")
+    return items
+
+
+def _entries(methods) -> dict:
+    """The method entries by label, as :class:`OverTime` (a plain entry without jitter), each
+    method resolved by :func:`_methods` and checked."""
+    from collections.abc import Mapping
+
+    if isinstance(methods, OverTime):
+        raise ValueError(f"methods: expected a sequence or dict of entries, got one {methods!r}; pass [{methods!r}]")
+    if methods is None or isinstance(methods, (str, bytes)) or callable(methods) or not hasattr(methods, "__iter__"):
+        plain = _methods(methods)  # every built-in method, or the refusal of a bare name
+        return {label: OverTime(method, jitter=False) for label, method in plain.items()}
+    pairs = list(methods.items()) if isinstance(methods, Mapping) else [
+        (m.label if isinstance(m, OverTime) else getattr(m, "__name__", m), m) for m in methods]
+    specs = {label: m if isinstance(m, OverTime) else OverTime(m, jitter=False) for label, m in pairs}
+    resolved = _methods({label: spec.method for label, spec in specs.items()})
+    return {label: dataclasses.replace(specs[label], method=method)._checked(label) for label, method in resolved.items()}
+
+
 class _Case:
     """One scene under one light, ready for methods: the set-up, its G-buffer, the Mitsuba
     reference on Sobol samples and the Poisson samples every sampled method shares. The one
@@ -285,13 +599,21 @@ class _Case:
         ref_samples = setup.light.samples(reference_samples, pattern="sobol", seed=1)
         # Its own bar would nest in the caller's: one bar per run.
         ref = reference.mitsuba_visibility(setup.scene, setup.light, gb, ref_samples, progress=False)
-        return cls(setup, gb, ref, setup.light.samples(samples, pattern="poisson", seed=0))
+        return cls(setup, gb, ref, _shared_samples(setup.light, samples))
 
-    def run(self, method, options, *, repeat: int = 1) -> tuple:
+    def at_frame(self, frame: int) -> "_Case":
+        """This case with the shared samples of frame ``frame`` of a temporally jittered
+        sequence (Sintorn et al. 2008, section 4.3: each frame rotates the whole pattern)."""
+        return _Case(self.setup, self.gbuffer, self.reference, _shared_samples(self.setup.light, len(self.shared), frame))
+
+    def run(self, method, options, *, repeat: int = 1, then=None) -> tuple:
         """``(record, visibility)`` of ``method`` here: the metrics over the hit pixels, the
         fastest of ``repeat`` runs in seconds and the method's stats as ``stats.<name>``; or, when
         it refuses the set-up (:class:`softshadows.UnsupportedSetup`), NaN metrics, the refusal
-        as ``error`` and no visibility. Any other error propagates."""
+        as ``error`` and no visibility. Any other error propagates.
+
+        ``then`` maps the visibility once more after the runs, its time added to ``seconds``: a
+        frame accumulation, which updates its history and so must not be repeated."""
         from . import metrics
 
         seconds = []
@@ -302,9 +624,19 @@ class _Case:
                 seconds.append(time.perf_counter() - start)
         except _core.UnsupportedSetup as refusal:
             return {**dict.fromkeys(metrics.SUMMARY_KEYS, np.nan), "seconds": np.nan, "error": str(refusal)}, None
+        spent = min(seconds)
+        if then is not None:
+            start = time.perf_counter()
+            vis = then(vis)
+            spent += time.perf_counter() - start
         summary = metrics.summary(vis, self.reference, self.gbuffer.mask)
         stats = {f"stats.{k}": value for k, value in stats.items()}
-        return {**summary, "seconds": min(seconds), "error": None, **stats}, vis
+        return {**summary, "seconds": spent, "error": None, **stats}, vis
+
+
+def _shared_samples(light, n: int, frame: int = 0):
+    """The light samples every sampled method shares in one evaluation (and in one frame)."""
+    return light.samples(n, pattern="poisson", seed=0, frame=frame)
 
 
 #: Methods registered by :func:`register_method`, by name.
@@ -371,12 +703,19 @@ def _methods(methods, argument: str = "methods") -> dict:
     return chosen
 
 
+def _builtin_name(method) -> str | None:
+    """The name of a built-in method, None for a user's callable."""
+    from .methods import METHODS
+
+    return next((name for name, f in METHODS.items() if f is method), None)
+
+
 def _run(method, setup, gb, shared, options) -> tuple:
     """``(visibility, stats)`` of one method on a set-up: a built-in one with its stats and the
     shared light samples if it samples the light; a user callable with the samples, and no stats."""
-    from .methods import METHODS, SAMPLED
+    from .methods import SAMPLED
 
-    builtin = next((name for name, f in METHODS.items() if f is method), None)
+    builtin = _builtin_name(method)
     if builtin is None:
         return np.asarray(method(setup.scene, setup.light, gb, samples=shared, **options), dtype=np.float32), {}
     kwargs = {"samples": shared} if builtin in SAMPLED else {}

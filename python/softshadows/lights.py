@@ -81,6 +81,37 @@ class _Light(abc.ABC):
         pts = _validate.array("samples", samples, np.float32, (None, 3))
         return self.native().weights(pts)
 
+    def transformed(self, matrix) -> "_Light":
+        """The same light moved rigidly: turned and carried along with everything it is made of
+        (its sides, normal or axes), its size and emission texture unchanged. The sample
+        patterns of point, rect and ellipsoid lights, laid out along their own axes, move with
+        them; a disk's and a sphere's keep their orientation in the world.
+
+        Parameters
+        ----------
+        matrix : array_like, shape (4, 4)
+            A rigid transform: a rotation, then a translation (last row 0 0 0 1).
+
+        Returns
+        -------
+        A light of the same kind.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import softshadows as ss
+        >>> quarter_turn = np.array([[0, 0, 1, 0], [0, 1, 0, 0], [-1, 0, 0, 0], [0, 0, 0, 1.0]])  # about +y
+        >>> light = ss.RectLight((1, 4, 0), (0.5, 0, 0), (0, 0, 0.25)).transformed(quarter_turn)
+        >>> light.center.tolist(), light.u.tolist(), light.area
+        ([0.0, 4.0, -1.0], [0.0, 0.0, -0.5], 0.5)
+        """
+        rotation, offset = _validate.rigid("matrix", matrix)
+        return self._moved(rotation, offset)
+
+    @abc.abstractmethod
+    def _moved(self, rotation: np.ndarray, offset: np.ndarray) -> "_Light":
+        """This light with its points mapped by ``rotation @ x + offset`` (float64)."""
+
 
 def _facing_axes(center, target) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The unit direction ``d`` from ``center`` to ``target`` and two unit axes ``e1, e2``
@@ -134,6 +165,9 @@ class PointLight(_Light):
 
     def _to_core(self):
         return _core.NativeLight.point(self.position)
+
+    def _moved(self, rotation, offset):
+        return PointLight(rotation @ self.position + offset)
 
     def __repr__(self):
         return f"PointLight(position={self.position.tolist()})"
@@ -202,6 +236,9 @@ class RectLight(_Light):
 
     def _to_core(self):
         return _core.NativeLight.rect(self.center, self.u, self.v, self.emission)
+
+    def _moved(self, rotation, offset):
+        return RectLight(rotation @ self.center + offset, rotation @ self.u, rotation @ self.v, emission=self.emission)
 
     def __repr__(self):
         return f"RectLight(center={self.center.tolist()}, u={self.u.tolist()}, v={self.v.tolist()})"
@@ -280,6 +317,9 @@ class DiskLight(_Light):
     def _to_core(self):
         return _core.NativeLight.disk(self.center, self.normal, self.radius, self.emission)
 
+    def _moved(self, rotation, offset):
+        return DiskLight(rotation @ self.center + offset, rotation @ self.normal, self.radius, emission=self.emission)
+
     def __repr__(self):
         return f"DiskLight(center={self.center.tolist()}, normal={self.normal.tolist()}, radius={self.radius})"
 
@@ -314,6 +354,9 @@ class SphereLight(_Light):
 
     def _to_core(self):
         return _core.NativeLight.sphere(self.center, self.radius)
+
+    def _moved(self, rotation, offset):
+        return SphereLight(rotation @ self.center + offset, self.radius)
 
     def __repr__(self):
         return f"SphereLight(center={self.center.tolist()}, radius={self.radius})"
@@ -354,6 +397,9 @@ class EllipsoidLight(_Light):
 
     def _to_core(self):
         return _core.NativeLight.ellipsoid(self.center, self.axes)
+
+    def _moved(self, rotation, offset):
+        return EllipsoidLight(rotation @ self.center + offset, self.axes @ rotation.T)  # one semi-axis a row
 
     def __repr__(self):
         return f"EllipsoidLight(center={self.center.tolist()}, axes={self.axes.tolist()})"

@@ -21,6 +21,17 @@ the pixels that count, normally the G-buffer's hit mask; a metric over an empty 
   Soft-shadow methods differ mostly in the penumbra, which is often a small part of the image:
   an image-wide RMSE hides a method that gets the penumbra wrong and the large flat regions right.
 * ``summary``: all of them at once (:data:`SUMMARY_KEYS`), NaN where one does not apply.
+
+Over a sequence of frames (:func:`softshadows.evaluate_sequence`), stacks (F, H, W) or (F, K) of
+results and references, with one mask per frame, measure what a viewer sees over time, on the
+screen (a pixel is a pixel, whatever surface the camera brings to it):
+
+* ``temporal_std``: the mean over pixels of the standard deviation over frames of the error
+  ``test - ref``: noise that changes from frame to frame (jitter that has not converged),
+  where a steady error (a bias) counts nothing;
+* ``flicker``: the mean over pixels and pairs of consecutive frames of the change of the result
+  against the reference's own change, ``|(test[t] - test[t-1]) - (ref[t] - ref[t-1])|``: what
+  flickers, where a shadow that moves as the reference's does counts nothing.
 """
 
 from __future__ import annotations
@@ -32,7 +43,8 @@ import numpy as np
 from . import _validate as v
 from ._extras import require
 
-__all__ = ["rmse", "psnr", "ssim", "flip", "regions", "region_rmse", "error_heatmap", "summary"]
+__all__ = ["rmse", "psnr", "ssim", "flip", "regions", "region_rmse", "error_heatmap", "summary", "temporal_std", "flicker",
+           "TEMPORAL_KEYS"]
 
 #: Colour of masked-out pixels in heatmaps.
 MASKED_GRAY = (0.5, 0.5, 0.5)
@@ -46,6 +58,9 @@ REGION_THRESHOLD = 0.01
 
 #: The keys of :func:`summary`, in order.
 SUMMARY_KEYS = ("rmse", "psnr", "ssim", "flip", "rmse.umbra", "rmse.penumbra", "rmse.lit")
+
+#: The keys of the temporal metrics in :func:`softshadows.evaluate_sequence`'s summary.
+TEMPORAL_KEYS = ("temporal.std", "temporal.flicker")
 
 #: The regions of :func:`regions`, in order from dark to bright.
 REGIONS = ("umbra", "penumbra", "lit")
@@ -391,6 +406,104 @@ def summary(test, ref, mask=None, *, threshold: float = REGION_THRESHOLD) -> dic
     split = region_rmse(t, r, m, threshold=threshold) if visibility else dict.fromkeys(REGIONS, math.nan)
     out.update({f"rmse.{name}": value for name, value in split.items()})
     return out
+
+
+def temporal_std(test, ref, mask=None) -> float:
+    """The mean over pixels of the standard deviation over frames of the error ``test - ref``.
+
+    Parameters
+    ----------
+    test, ref : array_like, shape (F, H, W) or (F, K)
+        A result and its reference in each of F >= 2 frames; finite.
+    mask : array_like of bool, same shape, optional
+        The pixels that count in each frame (each frame's G-buffer hit mask); all by default. A
+        pixel's deviation is taken over the frames that count it, and pixels counted in fewer
+        than two frames are left out.
+
+    Returns
+    -------
+    float
+        In the units of the inputs; 0 when the error is the same in every frame.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from softshadows import metrics
+    >>> ref = np.zeros((4, 1, 2))
+    >>> test = ref + np.array([0.1, -0.1, 0.1, -0.1])[:, None, None] * [1, 0]  # one pixel alternates, one is exact
+    >>> round(metrics.temporal_std(test, ref), 6)
+    0.05
+    >>> metrics.temporal_std(ref + 0.3, ref)  # a steady error does not change over time
+    0.0
+    """
+    error, m = _frame_stacks(test, ref, mask)
+    counted = m.sum(axis=0)
+    keep = counted >= 2
+    if not keep.any():
+        raise ValueError("mask: no pixel is counted in two frames")
+    weight, error, counted = m[:, keep], error[:, keep], counted[keep]
+    mean = (weight * error).sum(axis=0) / counted
+    return float(np.sqrt((weight * (error - mean) ** 2).sum(axis=0) / counted).mean())
+
+
+def flicker(test, ref, mask=None, *, per_frame: bool = False):
+    """The change of a result from one frame to the next, against the reference's own change:
+    the mean over pixels of ``|(test[t] - test[t-1]) - (ref[t] - ref[t-1])|``.
+
+    Parameters
+    ----------
+    test, ref : array_like, shape (F, H, W) or (F, K)
+        A result and its reference in each of F >= 2 frames; finite.
+    mask : array_like of bool, same shape, optional
+        The pixels that count in each frame; a pair of frames counts the pixels both count.
+    per_frame : bool
+        Return the mean of each frame against the one before it instead of the mean over all
+        pairs.
+
+    Returns
+    -------
+    float, or ndarray of shape (F,) with ``per_frame``
+        In the units of the inputs; 0 where the result changes exactly as the reference does.
+        With ``per_frame``, NaN for the first frame and for a pair with no pixel in common.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from softshadows import metrics
+    >>> ref = np.arange(4)[:, None] / 4 * np.ones((4, 3))  # every pixel brightens
+    >>> metrics.flicker(ref + 0.25, ref)  # an offset that follows the reference does not flicker
+    0.0
+    >>> noisy = ref + np.array([0.0, 0.1, 0.0, 0.1])[:, None]
+    >>> metrics.flicker(noisy, ref, per_frame=True).round(6).tolist()
+    [nan, 0.1, 0.1, 0.1]
+    """
+    error, m = _frame_stacks(test, ref, mask)
+    both = m[1:] & m[:-1]
+    change = np.abs(np.diff(error, axis=0))
+    axes = tuple(range(1, error.ndim))
+    pixels = both.sum(axis=axes)
+    if per_frame:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.concatenate([[np.nan], np.where(both, change, 0).sum(axis=axes) / pixels])
+    if not pixels.any():
+        raise ValueError("mask: no pixel is counted in two consecutive frames")
+    return float(change[both].mean())
+
+
+def _frame_stacks(test, ref, mask):
+    """The error ``test - ref`` of two (F, ...) stacks of F >= 2 frames, and a boolean mask of
+    its shape."""
+    t, r = _finite("test", test), _finite("ref", ref)
+    if t.ndim not in (2, 3) or len(t) < 2:
+        raise ValueError(f"test: expected frames of shape (F, H, W) or (F, K) with F >= 2, got {t.shape}")
+    if r.shape != t.shape:
+        raise ValueError(f"ref: expected the shape of test {t.shape}, got {r.shape}")
+    if mask is None:
+        return t - r, np.ones(t.shape, bool)
+    m = np.asarray(mask)
+    if m.shape != t.shape or m.dtype != bool:
+        raise ValueError(f"mask: expected booleans of shape {t.shape}, got {m.dtype} {m.shape}")
+    return t - r, m
 
 
 def _inputs(test, ref, mask, *, images_only: bool = True):

@@ -13,7 +13,7 @@ import numpy as np
 
 from ._extras import require
 
-__all__ = ["comparison_grid", "show_samples", "setup", "NO_HIT", "MAX_COLUMNS", "MAX_WIDTH"]
+__all__ = ["comparison_grid", "animation", "show_samples", "setup", "NO_HIT", "MAX_COLUMNS", "MAX_WIDTH"]
 
 #: The colour of pixels that hit no surface, so they never read as shadow.
 NO_HIT = (0.55, 0.68, 0.82)
@@ -77,12 +77,7 @@ def comparison_grid(reference, results: dict, mask=None, *, path=None, titles: d
     from .metrics import _inputs, error_heatmap
 
     # Checked here, so that a refusal names this function's arguments, not error_heatmap's.
-    reference = v.array("reference", reference, np.float64, (None, None))
-    if reference.size == 0:
-        raise ValueError(f"reference: expected a non-empty (H, W) image, got shape {reference.shape}")
-    if not isinstance(results, dict) or not all(isinstance(k, str) for k in results):
-        raise ValueError(f"results: expected a dict of method name to visibility, got {type(results).__name__}")
-    results = {k: v.array("results", r, np.float64, reference.shape) for k, r in results.items()}
+    reference, results = _panels(reference, results, frames=False)
     if mask is not None:
         mask = _inputs(reference, reference, mask)[2]  # as the metrics take it: bool or 0/1, (H, W), not empty
     vmax = v.positive("vmax", vmax)
@@ -117,6 +112,102 @@ def comparison_grid(reference, results: dict, mask=None, *, path=None, titles: d
     if path is not None:
         fig.savefig(path, dpi=110)
     return fig
+
+
+def animation(reference, results: dict, mask=None, *, path, fps: float = 8.0, titles: dict | None = None, vmax: float = 0.25,
+              dpi: float = 72.0):
+    """A comparison grid over time: each frame drawn as :func:`comparison_grid` draws one
+    (reference, then each method, with its signed error below it), written as an animated GIF
+    or an MP4 video.
+
+    Parameters
+    ----------
+    reference : ndarray, shape (F, H, W)
+        Reference visibility in each of F frames.
+    results : dict of str to ndarray, shape (F, H, W)
+        Each method's visibility in each frame.
+    mask : ndarray, shape (F, H, W), bool, optional
+        Each frame's hit pixels.
+    path : str or Path
+        ``.gif`` (written by Pillow, which matplotlib installs) or ``.mp4`` (needs the
+        ``ffmpeg`` program on the PATH).
+    fps : float
+        Frames per second.
+    titles : dict of str to str, optional
+        Extra text under each panel title, the same in every frame (e.g. the flicker).
+    vmax : float
+        Error magnitude mapped to full red / blue.
+    dpi : float
+        Pixels per inch of the panels (:func:`comparison_grid` sizes them in inches).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> from softshadows import plot
+    >>> ramp = np.tile(np.linspace(0, 1, 16), (16, 1))
+    >>> reference = np.stack([np.roll(ramp, k, axis=1) for k in range(4)])  # a ramp scrolling sideways
+    >>> noisy = np.clip(reference + np.random.default_rng(0).normal(0, 0.05, reference.shape), 0, 1)
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     gif = plot.animation(reference, {"noisy": noisy}, path=Path(folder) / "ramp.gif", fps=4)
+    ...     from PIL import Image
+    ...     Image.open(gif).n_frames
+    4
+    """
+    require("matplotlib", extra="evaluation", for_="softshadows.plot.animation")
+    Figure = require("matplotlib.figure", extra="evaluation", for_="softshadows.plot.animation").Figure
+    writers = require("matplotlib.animation", extra="evaluation", for_="softshadows.plot.animation")
+
+    from pathlib import Path
+
+    from . import _validate as v
+
+    reference, results = _panels(reference, results, frames=True)
+    if mask is not None:
+        mask = v.array("mask", mask, bool, reference.shape)
+    fps, dpi = v.positive("fps", fps), v.positive("dpi", dpi)
+    path = Path(path)
+    if path.suffix.lower() == ".gif":
+        writer = writers.PillowWriter(fps=fps)
+    elif path.suffix.lower() == ".mp4" and writers.FFMpegWriter.isAvailable():
+        writer = writers.FFMpegWriter(fps=fps)
+    else:
+        raise ValueError(f"path: expected a .gif, or a .mp4 with the ffmpeg program installed (sudo apt-get install ffmpeg), "
+                         f"got {str(path)!r}")
+    fig = Figure()
+
+    def draw(frame):
+        comparison_grid(reference[frame], {k: r[frame] for k, r in results.items()}, None if mask is None else mask[frame],
+                        titles=titles, vmax=vmax, figure=fig)
+        fig.suptitle(f"frame {frame + 1} of {len(reference)}", fontsize=9)
+
+    draw(0)  # the writer takes its frame size from the figure's
+    with writer.saving(fig, path, dpi):
+        for frame in range(len(reference)):
+            if frame:
+                draw(frame)
+            writer.grab_frame()
+    return path
+
+
+def _panels(reference, results, *, frames: bool) -> tuple:
+    """The reference and each method's images, as float64 arrays: a non-empty (H, W) reference,
+    or with ``frames`` an (F, H, W) stack, and a dict of results of its shape."""
+    from . import _validate as v
+
+    reference = v.array("reference", reference, np.float64, (None,) * (3 if frames else 2))
+    if reference.size == 0:
+        what = "(F, H, W) stack" if frames else "(H, W) image"
+        raise ValueError(f"reference: expected a non-empty {what}, got shape {reference.shape}")
+    if not isinstance(results, dict) or not all(isinstance(k, str) for k in results):
+        raise ValueError(f"results: expected a dict of method name to visibility, got {type(results).__name__}")
+    return reference, {k: v.array("results", r, np.float64, reference.shape) for k, r in results.items()}
 
 
 def show_samples(light, samples, *, ax=None, title: str | None = None):

@@ -71,6 +71,27 @@ class Mesh:
         """Whether the mesh has an alpha texture."""
         return self.alpha is not None
 
+    def transformed(self, matrix) -> "Mesh":
+        """The same mesh moved rigidly (its faces, uvs, alpha texture, ``closed`` and name kept).
+
+        Parameters
+        ----------
+        matrix : array_like, shape (4, 4)
+            A rigid transform: a rotation, then a translation (last row 0 0 0 1).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from softshadows import Mesh
+        >>> lift = np.eye(4)
+        >>> lift[:3, 3] = (0, 2, 0)
+        >>> Mesh([[0, 0, 0], [1, 0, 0], [0, 0, 1]], [[0, 1, 2]], name="tri").transformed(lift).vertices[:, 1].tolist()
+        [2.0, 2.0, 2.0]
+        """
+        rotation, offset = v.rigid("matrix", matrix)
+        return Mesh(self.vertices @ rotation.T + offset, self.faces, uvs=self.uvs, alpha=self.alpha, closed=self.closed,
+                    name=self.name)
+
     def __repr__(self) -> str:
         parts = [] if self.name is None else [repr(self.name)]
         parts += [_count(len(self.vertices), "vertex", "vertices"), _count(len(self.faces), "face", "faces")]

@@ -124,8 +124,26 @@ def test_report_has_one_table_per_paper_and_the_csv(tmp_path, monkeypatch):
 
 # --- the registry ------------------------------------------------------------------------------
 
-def test_every_paper_has_claims_and_every_claim_is_well_formed():
-    assert {c.paper.key for c in claims.CLAIMS.values()} == set(claims.PAPERS)
+def test_the_section_beyond_the_papers_follows_them_in_the_report_and_the_readme(tmp_path, monkeypatch):
+    for key in ("beyond", "annen08"):
+        monkeypatch.setitem(claims.CLAIMS, f"{key}.synthetic", claims.Claim(
+            f"{key}.synthetic", claims.SECTIONS[key], "somewhere", "a claim", "2x",
+            lambda tier: claims.Measured({"x": 1.0}), claims.AtMost("x", 2.0), "{x:.1f}x"))
+    frame = claims.reproduce(ids=["beyond.synthetic", "annen08.synthetic"], out=tmp_path, progress=False)
+    text = (tmp_path / "claims.md").read_text()
+    assert text.index("## Annen et al. 2008: Real-time") < text.index("## Beyond the papers\n\n" + claims.BEYOND.about)
+    readme = tmp_path / "README.md"
+    readme.write_text("\n".join(["# Claims", *ledger.README_MARKERS, ""]))
+    claims.update_readme(frame, readme)
+    assert readme.read_text().splitlines()[2:4] == ["- **Annen et al. 2008**, *Real-time, All-Frequency Shadows in Dynamic Scenes*: "
+                                                    "1 holds.", "- **Beyond the papers**: 1 holds."]
+    assert claims.reproduce(papers="beyond", ids=["beyond.synthetic"], progress=False)["paper"].tolist() == ["beyond"]
+    with pytest.raises(ValueError, match="'beyond'"):
+        claims.claim("nobody.synthetic", where="-", statement="-", paper_value="-", rule=claims.AtMost("x", 1.0), ours="-")
+
+
+def test_every_section_has_claims_and_every_claim_is_well_formed():
+    assert {c.paper.key for c in claims.CLAIMS.values()} == set(claims.SECTIONS)
     for c in claims.CLAIMS.values():
         assert c.id.startswith(c.paper.key + ".") and c.where and c.statement and c.paper_value and c.ours
         assert "seed 00" not in c.statement + c.where + c.paper_value

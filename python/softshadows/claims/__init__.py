@@ -4,7 +4,10 @@ Each claim names its paper (authors, year, title), where the paper states it (a 
 or table), the claim in one sentence with the paper's own number, a measurement of the same
 quantity here, and a rule that gives one of four verdicts: ``holds``, ``holds in kind`` (the
 direction and rough size hold; the absolute number is another machine's), ``refuted`` (with our
-numbers) or ``not measurable here`` (with the reason; what can be measured still is).
+numbers) or ``not measurable here`` (with the reason; what can be measured still is). A last
+section, beyond the papers (``beyond``, :data:`BEYOND`), asks what none of them answers: where
+today's baseline, a denoised ray tracer, sits among their methods, still and over time; each of
+its claims is a hypothesis, measured and judged the same way.
 
 :func:`reproduce` runs them (``softshadows reproduce`` on the command line) and returns a pandas
 DataFrame; with ``out=`` it writes ``claims.md``, ``claims.csv`` and the figures. The ``fast``
@@ -17,6 +20,8 @@ Examples
 >>> from softshadows import claims
 >>> sorted(claims.PAPERS)
 ['annen08', 'forest09', 'marrs18', 'schwarz08', 'sintorn08']
+>>> list(claims.SECTIONS)[-1]
+'beyond'
 >>> claims.AtMost("ratio", 2.0, in_kind=8.0).verdict({"ratio": 3.1})
 'holds in kind'
 
@@ -35,16 +40,18 @@ References
 """
 
 from .ledger import (
-    CLAIMS, DETERMINISTIC, PAPERS, TIMING, VERDICTS, WALL_CLOCK, AllOf, AtLeast, AtMost, Between, Claim, Measured,
-    NotMeasurable, Paper, Rule, Tier, Tol, claim, compare_expected, machine, record_expected, reproduce,
+    BEYOND, CLAIMS, DETERMINISTIC, PAPERS, SECTIONS, TIMING, VERDICTS, WALL_CLOCK, AllOf, AtLeast, AtMost, Between, Beyond,
+    Claim, Measured, NotMeasurable, Paper, Rule, Tier, Tol, claim, compare_expected, machine, record_expected, reproduce,
     update_readme, write_report,
 )
 
 # The claims register themselves on import, paper by paper.
 from . import annen08, forest09, marrs18, schwarz08, sintorn08  # noqa: E402,F401
+from . import beyond  # noqa: E402,F401  (last: the section beyond the papers)
 
 __all__ = [
-    "CLAIMS", "DETERMINISTIC", "PAPERS", "TIMING", "VERDICTS", "WALL_CLOCK", "AllOf", "AtLeast", "AtMost", "Between", "Claim",
+    "BEYOND", "CLAIMS", "DETERMINISTIC", "PAPERS", "SECTIONS", "TIMING", "VERDICTS", "WALL_CLOCK", "AllOf", "AtLeast", "AtMost",
+    "Between", "Beyond", "Claim",
     "Measured", "NotMeasurable", "Paper", "Rule", "Tier", "Tol", "claim", "compare_expected", "machine",
     "record_expected", "reproduce", "update_readme", "write_report",
 ]

@@ -3,7 +3,9 @@
 A :class:`Claim` pairs one sentence of a paper (with the paper's own number and where it is
 stated) with a function that measures the same quantity on this implementation and a
 :class:`Rule` that turns our numbers into one of the four :data:`VERDICTS`. Claims register
-themselves in :data:`CLAIMS` with the :func:`claim` decorator, one module per paper.
+themselves in :data:`CLAIMS` with the :func:`claim` decorator, one module per paper, and one for
+the section beyond the papers (:data:`BEYOND`): questions their readers ask that none of them
+answers, each stated as a hypothesis and measured the same way.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from pathlib import Path
 from typing import Callable, Mapping
 
 __all__ = [
-    "VERDICTS", "PAPERS", "CLAIMS", "Paper", "Tier", "Measured", "Tol", "Claim", "claim",
+    "VERDICTS", "PAPERS", "BEYOND", "SECTIONS", "CLAIMS", "Paper", "Beyond", "Tier", "Measured", "Tol", "Claim", "claim",
     "Rule", "AtMost", "AtLeast", "Between", "AllOf", "NotMeasurable",
     "reproduce", "write_report", "record_expected", "compare_expected", "machine", "update_readme",
 ]
@@ -60,6 +62,16 @@ class Paper:
     def cite(self) -> str:
         return f"{self.authors}. {self.title}. {self.venue}, {self.year}."
 
+    @property
+    def heading(self) -> str:
+        """The title of its section in the ledger."""
+        return f"{self.short}: {self.title}"
+
+    @property
+    def label(self) -> str:
+        """Its name in the README's one line per section (Markdown)."""
+        return f"**{self.short}**, *{self.title}*"
+
 
 #: The five papers, by the key that starts their claims' ids.
 PAPERS = {
@@ -77,6 +89,53 @@ PAPERS = {
               "View-warped Multi-view Soft Shadows for Local Area Lights", "Journal of Computer Graphics Techniques 7(3)"),
     )
 }
+
+
+@dataclasses.dataclass(frozen=True)
+class Beyond:
+    """A section of the ledger that is no paper's: questions the papers' readers ask that none of
+    them answers (a baseline they predate, how their methods behave over time). Each of its
+    claims states a hypothesis in the place of a paper's sentence, and is measured and judged
+    the same way.
+
+    Examples
+    --------
+    >>> from softshadows import claims
+    >>> claims.BEYOND.heading, claims.SECTIONS["beyond"] is claims.BEYOND
+    ('Beyond the papers', True)
+    """
+
+    key: str
+    title: str
+    #: What the section asks, printed under its heading (where a paper's section cites it).
+    about: str
+
+    @property
+    def short(self) -> str:
+        return self.title
+
+    def cite(self) -> str:
+        return self.about
+
+    @property
+    def heading(self) -> str:
+        return self.title
+
+    @property
+    def label(self) -> str:
+        return f"**{self.title}**"
+
+
+#: The section beyond the five papers (``claims/beyond.py``).
+BEYOND = Beyond(
+    "beyond", "Beyond the papers",
+    "Questions a reader of the five papers asks that none of them answers, each stated as a hypothesis and measured "
+    "here as the papers' claims are: where today's baseline, a denoised ray tracer that postdates them, sits among "
+    "their methods, still and over time.",
+)
+
+#: The ledger's sections by key, in the order of its report: the five papers, then :data:`BEYOND`.
+SECTIONS = {**PAPERS, BEYOND.key: BEYOND}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -330,7 +389,8 @@ class NotMeasurable(Rule):
 
 @dataclasses.dataclass(frozen=True)
 class Claim:
-    """One claim of a paper and how this implementation measures it.
+    """One claim of a paper (or one hypothesis beyond the papers, its ``paper`` the section
+:data:`BEYOND`) and how this implementation measures it.
 
     ``ours`` formats the measured values for the ledger (``str.format`` over them, e.g.
     ``"{ratio:.2f}x"``); ``tolerance`` maps a value's name to the :class:`Tol` within which a
@@ -347,7 +407,7 @@ class Claim:
     """
 
     id: str
-    paper: Paper
+    paper: Paper | Beyond
     where: str
     statement: str
     paper_value: str
@@ -360,14 +420,15 @@ class Claim:
         return self.tolerance.get(key, DETERMINISTIC)
 
 
-#: Every registered claim by id, in registration order (paper by paper).
+#: Every registered claim by id, in registration order (section by section).
 CLAIMS: dict[str, Claim] = {}
 
 
 def claim(id: str, *, where: str, statement: str, paper_value: str, rule: Rule, ours: str, tolerance=None):
     """Registers the decorated function ``f(tier) -> Measured`` as the measurement of a claim.
 
-    ``id`` is ``"<paper key>.<name>"``, the paper key one of :data:`PAPERS`.
+    ``id`` is ``"<section key>.<name>"``, the section key one of :data:`SECTIONS` (a paper's, or
+    ``beyond``).
 
     Examples
     --------
@@ -381,13 +442,13 @@ def claim(id: str, *, where: str, statement: str, paper_value: str, rule: Rule, 
     >>> del claims.CLAIMS["marrs18.example"]
     """
     key = id.split(".", 1)[0]
-    if key not in PAPERS or "." not in id:
-        raise ValueError(f"id: expected '<paper>.<name>' with <paper> in {list(PAPERS)}, got {id!r}")
+    if key not in SECTIONS or "." not in id:
+        raise ValueError(f"id: expected '<section>.<name>' with <section> in {list(SECTIONS)}, got {id!r}")
     if id in CLAIMS:
         raise ValueError(f"id: {id!r} is registered twice")
 
     def register(measure):
-        CLAIMS[id] = Claim(id, PAPERS[key], where, statement, paper_value, measure, rule, ours, dict(tolerance or {}))
+        CLAIMS[id] = Claim(id, SECTIONS[key], where, statement, paper_value, measure, rule, ours, dict(tolerance or {}))
         return measure
 
     return register
@@ -397,9 +458,9 @@ def _selected(papers, ids):
     if papers is not None:
         if isinstance(papers, str):
             papers = [p.strip() for p in papers.split(",") if p.strip()]
-        unknown = [p for p in papers if p not in PAPERS]
+        unknown = [p for p in papers if p not in SECTIONS]
         if unknown:
-            raise ValueError(f"papers: unknown {unknown}; expected keys from {list(PAPERS)}")
+            raise ValueError(f"papers: unknown {unknown}; expected keys from {list(SECTIONS)}")
     if ids is not None:
         unknown = [i for i in ids if i not in CLAIMS]
         if unknown:
@@ -420,8 +481,8 @@ def reproduce(papers=None, *, tier: str = "fast", out=None, ids=None, figures: b
     Parameters
     ----------
     papers : sequence of str or str, optional
-        Paper keys from :data:`PAPERS` (``"sintorn08"``, ...) or a comma-separated string;
-        default all.
+        Section keys from :data:`SECTIONS` (a paper's, ``"sintorn08"``, ..., or ``"beyond"``)
+        or a comma-separated string; default all.
     tier : {"fast", "paper"}
         ``fast``: small sizes, the whole ledger in minutes; ``paper``: the papers' own sizes.
     out : path-like, optional
@@ -533,7 +594,7 @@ def verdict_counts(frame) -> str:
 
 
 def write_report(frame, out) -> Path:
-    """Writes ``claims.md`` (one table per paper, figures below it), ``claims.csv`` and the
+    """Writes ``claims.md`` (one table per section, figures below it), ``claims.csv`` and the
     figures (``claims/<id>.png``) into the folder ``out``; returns the Markdown file's path.
 
     Examples
@@ -565,8 +626,9 @@ def write_report(frame, out) -> Path:
     lines = [
         "# The claims ledger",
         "",
-        f"Every headline claim of the five papers, measured on this implementation by "
-        f"`softshadows reproduce --tier {run.get('tier', '?')}` on {run.get('date', '?')}, on {run.get('machine', '?')}.",
+        f"Every headline claim of the five papers, and beyond them the questions none of them answers, measured on "
+        f"this implementation by `softshadows reproduce --tier {run.get('tier', '?')}` on {run.get('date', '?')}, on "
+        f"{run.get('machine', '?')}.",
         "",
         "Verdicts: **holds** (our number meets the paper's); **holds in kind** (the direction and rough size hold, "
         "the absolute number is another machine's or another scene's); **refuted** (with our numbers); "
@@ -574,11 +636,11 @@ def write_report(frame, out) -> Path:
         "above, where the papers timed GPUs: a ratio measured side by side in one run is what carries over.",
         "",
     ]
-    for key, paper in PAPERS.items():
+    for key, section in SECTIONS.items():
         rows = frame[frame["paper"] == key]
         if rows.empty:
             continue
-        lines += [f"## {paper.short}: {paper.title}", "", f"{paper.cite()}", "", f"**{verdict_counts(rows)}.**", "",
+        lines += [f"## {section.heading}", "", f"{section.cite()}", "", f"**{verdict_counts(rows)}.**", "",
                   "| claim | where | the paper | ours | verdict |", "|---|---|---|---|---|"]
         for _, r in rows.iterrows():
             lines.append(f"| {_cell(r['claim'])} (`{r['id']}`) | {_cell(r['where'])} | {_cell(r['paper_value'])} | "
@@ -603,7 +665,7 @@ README_MARKERS = ("<!-- claims:start -->", "<!-- claims:end -->")
 
 def update_readme(frame, path) -> None:
     """Replaces the block between :data:`README_MARKERS` in the file ``path`` with one line per
-    paper: its verdict counts and its headline claims' verdicts.
+    section (each paper, then beyond the papers): its verdict counts.
 
     Examples
     --------
@@ -630,10 +692,10 @@ def update_readme(frame, path) -> None:
         raise ValueError(f"path: {path} has no {start} ... {end} block to fill")
     run = frame.attrs.get("run", {})
     lines = []
-    for key, paper in PAPERS.items():
+    for key, section in SECTIONS.items():
         rows = frame[frame["paper"] == key]
         if not rows.empty:
-            lines.append(f"- **{paper.short}**, *{paper.title}*: {verdict_counts(rows)}.")
+            lines.append(f"- {section.label}: {verdict_counts(rows)}.")
     note = f"*`softshadows reproduce --tier {run.get('tier', '?')}`, {run.get('date', '?')}; every row in [docs/claims.md](docs/claims.md).*"
     block = "\n".join([start, *lines, "", note, end])
     head, rest = text.split(start, 1)

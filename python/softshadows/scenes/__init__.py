@@ -49,6 +49,7 @@ PyPI package ``pymeshlab`` ships in ``pymeshlab/tests/sample_meshes`` (``bunny.o
 from __future__ import annotations
 
 from . import primitives
+from .animation import Orbit, Sequence, Slide, sequence
 from .library import (
     columns,
     fence,
@@ -69,6 +70,10 @@ from .staging import stage
 __all__ = [
     "LIGHT_KINDS",
     "primitives",
+    "Orbit",
+    "Slide",
+    "Sequence",
+    "sequence",
     "Setup",
     "SCENES",
     "MODELS",

@@ -231,23 +231,35 @@ impl ReceiverLists {
 
     /// Bins `points` into the texels of `frustum` (fitted to them).
     pub fn with_frustum(frustum: LightFrustum, points: &[Vec3]) -> Self {
+        Self::with_frustum_where(frustum, points, |_| true)
+    }
+
+    /// Bins the `points` whose texel `keep` accepts into the texels of `frustum` (fitted to
+    /// them); the entries are indices into `points`, and `depths` holds every point's.
+    pub fn with_frustum_where(
+        frustum: LightFrustum,
+        points: &[Vec3],
+        keep: impl Fn(usize) -> bool + Sync,
+    ) -> Self {
         let (w, h) = (frustum.width, frustum.height);
-        let texel: Vec<usize> = points
+        let texel: Vec<Option<usize>> = points
             .par_iter()
-            .map(|&p| Self::texel(&frustum, p))
+            .map(|&p| Some(Self::texel(&frustum, p)).filter(|&t| keep(t)))
             .collect();
         let mut start = vec![0usize; w * h + 1];
-        for &t in &texel {
+        for &t in texel.iter().flatten() {
             start[t + 1] += 1;
         }
         for t in 0..w * h {
             start[t + 1] += start[t];
         }
         let mut fill = start.clone();
-        let mut entries = vec![0u32; points.len()];
-        for (i, &t) in texel.iter().enumerate() {
-            entries[fill[t]] = i as u32;
-            fill[t] += 1;
+        let mut entries = vec![0u32; start[w * h]];
+        for (i, t) in texel.iter().enumerate() {
+            if let Some(t) = *t {
+                entries[fill[t]] = i as u32;
+                fill[t] += 1;
+            }
         }
         let depths = points
             .iter()
@@ -289,17 +301,24 @@ impl ReceiverLists {
     }
 
     /// The texel spans `(row, x0, x1)` of `rows` that the region `hull` (`None`: the whole map)
-    /// covers conservatively.
-    pub fn spans(&self, hull: Option<&[DVec2]>, rows: &Range<usize>) -> Vec<(usize, usize, usize)> {
+    /// covers conservatively: [`conservative_rows`] restricted to `rows`, computed for those
+    /// rows only (a band visits the regions of every caster binned to it).
+    pub fn spans<'s>(
+        &self,
+        hull: Option<&'s [DVec2]>,
+        rows: &Range<usize>,
+    ) -> impl Iterator<Item = (usize, usize, usize)> + 's {
         let (w, h) = (self.frustum.width, self.frustum.height);
-        match hull {
-            None => rows.clone().map(|y| (y, 0, w)).collect(),
-            Some(hull) => conservative_row_range(hull, h)
-                .into_iter()
-                .flat_map(|(first, last)| first.max(rows.start)..=last.min(rows.end - 1))
-                .filter_map(|y| conservative_span(hull, y, w).map(|(x0, x1)| (y, x0, x1)))
-                .collect(),
-        }
+        let (first, end) = match hull {
+            None => (rows.start, rows.end),
+            Some(hull) => conservative_row_range(hull, h).map_or((0, 0), |(first, last)| {
+                (first.max(rows.start), (last + 1).min(rows.end))
+            }),
+        };
+        (first..end.max(first)).filter_map(move |y| match hull {
+            None => Some((y, 0, w)),
+            Some(hull) => conservative_span(hull, y, w).map(|(x0, x1)| (y, x0, x1)),
+        })
     }
 
     /// The list entries of the texels of a span.

@@ -5,7 +5,8 @@
 //! rasterization, pyramids); [`influence`] (receiver lists and influence regions of the
 //! object-based methods); [`methods`] (one module per soft-shadow method, its GPU half and
 //! shader beside it); [`gpu`] (what the GPU halves share, feature `gpu`); [`backend`] (where a
-//! method runs). Every fallible call returns [`Result`].
+//! method runs); [`temporal`] (accumulation of any method's visibility over a sequence). Every
+//! fallible call returns [`Result`].
 
 pub mod backend;
 pub mod error;
@@ -18,6 +19,7 @@ pub mod limits;
 pub mod methods;
 pub mod raster;
 pub mod stats;
+pub mod temporal;
 
 pub use error::{Error, Result};
 pub use stats::Stats;

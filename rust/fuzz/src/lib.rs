@@ -615,6 +615,7 @@ pub struct FuzzAliasFreeOptions {
     pub lut: Option<u8>,
     pub hull_degree: u8,
     pub restrict_to_penumbra: bool,
+    pub cut_at_supporting_plane: bool,
 }
 
 impl FuzzAliasFreeOptions {
@@ -630,6 +631,7 @@ impl FuzzAliasFreeOptions {
             },
             hull_degree: self.hull_degree as usize % 70,
             restrict_to_penumbra: self.restrict_to_penumbra,
+            cut_at_supporting_plane: self.cut_at_supporting_plane,
             ..AliasFreeOptions::default()
         }
     }

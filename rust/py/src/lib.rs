@@ -7,6 +7,7 @@ mod convert;
 mod error;
 mod methods;
 mod spelling;
+mod temporal;
 mod threads;
 
 use convert::{faces, image, vec2s, vec3, vec3s};
@@ -460,5 +461,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(threads::num_threads, m)?)?;
     m.add_function(wrap_pyfunction!(threads::after_fork_in_child, m)?)?;
     methods::register(m)?;
+    temporal::register(m)?;
     Ok(())
 }

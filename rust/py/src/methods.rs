@@ -3,7 +3,8 @@
 
 use crate::error::OrRaise;
 use crate::spelling::{choice, Spelling};
-use crate::{NativeLight, NativeReceivers, NativeSamples, NativeScene};
+use crate::temporal::{temporal_options, NativeHistory};
+use crate::{NativeCamera, NativeLight, NativeReceivers, NativeSamples, NativeScene};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -23,6 +24,7 @@ use softshadows_core::methods::backprojection::{
 };
 use softshadows_core::methods::cssm::{cssm as cssm_core, CssmOptions, Prefilter};
 use softshadows_core::methods::dcs::dcs as dcs_core;
+use softshadows_core::methods::denoised::{denoised as denoised_core, DenoisedOptions};
 use softshadows_core::methods::mvr::{mvr as mvr_core, MultiViewOptions};
 use softshadows_core::methods::pcss::{pcss as pcss_core, PcssOptions};
 use softshadows_core::methods::penumbra_wedge::penumbra_wedge as penumbra_wedge_core;
@@ -40,12 +42,17 @@ use softshadows_core::Stats;
 
 type Output<'py> = (Bound<'py, PyArray1<f32>>, Bound<'py, PyDict>);
 
-fn output<'py>(py: Python<'py>, (vis, stats): (Vec<f32>, Stats)) -> PyResult<Output<'py>> {
+/// `stats` as a Python dict, in their order.
+pub fn stats_dict(py: Python<'_>, stats: Stats) -> PyResult<Bound<'_, PyDict>> {
     let dict = PyDict::new(py);
     for (name, value) in stats.entries {
         dict.set_item(name, value)?;
     }
-    Ok((vis.into_pyarray(py), dict))
+    Ok(dict)
+}
+
+fn output<'py>(py: Python<'py>, (vis, stats): (Vec<f32>, Stats)) -> PyResult<Output<'py>> {
+    Ok((vis.into_pyarray(py), stats_dict(py, stats)?))
 }
 
 /// Exact sampled visibility by BVH shadow rays (the oracle).
@@ -75,6 +82,71 @@ fn ray_traced<'py>(
         )
     })?;
     output(py, out)
+}
+
+/// The denoised visibility `(N,)`, the temporal stage's accumulation and history lengths
+/// `(N,)` each, and the stats.
+type DenoisedOutput<'py> = (
+    Bound<'py, PyArray1<f32>>,
+    Bound<'py, PyArray1<f32>>,
+    Bound<'py, PyArray1<f32>>,
+    Bound<'py, PyDict>,
+);
+
+/// A few stochastic shadow rays per pixel and a penumbra-aware spatio-temporal denoiser; the
+/// temporal stage runs when `temporal` (on `history`, None for a sequence's first frame).
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+fn denoised<'py>(
+    py: Python<'py>,
+    scene: &NativeScene,
+    light: &NativeLight,
+    receivers: &NativeReceivers,
+    camera: &NativeCamera,
+    spp: usize,
+    seed: u64,
+    frame: u64,
+    epsilon: f32,
+    search_radius: usize,
+    max_radius: usize,
+    sigma_z: f32,
+    sigma_n: f32,
+    temporal: bool,
+    history: Option<&NativeHistory>,
+    alpha: f32,
+    depth_tolerance: f32,
+    normal_tolerance: f32,
+) -> PyResult<DenoisedOutput<'py>> {
+    let opts = DenoisedOptions {
+        spp,
+        seed,
+        frame,
+        epsilon,
+        search_radius,
+        max_radius,
+        sigma_z,
+        sigma_n,
+        temporal: temporal.then(|| temporal_options(alpha, depth_tolerance, normal_tolerance)),
+    };
+    let bvh = scene.bvh(py)?;
+    let previous = history.map(NativeHistory::previous);
+    let (out, stats) = crate::threads::detached(py, || {
+        denoised_core(
+            &scene.scene,
+            bvh,
+            &light.light,
+            &receivers.receivers,
+            &camera.camera,
+            previous.as_ref(),
+            &opts,
+        )
+    })?;
+    Ok((
+        out.visibility.into_pyarray(py),
+        out.accumulated.visibility.into_pyarray(py),
+        out.accumulated.length.into_pyarray(py),
+        stats_dict(py, stats)?,
+    ))
 }
 
 /// Hard shadows from one depth map with bias and PCF.
@@ -321,6 +393,7 @@ fn alias_free<'py>(
     lut: Option<LutArg>,
     hull_degree: usize,
     restrict_to_penumbra: bool,
+    cut_at_supporting_plane: bool,
     backend: Spelling<Backend>,
 ) -> PyResult<Output<'py>> {
     let lut = match lut {
@@ -337,6 +410,7 @@ fn alias_free<'py>(
         lut,
         hull_degree,
         restrict_to_penumbra,
+        cut_at_supporting_plane,
         backend: backend.0,
     };
     let out = crate::threads::detached(py, || {
@@ -610,6 +684,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(dcs, m)?)?;
     m.add_function(wrap_pyfunction!(penumbra_wedge, m)?)?;
     m.add_function(wrap_pyfunction!(ray_traced, m)?)?;
+    m.add_function(wrap_pyfunction!(denoised, m)?)?;
     m.add_function(wrap_pyfunction!(shadow_map, m)?)?;
     m.add_function(wrap_pyfunction!(mvr, m)?)?;
     m.add_function(wrap_pyfunction!(vwss, m)?)?;

@@ -5,7 +5,7 @@
 //! the picture; `fov_y_degrees` is the full vertical field of view and pixels are square.
 
 use crate::error::{Error, Result};
-use glam::Vec3;
+use glam::{DVec2, Vec2, Vec3};
 
 /// A pinhole camera with an orthonormal frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -103,6 +103,40 @@ impl Camera {
         let sy = (1.0 - 2.0 * py / self.height as f32) * tan_half;
         (self.forward + self.right * sx + self.up * sy).normalize()
     }
+
+    /// `tan(fov_y / 2)` in f64.
+    fn tan_half(&self) -> f64 {
+        (f64::from(self.fov_y_degrees).to_radians() * 0.5).tan()
+    }
+
+    /// The continuous pixel coordinates where world point `p` appears, the inverse of
+    /// [`Camera::ray`] (pixel `(x, y)`'s center is `(x + 0.5, y + 0.5)`); `None` for a point on
+    /// or behind the camera's plane. In f64, so that a pixel center's own point projects back
+    /// onto it to within about 1e-5 pixels (temporal reprojection reads it bilinearly).
+    pub fn project(&self, p: Vec3) -> Option<Vec2> {
+        let d = (p - self.eye).as_dvec3();
+        let z = d.dot(self.forward.as_dvec3());
+        if z.is_nan() || z <= 0.0 {
+            return None;
+        }
+        let (w, h) = (self.width as f64, self.height as f64);
+        let tan_half = self.tan_half();
+        let sx = d.dot(self.right.as_dvec3()) / (z * tan_half * w / h);
+        let sy = d.dot(self.up.as_dvec3()) / (z * tan_half);
+        let xy = DVec2::new((sx + 1.0) * w * 0.5, (1.0 - sy) * h * 0.5);
+        xy.is_finite().then(|| xy.as_vec2())
+    }
+
+    /// The world size of one pixel on a plane facing the camera at distance `distance` from the
+    /// eye along the view direction (pixels are square).
+    pub fn pixel_size_at(&self, distance: f32) -> f32 {
+        (2.0 * f64::from(distance) * self.tan_half() / self.height as f64) as f32
+    }
+
+    /// The depth of `p` along the view direction.
+    pub fn depth(&self, p: Vec3) -> f32 {
+        (p - self.eye).dot(self.forward)
+    }
 }
 
 #[cfg(test)]
@@ -141,5 +175,28 @@ mod tests {
         let corner = cam.ray(0.0, 0.0);
         let expect = Vec3::new(-2.0, 1.0, -1.0).normalize();
         assert!((corner - expect).length() < 1e-6, "{corner}");
+    }
+
+    #[test]
+    fn project_inverts_ray() {
+        let cam = Camera::look_at(
+            Vec3::new(1.0, 2.0, 5.0),
+            Vec3::new(0.2, 0.0, -0.3),
+            Vec3::Y,
+            50.0,
+            40,
+            30,
+        )
+        .unwrap();
+        for (px, py) in [(0.5, 0.5), (20.0, 15.0), (39.5, 7.25), (3.0, 29.9)] {
+            let p = cam.eye + cam.ray(px, py) * 7.0;
+            let back = cam.project(p).unwrap();
+            assert!(
+                (back - Vec2::new(px, py)).length() < 1e-3,
+                "{px} {py} -> {back}"
+            );
+        }
+        assert_eq!(cam.project(cam.eye - cam.forward), None);
+        assert_eq!(cam.project(cam.eye), None);
     }
 }

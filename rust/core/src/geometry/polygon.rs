@@ -37,7 +37,11 @@ pub fn convex_hull(points: &[DVec2]) -> Vec<DVec2> {
 
 /// Sutherland–Hodgman: the part of `poly` to the left of the directed line `a → b`.
 pub fn clip_half_plane(poly: &[DVec2], a: DVec2, b: DVec2) -> Vec<DVec2> {
-    let side = |p: DVec2| (b - a).perp_dot(p - a);
+    clip_affine(poly, |p| (b - a).perp_dot(p - a))
+}
+
+/// Sutherland–Hodgman: the part of `poly` where the affine function `side` is >= 0.
+pub fn clip_affine(poly: &[DVec2], side: impl Fn(DVec2) -> f64) -> Vec<DVec2> {
     let mut out = Vec::with_capacity(poly.len() + 1);
     for i in 0..poly.len() {
         let (p, q) = (poly[i], poly[(i + 1) % poly.len()]);

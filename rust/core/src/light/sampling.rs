@@ -517,6 +517,32 @@ fn sobol(i: u32, d: usize) -> u32 {
         .fold(0, |acc, k| acc ^ v[k])
 }
 
+/// Point `index` of pixel `pixel`'s own sequence in [0,1)^dim (unused coordinates 0): the Sobol
+/// (0,2)-sequence (plus dimension 3 for volumetric lights) under a nested uniform (Owen)
+/// scrambling hashed from `(seed, pixel, dimension)`, by Burley 2020, Practical Hash-based Owen
+/// Scrambling (JCGT 9(4)). Owen scrambling keeps every power-of-two block of consecutive indices
+/// a stratified (0,m,2)-net, while pixels get independent points: consecutive frames can draw
+/// consecutive blocks of one pixel's sequence, and neighbouring pixels' errors are uncorrelated,
+/// as a screen-space denoiser needs. A pure function of its arguments.
+pub fn pixel_sequence_point(seed: u64, pixel: u64, index: u32, dim: usize) -> [f32; 3] {
+    let mut rng = Rng::stream(seed ^ 0x0E3B_C1A5_5C7D_1F29, pixel);
+    point(dim, |d| {
+        let scramble = rng.next_u64() as u32;
+        to_unit(owen_scramble(sobol(index, d), scramble))
+    })
+}
+
+/// Burley's nested uniform scramble of a 32-bit fraction: the Laine-Karras permutation of its
+/// bits reversed, which flips each bit by a hash of the bits above it.
+fn owen_scramble(x: u32, seed: u32) -> u32 {
+    let mut x = x.reverse_bits().wrapping_add(seed);
+    x ^= x.wrapping_mul(0x6c50_b47c);
+    x ^= x.wrapping_mul(0xb82f_1e52);
+    x ^= x.wrapping_mul(0xc7af_e638);
+    x ^= x.wrapping_mul(0x8d22_f6e6);
+    x.reverse_bits()
+}
+
 fn radical_inverse(mut i: u32, base: u32) -> f32 {
     let (mut inv, mut f) = (0.0f64, 1.0f64 / base as f64);
     while i > 0 {
@@ -834,6 +860,29 @@ mod tests {
             }
             assert!(hits.iter().all(|&h| h == 1), "{nx}x{ny}: {hits:?}");
         }
+    }
+
+    #[test]
+    fn pixel_sequences_are_nets_and_differ_by_pixel() {
+        for pixel in [0, 1, 977] {
+            // Every block of 16 consecutive points of a pixel's sequence is a (0,4,2)-net.
+            for block in [0u32, 16, 48] {
+                let pts: Vec<[f32; 3]> = (block..block + 16)
+                    .map(|i| pixel_sequence_point(3, pixel, i, 2))
+                    .collect();
+                for (nx, ny) in [(16, 1), (8, 2), (4, 4), (2, 8), (1, 16)] {
+                    let mut hits = [0; 16];
+                    for p in &pts {
+                        hits[(p[0] * nx as f32) as usize * ny + (p[1] * ny as f32) as usize] += 1;
+                    }
+                    assert!(hits.iter().all(|&h| h == 1), "pixel {pixel}, block {block}");
+                }
+            }
+        }
+        let first = |pixel| pixel_sequence_point(3, pixel, 0, 3);
+        assert_ne!(first(0), first(1));
+        assert_eq!(first(5), first(5));
+        assert_ne!(pixel_sequence_point(4, 5, 0, 3), first(5));
     }
 
     #[test]

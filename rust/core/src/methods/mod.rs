@@ -3,6 +3,7 @@ pub mod alias_free;
 pub mod backprojection;
 pub mod cssm;
 pub mod dcs;
+pub mod denoised;
 pub mod mvr;
 pub mod pcss;
 pub mod penumbra_wedge;
@@ -28,6 +29,7 @@ pub const STATS: &[(&str, &[&str])] = &[
     ("dcs", dcs::STATS),
     ("penumbra_wedge", penumbra_wedge::STATS),
     ("stsv", stsv::STATS),
+    ("denoised", denoised::STATS),
 ];
 
 /// Which triangles of closed meshes cast shadows (`alias_free`, `ray_traced`, `stsv`'s bitmasks).

@@ -900,6 +900,7 @@ fn stsv_in_one_frustum(
         lut: TableSize::Exact,
         hull_degree: opts.object.hull_degree,
         restrict_to_penumbra: true,
+        cut_at_supporting_plane: true,
         backend: Backend::Cpu,
     };
     let n = receivers.len();

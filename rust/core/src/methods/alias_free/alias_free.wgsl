@@ -345,8 +345,8 @@ fn blocks_point(t: Caster, p: vec3<f64>, y: vec3<f64>) -> bool {
     return true;
 }
 
-// How many of the first n boundaries a predicate true on a prefix holds for, by alias_free.rs
-// leading_true's binary search: polar boundaries (kind 0) or azimuth boundaries (kind 1).
+// How many of the first n boundaries a predicate true on a prefix holds for, by binary search (the
+// count that alias_free/tables.rs's count_from finds from its guides): polar boundaries (kind 0) or azimuth boundaries (kind 1).
 fn leading_true(n: u32, kind: u32, u: vec3<f64>) -> u32 {
     var lo = 0u;
     var hi = n;
@@ -371,7 +371,7 @@ fn theta_at() -> u32 {
     return SAMPLES_AT + 3u * params.samples;
 }
 
-// Lut::phi_bin's predicate for boundary k.
+// PlaneBins::phi_bin's predicate for boundary k.
 fn phi_reached(k: u32, u: vec3<f64>) -> bool {
     let upper = u.y > 0.0lf || (u.y == 0.0lf && u.x > 0.0lf);
     let bound_upper = 2u * (k + 1u) < params.bins;
@@ -382,7 +382,7 @@ fn phi_reached(k: u32, u: vec3<f64>) -> bool {
     return light[at] * u.y - light[at + 1u] * u.x >= 0.0lf;
 }
 
-// Planes::and_below: ANDs into `mask` the (rotated) samples with m · y < k.
+// Planes::below_all, one plane: ANDs into `mask` the (rotated) samples with m · y < k.
 fn and_below(v: u32, m_in: vec3<f64>, k_in: f64, mask: ptr<function, array<u32, MAX_WORDS>>) {
     var m = m_in;
     var k = k_in;
@@ -404,10 +404,10 @@ fn and_below(v: u32, m_in: vec3<f64>, k_in: f64, mask: ptr<function, array<u32, 
         }
         return;
     }
-    // Lut::lookup.
-    let len = sqrt(dot_d(m, m));
-    let u = m / len;
-    let d = (k / len - dot_d(m / len, c)) / light[4u];
+    // Lut::lookup (PlaneBins::locate): one reciprocal of the normal's length, as on the CPU.
+    let inv = 1.0lf / sqrt(dot_d(m, m));
+    let u = m * inv;
+    let d = (k * inv - dot_d(u, c)) * (1.0lf / light[4u]);
     if (!(d >= -1.0lf && d < 1.0lf)) {
         if (dot_d(m, c) >= k) {
             for (var w = 0u; w < params.words; w++) {
@@ -437,7 +437,7 @@ fn blocked_by(t: Caster, v: u32, p: vec3<f64>, mask: ptr<function, array<u32, MA
     var straddling: array<bool, 4>;
     for (var k = 0u; k < 4u; k++) {
         let m = planes.m[k];
-        let distance = (planes.k[k] - dot_d(m, c)) / sqrt(dot_d(m, m));
+        let distance = (planes.k[k] - dot_d(m, c)) * (1.0lf / sqrt(dot_d(m, m)));
         if (distance < -radius) {
             return false;
         }

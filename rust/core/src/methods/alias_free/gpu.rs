@@ -152,13 +152,13 @@ fn fits<T>(values: Vec<T>, binding: u64, what: &str) -> Result<Vec<T>> {
 /// The `light` buffer of `alias_free.wgsl`: center, radius, extent, samples, table boundaries.
 fn light_values(setup: &TexelTests<'_>) -> Vec<f64> {
     let c = setup.center;
-    let extent = setup.lut.map_or(0.0, |t| t.extent);
+    let extent = setup.lut.map_or(0.0, |t| t.grid.extent);
     let mut values = vec![0.0; SAMPLES_AT];
     values[..5].copy_from_slice(&[c.x, c.y, c.z, setup.radius, extent]);
     values.extend(setup.samples.points.iter().flat_map(|y| y.to_array()));
     if let Some(t) = setup.lut {
-        values.extend(&t.theta_bounds);
-        values.extend(t.phi_bounds.iter().flatten());
+        values.extend(&t.grid.theta_bounds);
+        values.extend(t.grid.phi_bounds.iter().flatten());
     }
     values
 }
@@ -801,7 +801,7 @@ impl Run<'_> {
             self.views as u32,
             s.samples.points.len() as u32,
             self.words as u32,
-            s.lut.map_or(0, |t| t.bins as u32),
+            s.lut.map_or(0, |t| t.grid.bins as u32),
             q.row0,
             q.row1,
             q.level_in,

@@ -36,6 +36,10 @@
 //!    plane's mask is read from a table indexed by its normal's two angles and its signed distance
 //!    from the light's center, `k` bins each (the plane-to-bitmask lookup table; Eisemann and
 //!    Décoret 2007), `k` sized from the sample count by default ([`table_bins_for`], section 4.3).
+//!    The exact tests read a bracketing table instead ([`tables`]): per bin, the samples behind
+//!    every plane of the bin and those behind some of its planes only; the planes' masks are
+//!    AND-ed word by word, and only the samples left unsure are tested, against every plane at
+//!    once: the bits of testing every sample.
 //!    The bins are angles and distances relative to the light, so a binned plane's error, as seen
 //!    from a view sample, grows with the light's apparent size there: a view sample that sees the
 //!    samples' bounding sphere wider than [`TABLE_MAX_SPREAD`] tests its planes exactly instead.
@@ -50,7 +54,13 @@
 //!    edge that is a silhouette from some light point ([`crate::geometry::edges`]). Texels outside
 //!    the influence regions of those edges (and of perforated casters, whose texture cuts
 //!    anywhere) hold view samples that see all of the light blocked or none of it: there one test
-//!    of the segment to the light's center decides the whole bitmask. The result is the same.
+//!    of the segment to the light's center decides the whole bitmask, made only against the
+//!    casters whose projection from the center covers the texel (the paper's hard-shadow test
+//!    there), in lists of their own. The result is the same.
+//! 8. **Supporting-plane cut** (section 4.3, `cut_at_supporting_plane`): a triangle blocks a
+//!    sample only from the other side of its plane, and a closed mesh's light back-facing
+//!    triangle only from its front, so each influence region is cut to the side of the plane
+//!    where the receivers it may shadow lie ([`cut_at_supporting_plane`]). The result is the same.
 //!
 //! The result is the emission-weighted fraction of unblocked samples, as `ray_traced`'s.
 
@@ -59,6 +69,7 @@ pub mod gpu;
 #[cfg(not(feature = "gpu"))]
 #[path = "no_gpu.rs"]
 pub mod gpu;
+mod tables;
 
 use crate::backend::Backend;
 use crate::error::{Error, Result};
@@ -66,8 +77,11 @@ use crate::geometry::bvh::Bvh;
 use crate::geometry::edges::{edges, edges_peak, Edge};
 use crate::geometry::inside::inside_closed_meshes;
 use crate::geometry::mesh::Scene;
+use crate::geometry::polygon::clip_affine;
 use crate::geometry::receivers::Receivers;
-use crate::influence::{check_hull_degree, influence_hull, LightBounds, ReceiverLists};
+use crate::influence::{
+    check_hull_degree, influence_hull, record_list_stats, LightBounds, ReceiverLists,
+};
 use crate::light::lights::{Light, Shape};
 use crate::light::sampling::{lit_fraction, SampleSet};
 use crate::limits::{self, object_work, Peak};
@@ -81,19 +95,28 @@ use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
 use rayon::prelude::*;
 use std::borrow::Cow;
+pub(crate) use tables::{BracketTable, Lut};
 
 /// The most light samples a view sample's bitmask holds.
 pub const MAX_SAMPLES: usize = 1024;
 
 /// The widest light the lookup table serves a view sample: the radius of the samples' bounding
-/// sphere over the view sample's distance from the light's center (a cone of 60 degrees). The
+/// sphere over the view sample's distance from the light's center (a cone of 47 degrees). The
 /// table's bins are angles and distances relative to the light (Sintorn et al. 2008, Sample
 /// Based Visibility for Soft Shadows using Alias-free Shadow Maps, section 4.2), so the light
 /// points a binned plane puts on the wrong side span a fixed part of the light, which looks the
 /// wider the nearer the light, while the casters' shadows on it do not grow. Farther from the
 /// light than this, a view sample reads its planes from the table; nearer, it tests them exactly.
-/// The built-in scenes' default lights stay below 0.36.
-pub const TABLE_MAX_SPREAD: f64 = 0.5;
+/// The built-in scenes' default lights stay below 0.36. (At 0.5, a sphere light of radius 1.16
+/// over a small closed sphere, 32 samples, put the table's mean error on the ground at 0.011:
+/// the binned planes of a triangle smaller than a bin in light space form a triangle of about a
+/// bin's size, empty half the time and larger than the true one otherwise, so the table darkens,
+/// the more the wider the light looks.)
+pub const TABLE_MAX_SPREAD: f64 = 0.4;
+
+/// The fewest view samples for which the exact tests build a [`BracketTable`] (a few
+/// milliseconds of work); fewer test every sample against every plane.
+const BRACKETS_MIN_VIEW_SAMPLES: usize = 1024;
 
 /// The memory a table sized from the sample count may take (64 MiB: the paper's 64^3 texels of
 /// 128 bits for each block of 128 of 1024 samples come to 32 MiB).
@@ -123,13 +146,14 @@ impl TableSize {
 
 /// Bins per parameter of the table for `samples` light samples (Sintorn et al. 2008, section
 /// 4.3: the table's size is chosen relative to the number of samples, to keep its
-/// discretization error down): 8 sqrt(S) rounded up to a multiple of 8, from 32 to 128, and as
-/// many as [`TABLE_BUDGET_BYTES`] hold (S = 16, 64, 128, 256, 512, 1024: 32, 64, 96, 128, 96 and
-/// 80 bins). A bin's width in angle and in distance then stays near the samples' spacing on the
-/// light (its extent over sqrt(S)), up to the budget.
+/// discretization error down, "typically 64^3"): 8 sqrt(S) rounded up to a multiple of 8, from
+/// the paper's 64 to 128, and as many as [`TABLE_BUDGET_BYTES`] hold (S = 16, 64, 128, 256, 512,
+/// 1024: 64, 64, 96, 128, 96 and 80 bins). A bin's width in angle and in distance then stays near
+/// the samples' spacing on the light (its extent over sqrt(S)), up to the budget, and no wider
+/// than the paper's.
 pub fn table_bins_for(samples: usize) -> usize {
     let words = samples.div_ceil(64).max(1) as u64;
-    let wanted = ((8.0 * (samples.max(1) as f64).sqrt() / 8.0).ceil() as usize * 8).clamp(32, 128);
+    let wanted = ((8.0 * (samples.max(1) as f64).sqrt() / 8.0).ceil() as usize * 8).clamp(64, 128);
     let fits = |bins: usize| (bins as u64).pow(3) * words * 8 <= TABLE_BUDGET_BYTES;
     (8..=wanted)
         .rev()
@@ -155,6 +179,10 @@ pub struct AliasFreeOptions {
     /// casters) see all of the light or none of it, so one test against the light's center
     /// decides their whole bitmask. Same result, less work.
     pub restrict_to_penumbra: bool,
+    /// Cut each caster's influence region at its supporting plane (section 4.3, default true):
+    /// where every sample lies on one side of a triangle's plane, only receivers on the other
+    /// side (or within `bias` of it) can be shadowed by it. Same result, fewer pairs tested.
+    pub cut_at_supporting_plane: bool,
     /// Where the lists, influence regions and per-texel tests run (`methods/alias_free/gpu.rs`); the
     /// casters, their regions' polygons, the penumbra texels and the table are set up on the
     /// CPU for both. Same bits either way.
@@ -170,6 +198,7 @@ impl Default for AliasFreeOptions {
             lut: TableSize::FromSamples,
             hull_degree: 6,
             restrict_to_penumbra: true,
+            cut_at_supporting_plane: true,
             backend: Backend::Cpu,
         }
     }
@@ -241,137 +270,13 @@ impl LightSamples {
     }
 }
 
-/// The plane-to-bitmask lookup table: for a unit normal (two angles) and a signed distance from
-/// the light's center (in units of the light's extent), the samples behind the plane.
-///
-/// A plane's bins are found without trigonometry, by binary searches over the bins' boundaries
-/// (`theta_bounds`, `phi_bounds`): the same bins as `acos` and `atan2` give up to rounding at a
-/// boundary, and the same arithmetic in `methods/alias_free/alias_free.wgsl`, which has no 64-bit `acos` or
-/// `atan2`, so both backends read the same entries.
-pub(crate) struct Lut {
-    pub bins: usize,
-    pub center: DVec3,
-    pub extent: f64,
-    pub words: usize,
-    pub masks: Vec<u64>,
-    /// `cos(k π / bins)` for k = 1..bins: the polar angle's inner bin boundaries, decreasing.
-    pub theta_bounds: Vec<f64>,
-    /// `(cos, sin)` of `2 k π / bins` for k = 1..bins: the azimuth's inner bin boundaries.
-    pub phi_bounds: Vec<[f64; 2]>,
-}
-
-impl Lut {
-    fn new(samples: &LightSamples, center: DVec3, extent: f64, bins: usize) -> Result<Self> {
-        let words = samples.words;
-        limits::check_memory(
-            "alias_free lookup table",
-            limits::bytes(&[bins as u64, bins as u64, bins as u64, words as u64, 8]),
-        )?;
-        let mut masks = vec![0u64; bins * bins * bins * words];
-        masks
-            .par_chunks_mut(bins * words)
-            .enumerate()
-            .for_each(|(ij, chunk)| {
-                let (i, j) = (ij / bins, ij % bins);
-                let m = Self::normal(bins, i, j);
-                for (k, out) in chunk.chunks_mut(words).enumerate() {
-                    let d = ((k as f64 + 0.5) / bins as f64 * 2.0 - 1.0) * extent;
-                    samples.below(m, m.dot(center) + d, out);
-                }
-            });
-        let angle = |k: usize, range: f64| k as f64 / bins as f64 * range;
-        let theta_bounds = (1..bins)
-            .map(|k| angle(k, std::f64::consts::PI).cos())
-            .collect();
-        let phi_bounds = (1..bins)
-            .map(|k| angle(k, 2.0 * std::f64::consts::PI))
-            .map(|a| [a.cos(), a.sin()])
-            .collect();
-        Ok(Self {
-            bins,
-            center,
-            extent,
-            words,
-            masks,
-            theta_bounds,
-            phi_bounds,
-        })
-    }
-
-    fn normal(bins: usize, i: usize, j: usize) -> DVec3 {
-        let theta = (i as f64 + 0.5) / bins as f64 * std::f64::consts::PI;
-        let phi = (j as f64 + 0.5) / bins as f64 * 2.0 * std::f64::consts::PI;
-        DVec3::new(
-            theta.sin() * phi.cos(),
-            theta.sin() * phi.sin(),
-            theta.cos(),
-        )
-    }
-
-    /// The polar bin of the unit normal `u`: the number of boundaries `k π / bins` that
-    /// `acos(u.z)` reaches, i.e. with `u.z <= cos(k π / bins)`.
-    fn theta_bin(&self, u: DVec3) -> usize {
-        leading_true(self.theta_bounds.len(), |k| u.z <= self.theta_bounds[k])
-    }
-
-    /// The azimuth bin of the unit normal `u`: the number of boundaries `2 k π / bins` that
-    /// `atan2(u.y, u.x)` (in [0, 2π)) reaches. Within one half-plane the angle grows with the
-    /// sign of the cross product against the boundary's direction; a boundary in the upper half
-    /// ([0, π)) is reached by every direction of the lower half.
-    fn phi_bin(&self, u: DVec3) -> usize {
-        if u.x == 0.0 && u.y == 0.0 {
-            return 0;
-        }
-        let upper = u.y > 0.0 || (u.y == 0.0 && u.x > 0.0);
-        leading_true(self.phi_bounds.len(), |k| {
-            let bound_upper = 2 * (k + 1) < self.bins;
-            if bound_upper != upper {
-                return bound_upper;
-            }
-            let [c, s] = self.phi_bounds[k];
-            c * u.y - s * u.x >= 0.0
-        })
-    }
-
-    /// The mask of samples with `m · y < k`, or `None` when the plane misses the light (all or
-    /// none of it behind: the caller decides by the center).
-    fn lookup(&self, m: DVec3, k: f64) -> Option<&[u64]> {
-        let len = m.length();
-        let (u, d) = (
-            m / len,
-            (k / len - (m / len).dot(self.center)) / self.extent,
-        );
-        if !(-1.0..1.0).contains(&d) {
-            return None;
-        }
-        let b = self.bins as f64;
-        let (i, j) = (self.theta_bin(u), self.phi_bin(u));
-        let k = (((d + 1.0) * 0.5 * b) as usize).min(self.bins - 1);
-        let at = ((i * self.bins + j) * self.bins + k) * self.words;
-        Some(&self.masks[at..at + self.words])
-    }
-}
-
-/// How many of the first `n` indices satisfy `pred`, for a predicate true on a prefix, by binary
-/// search (the very steps of `leading_true` in `methods/alias_free/alias_free.wgsl`).
-fn leading_true(n: usize, pred: impl Fn(usize) -> bool) -> usize {
-    let (mut lo, mut hi) = (0, n);
-    while lo < hi {
-        let mid = (lo + hi) / 2;
-        if pred(mid) {
-            lo = mid + 1;
-        } else {
-            hi = mid;
-        }
-    }
-    lo
-}
-
-/// Plane masks of the light samples, exactly or through the table, for one view sample whose
-/// samples may be rotated about the light's center.
+/// Plane masks of the light samples, through the paper's table or exactly (through the
+/// bracketing table where one was built), for one view sample whose samples may be rotated about
+/// the light's center.
 struct Planes<'a> {
     samples: &'a LightSamples,
     lut: Option<&'a Lut>,
+    brackets: Option<&'a BracketTable>,
     center: DVec3,
     /// The radius of a sphere about `center` holding every sample (a hair more than the light's
     /// extent, against round-off).
@@ -382,32 +287,101 @@ struct Planes<'a> {
 }
 
 impl Planes<'_> {
-    /// ANDs into `mask` the (rotated) samples with `m · y < k`.
-    fn and_below(&self, m: DVec3, k: f64, mask: &mut [u64], scratch: &mut [u64]) {
-        let (m, k) = match self.rotation {
+    /// The plane `(m, k)` (`inv = 1 / |m|`) for the unrotated samples, with its `1 / |m|`.
+    fn unrotated(&self, (m, k, inv): Plane) -> Plane {
+        match self.rotation {
             Some(rt) => {
                 let r = rt * m;
-                (r, k - m.dot(self.center) + r.dot(self.center))
+                (
+                    r,
+                    k - m.dot(self.center) + r.dot(self.center),
+                    1.0 / r.length(),
+                )
             }
-            None => (m, k),
-        };
-        match self.lut {
-            Some(lut) => match lut.lookup(m, k) {
-                Some(table) => mask.iter_mut().zip(table).for_each(|(a, b)| *a &= b),
-                None => {
-                    if m.dot(lut.center) >= k {
-                        mask.iter_mut().for_each(|a| *a = 0);
-                    }
-                }
-            },
-            None => {
-                self.samples.below(m, k, scratch);
-                mask.iter_mut()
-                    .zip(scratch.iter())
-                    .for_each(|(a, b)| *a &= b);
-            }
+            None => (m, k, inv),
         }
     }
+
+    /// The samples that every plane of `planes` (unrotated) puts strictly below it, into `out`
+    /// (`scratch` and `sure` of the same length); false when none. Counts the planes' masks
+    /// AND-ed in `ops`.
+    #[allow(clippy::too_many_arguments)]
+    fn below_all(
+        &self,
+        planes: &[Plane],
+        full: &[u64],
+        out: &mut [u64],
+        scratch: &mut [u64],
+        sure: &mut [u64],
+        ops: &mut u64,
+    ) -> bool {
+        out.copy_from_slice(full);
+        if let Some(lut) = self.lut {
+            // The paper's table: each plane's mask is read, the planes' masks AND-ed. Every
+            // entry is found before any is read, so that the reads (far apart in a table of
+            // megabytes) overlap.
+            let mut entries: [&[u64]; 4] = [&[]; 4];
+            let mut found = 0;
+            for &(m, k, inv) in planes {
+                *ops += 1;
+                match lut.lookup(m, k, inv) {
+                    Some(table) => {
+                        entries[found] = table;
+                        found += 1;
+                    }
+                    None if m.dot(lut.grid.center) >= k => return false,
+                    None => {}
+                }
+            }
+            entries[..found]
+                .iter()
+                .for_each(|table| and_into(out, table));
+            return out.iter().any(|w| *w != 0);
+        }
+        // Exact: `out` gathers the samples some planes may put below all of them, `sure` those
+        // every plane does; the rest of `out` is tested against every plane, sample by sample.
+        sure.copy_from_slice(full);
+        for &(m, k, inv) in planes {
+            *ops += 1;
+            match self.brackets.and_then(|b| b.lookup(m, k, inv)) {
+                Some((below, unsure)) => {
+                    and_into(sure, below);
+                    out.iter_mut()
+                        .zip(below.iter().zip(unsure))
+                        .for_each(|(a, (b, u))| *a &= b | u);
+                }
+                None => {
+                    self.samples.below(m, k, scratch);
+                    and_into(sure, scratch);
+                    and_into(out, scratch);
+                }
+            }
+            if out.iter().all(|w| *w == 0) {
+                return false;
+            }
+        }
+        for (w, (word, sure)) in out.iter_mut().zip(sure.iter()).enumerate() {
+            let mut unsure = *word & !sure;
+            *word = *sure;
+            while unsure != 0 {
+                let bit = unsure.trailing_zeros() as usize;
+                unsure &= unsure - 1;
+                let y = self.samples.points[w * 64 + bit];
+                if planes.iter().all(|&(m, k, _)| m.dot(y) < k) {
+                    *word |= 1 << bit;
+                }
+            }
+        }
+        out.iter().any(|w| *w != 0)
+    }
+}
+
+/// A plane `m · y < k` and `1 / |m|`.
+type Plane = (DVec3, f64, f64);
+
+/// `a &= b`, word by word.
+fn and_into(a: &mut [u64], b: &[u64]) {
+    a.iter_mut().zip(b).for_each(|(a, b)| *a &= b);
 }
 
 /// A caster prepared for the tests: vertices in f64, plane, whether it tests moved receivers.
@@ -425,6 +399,10 @@ pub(crate) struct Prepared {
     pub culled: bool,
     /// Its nearest linear depth in the light's frustum.
     pub near_depth: f64,
+    /// `(n · v0 − n · c) / |n|` for its normal `n`, a vertex `v0` and the light's center `c`: the
+    /// signed distance of its supporting plane beyond the center, as [`blocked_by`] computes it
+    /// for a view sample on the positive side (negated on the other).
+    pub center_distance: f64,
 }
 
 impl Prepared {
@@ -445,13 +423,20 @@ impl Prepared {
 /// triangle's edges. `None` when no point can be blocked (`p` on the triangle's plane or one of
 /// its edge planes, or behind a front-only caster).
 fn bounding_planes(t: &Prepared, p: DVec3) -> Option<[(DVec3, f64); 4]> {
+    edge_planes(t, p, side_of(t, p)?)
+}
+
+/// The side (+1 or −1) of `t`'s plane that `p` lies on, `None` where `t` can block nothing from
+/// `p` (on its plane, or behind a front-only caster).
+fn side_of(t: &Prepared, p: DVec3) -> Option<f64> {
     let side = t.normal.dot(p - t.v[0]);
-    if side == 0.0 || (t.front_only && side < 0.0) {
-        return None;
-    }
+    (side != 0.0 && !(t.front_only && side < 0.0)).then(|| side.signum())
+}
+
+/// [`bounding_planes`] for a view point `p` on side `sigma` of `t`'s plane.
+fn edge_planes(t: &Prepared, p: DVec3, sigma: f64) -> Option<[(DVec3, f64); 4]> {
     // Behind the triangle's plane as seen from p, then inside its three edge planes through p:
     // e · (y − p) with the sign of e · (w − p), i.e. (−sign e) · y < −sign e · p.
-    let sigma = side.signum();
     let mut bounds = [(t.normal * sigma, sigma * t.normal.dot(t.v[0])); 4];
     for k in 0..3 {
         let (u, v, w) = (t.v[k], t.v[(k + 1) % 3], t.v[(k + 2) % 3]);
@@ -478,34 +463,65 @@ fn blocked_by(
     p: DVec3,
     planes: &Planes<'_>,
     full: &[u64],
-    out: &mut [u64],
-    scratch: &mut [u64],
+    buffers: &mut Buffers,
     work: &mut Work,
 ) -> bool {
-    let Some(bounds) = bounding_planes(t, p) else {
+    let Some(sigma) = side_of(t, p) else {
+        return false;
+    };
+    // The light wholly on p's side of the supporting plane: nothing is behind it (the test of
+    // its plane below, made before the edge planes are built).
+    if sigma * t.center_distance < -planes.radius {
+        return false;
+    }
+    let Some(bounds) = edge_planes(t, p, sigma) else {
         return false;
     };
     // The light's bounding sphere decides most planes without looking at a sample: wholly above a
     // plane, nothing is blocked; wholly below, the plane removes nothing.
-    let mut straddling = [false; 4];
-    for (k, (m, bound)) in bounds.iter().enumerate() {
-        let distance = (bound - m.dot(planes.center)) / m.length();
+    let mut straddling = [(DVec3::ZERO, 0.0, 0.0); 4];
+    let mut count = 0;
+    for (m, bound) in bounds {
+        let inv = 1.0 / m.length();
+        let distance = (bound - m.dot(planes.center)) * inv;
         if distance < -planes.radius {
             return false;
         }
-        straddling[k] = distance <= planes.radius;
-    }
-    out.copy_from_slice(full);
-    for (k, (m, bound)) in bounds.iter().enumerate() {
-        if straddling[k] {
-            work.plane_mask_ops += 1;
-            planes.and_below(*m, *bound, out, scratch);
-            if out.iter().all(|w| *w == 0) {
-                return false;
-            }
+        if distance <= planes.radius {
+            straddling[count] = planes.unrotated((m, bound, inv));
+            count += 1;
         }
     }
-    true
+    let Buffers {
+        blocked,
+        scratch,
+        sure,
+    } = buffers;
+    planes.below_all(
+        &straddling[..count],
+        full,
+        blocked,
+        scratch,
+        sure,
+        &mut work.plane_mask_ops,
+    )
+}
+
+/// The per-band buffers of the tests: a pair's blocked samples and two of scratch.
+struct Buffers {
+    blocked: Vec<u64>,
+    scratch: Vec<u64>,
+    sure: Vec<u64>,
+}
+
+impl Buffers {
+    fn new(words: usize) -> Self {
+        Self {
+            blocked: vec![0; words],
+            scratch: vec![0; words],
+            sure: vec![0; words],
+        }
+    }
 }
 
 /// For a perforated caster, clears the blocked samples whose segment crosses a transparent texel.
@@ -674,7 +690,7 @@ impl SampleMasks {
 /// The memory of [`sample_masks`] for `receivers` receivers and `samples` light samples: per
 /// receiver its bitmask, its list entry's and its view sample's (or the GPU's, read back), its
 /// view sample and point, and the lists; per caster its set-up, influence region and band bins;
-/// the lookup table; the penumbra flags and the silhouettes. (The row spans of the penumbra
+/// the lookup table and, on the CPU, the bracketing table; the penumbra flags and the silhouettes. (The row spans of the penumbra
 /// regions, transient, are left out.)
 pub(crate) fn masks_peak(
     scene: &Scene,
@@ -694,6 +710,11 @@ pub(crate) fn masks_peak(
     let lut = opts.lut.bins(samples).map_or(Peak::default(), |bins| {
         Peak::default().buffer(&[bins as u64, bins as u64, bins as u64, words, 8])
     });
+    let bracket_bins = BracketTable::bins_for(words as usize) as u64;
+    let brackets = match opts.backend {
+        Backend::Cpu => Peak::default().buffer(&[bracket_bins.pow(3), 2 * words, 8]),
+        Backend::Gpu => Peak::default(),
+    };
     let penumbra = if opts.restrict_to_penumbra {
         Peak::default().buffer(&[res, res]).and(edges_peak(scene))
     } else {
@@ -705,6 +726,7 @@ pub(crate) fn masks_peak(
         .and(ReceiverLists::peak(receivers, opts.resolution))
         .buffer(&[scene.num_faces() as u64, per_caster])
         .and(lut)
+        .and(brackets)
         .and(penumbra)
 }
 
@@ -770,8 +792,21 @@ pub(crate) fn sample_masks(
         0
     };
     stats.set("exact_view_samples", exact_views as f64);
+    let cut = opts.cut_at_supporting_plane.then_some(Cut {
+        bias: f64::from(opts.bias),
+        front_only: inside == 0,
+    });
     let casters = stats.time_add("rasterization", || {
-        CasterSet::prepare(scene, &bounds, &frustum, opts, opaque_only, inside > 0)
+        CasterSet::prepare(
+            scene,
+            &bounds,
+            &frustum,
+            opts,
+            opaque_only,
+            inside > 0,
+            (center, radius),
+            cut,
+        )
     });
     stats.set("casters", casters.prepared.len() as f64);
     let penumbra = if opts.restrict_to_penumbra && light_samples.points.len() > 1 {
@@ -806,7 +841,21 @@ pub(crate) fn sample_masks(
         }
         _ => None,
     };
-    stats.set("lut_bins", lut.as_ref().map_or(0.0, |t| t.bins as f64));
+    stats.set("lut_bins", lut.as_ref().map_or(0.0, |t| t.grid.bins as f64));
+    // The exact tests read a bracketing table when there are enough of them to repay its build.
+    let exactly_tested = if table_bins.is_some() {
+        exact_views
+    } else {
+        view.len()
+    };
+    let brackets = match exactly_tested >= BRACKETS_MIN_VIEW_SAMPLES
+        && light_samples.points.len() > 1
+        && extent > 0.0
+        && opts.backend == Backend::Cpu
+    {
+        true => Some(BracketTable::new(&light_samples, center, extent)?),
+        false => None,
+    };
     let setup = TexelTests {
         scene,
         bounds: &bounds,
@@ -818,9 +867,11 @@ pub(crate) fn sample_masks(
         penumbra: penumbra.as_deref(),
         samples: &light_samples,
         lut: lut.as_ref(),
+        brackets: brackets.as_ref(),
         center,
         radius,
         full: light_samples.full_mask(),
+        cut,
     };
     let masks = match opts.backend {
         Backend::Cpu => cpu_masks(&setup, stats)?,
@@ -856,36 +907,154 @@ pub(crate) struct TexelTests<'a> {
     pub penumbra: Option<&'a [bool]>,
     pub samples: &'a LightSamples,
     pub lut: Option<&'a Lut>,
+    /// The exact tests' bracketing table, where one was built (the CPU's).
+    pub brackets: Option<&'a BracketTable>,
     /// The light's center and the radius of a sphere about it holding every sample (a hair more
     /// than the light's extent, against round-off).
     pub center: DVec3,
     pub radius: f64,
     /// The mask of every light sample.
     pub full: Vec<u64>,
+    /// The supporting-plane cut of the influence regions (section 4.3), if on.
+    pub cut: Option<Cut>,
+}
+
+/// The settings of the supporting-plane cut ([`cut_at_supporting_plane`]).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Cut {
+    /// The receivers' offset along their normal: how far a moved receiver may cross a plane.
+    pub bias: f64,
+    /// Whether front-only casters are tested from their front alone (no view sample lies inside
+    /// a closed mesh, from where every closed triangle is tested from either side).
+    pub front_only: bool,
+}
+
+impl TexelTests<'_> {
+    /// The casters' projections from the light's center on the lists' map: the regions of
+    /// [`Pass::Center`]. Errors: none for a light center that [`Light::point`] takes.
+    fn center_regions(&self) -> Result<Vec<Option<Vec<DVec2>>>> {
+        let point = Light::point(self.bounds.light.center())?;
+        let bounds = LightBounds::of_light(&point);
+        Ok(self
+            .casters
+            .raw
+            .par_iter()
+            .map(|c| influence_hull(&self.frustum, &bounds, &c.vertices, 1))
+            .collect())
+    }
+
+    /// `hull` (on `frustum`'s far plane) cut at caster `t`'s supporting plane, if the cut is on.
+    fn cut(&self, hull: Vec<DVec2>, frustum: &LightFrustum, t: &Prepared) -> Vec<DVec2> {
+        match self.cut {
+            Some(cut) => cut_at_supporting_plane(hull, frustum, t, (self.center, self.radius), cut),
+            None => hull,
+        }
+    }
+}
+
+/// The part of an influence region `hull` (texel coordinates of `frustum`'s map, on its far
+/// plane) where caster `t` may block a sample (Sintorn et al. 2008, section 4.3: the region cut
+/// off at the triangle's supporting plane). A triangle blocks a sample only from a point on the
+/// other side of its plane: when every sample lies on one side (the ball `(center, radius)` does,
+/// beyond the receivers' offset), the receivers it may shadow lie on the other side or within the
+/// offset of the plane. A front-only caster (a closed mesh's triangle under back-face culling)
+/// blocks only from points strictly in front of it, wherever the samples lie. A receiver on the
+/// ray from the center through texel point `s`, no deeper than the far plane, lies on a side of
+/// the plane that the center does not lie on only if the ray's far point does (the distance to
+/// the plane varies linearly along the ray): an affine condition on `s`, kept with a margin of a
+/// hundredth of a texel and of the f32 round-off of the receivers' projections.
+fn cut_at_supporting_plane(
+    hull: Vec<DVec2>,
+    frustum: &LightFrustum,
+    t: &Prepared,
+    (center, radius): (DVec3, f64),
+    cut: Cut,
+) -> Vec<DVec2> {
+    if hull.is_empty() {
+        return hull;
+    }
+    let unit = t.normal / t.normal.length();
+    let (far, w, h) = (
+        f64::from(frustum.far),
+        frustum.width as f64,
+        frustum.height as f64,
+    );
+    let (tx, ty) = (f64::from(frustum.tan_half_x), f64::from(frustum.tan_half_y));
+    // n · (eye + far · texel_ray(s) − v0) = a · s + a0 for a unit normal n, and its margin.
+    let far_side = |n: DVec3| {
+        let [nf, nr, nu] =
+            [frustum.forward, frustum.right, frustum.up].map(|axis| n.dot(axis.as_dvec3()));
+        let a = DVec2::new(far * nr * 2.0 * tx / w, -far * nu * 2.0 * ty / h);
+        let a0 = n.dot(center - t.v[0]) + far * (nf - nr * tx + nu * ty);
+        let slack = 0.01 * a.length() + 1e-5 * far * (1.0 + tx + ty) + 1e-9 * a0.abs();
+        (a, a0, slack)
+    };
+    // `-center_distance`: the center's signed distance from the plane along `unit`.
+    let behind = -t.center_distance < -1e-9 * (center - t.v[0]).length();
+    if cut.front_only && t.front_only && behind {
+        let (a, a0, slack) = far_side(unit);
+        return clip_affine(&hull, |s| a.dot(s) + a0 + slack);
+    }
+    if t.center_distance.abs() <= radius.max(cut.bias) * (1.0 + 1e-6) {
+        return hull;
+    }
+    // The unit normal towards the samples: a receiver there within the offset of the plane.
+    let (a, a0, slack) = far_side(unit * -t.center_distance.signum());
+    clip_affine(&hull, |s| slack + cut.bias - (a.dot(s) + a0))
 }
 
 /// The bitmask of every view sample (view order) on the CPU: the lists, then bands of rows in
-/// parallel over the casters binned to them. Errors: interrupted.
+/// parallel over the casters binned to them. With the penumbra restriction, the view samples of
+/// the penumbra texels and the others go to two sets of lists, tested by a [`Pass::Samples`] and
+/// a [`Pass::Center`] pass. Errors: interrupted.
 fn cpu_masks(setup: &TexelTests<'_>, stats: &mut Stats) -> Result<Vec<u64>> {
-    let lists = stats.time_add("list_build", || {
-        ReceiverLists::with_frustum(setup.frustum, setup.points)
+    let frustum = setup.frustum;
+    let in_penumbra = |texel: usize| setup.penumbra.is_none_or(|flags| flags[texel]);
+    let (penumbra, elsewhere) = stats.time_add("list_build", || {
+        (
+            ReceiverLists::with_frustum_where(frustum, setup.points, in_penumbra),
+            setup.penumbra.map(|_| {
+                ReceiverLists::with_frustum_where(frustum, setup.points, |t| !in_penumbra(t))
+            }),
+        )
     });
-    lists.record_stats(stats);
-    let bins = stats.time_add("rasterization", || lists.bin(&setup.casters.hulls));
-    let words = setup.full.len();
-    let mut masks = initial_masks(&lists, setup.view, setup.samples, setup.center);
-    let tester = Tester {
-        setup,
-        lists: &lists,
-        bins: &bins,
+    let lengths = |l: &ReceiverLists, t: usize| l.start[t + 1] - l.start[t];
+    record_list_stats(
+        (0..frustum.width * frustum.height)
+            .map(|t| lengths(&penumbra, t) + elsewhere.as_ref().map_or(0, |l| lengths(l, t))),
+        stats,
+    );
+    let centers = match &elsewhere {
+        Some(_) => stats.time_add("rasterization", || setup.center_regions())?,
+        None => Vec::new(),
     };
-    stats
-        .time("visibility", || tester.run(&mut masks))?
-        .record(stats);
-    let mut by_view = vec![0u64; masks.len()];
-    for (e, &i) in lists.entries.iter().enumerate() {
-        let i = i as usize;
-        by_view[i * words..(i + 1) * words].copy_from_slice(&masks[e * words..(e + 1) * words]);
+    let mut passes = vec![(&penumbra, Pass::Samples, setup.casters.hulls.as_slice())];
+    if let Some(lists) = &elsewhere {
+        passes.push((lists, Pass::Center, centers.as_slice()));
+    }
+    let band_frustums: Vec<Option<LightFrustum>> = (0..penumbra.bands())
+        .map(|b| {
+            let rows = penumbra.rows(b);
+            passes
+                .iter()
+                .filter_map(|(lists, _, _)| lists.band_frustum(&rows))
+                .max_by(|a, b| a.far.total_cmp(&b.far))
+        })
+        .collect();
+    let words = setup.full.len();
+    let mut by_view = vec![0u64; setup.view.len() * words];
+    for (lists, pass, regions) in passes {
+        let tester = stats.time_add("rasterization", || {
+            Tester::new(setup, lists, pass, regions, &band_frustums)
+        });
+        let mut masks = initial_masks(lists, setup.view, setup.samples, setup.center);
+        stats
+            .time_add("visibility", || tester.run(&mut masks))?
+            .record(stats);
+        for (e, &i) in lists.entries.iter().enumerate() {
+            let i = i as usize;
+            by_view[i * words..(i + 1) * words].copy_from_slice(&masks[e * words..(e + 1) * words]);
+        }
     }
     Ok(by_view)
 }
@@ -1028,8 +1197,11 @@ pub(crate) struct CasterSet {
 }
 impl CasterSet {
     /// The casters of `scene` for the light of `bounds` (see the module documentation, step 4)
-    /// and their influence regions in the lists' `frustum`, which bound the light's samples too;
-    /// with `any_inside`, the culled closed triangles too, for the view samples inside.
+    /// and their influence regions in the lists' `frustum`, which bound the light's samples too
+    /// (cut at their supporting planes, with `cut`); with `any_inside`,
+    /// the culled closed triangles too, for the view samples inside. The samples lie within
+    /// `radius` of the light's `center`.
+    #[allow(clippy::too_many_arguments)]
     fn prepare(
         scene: &Scene,
         bounds: &LightBounds<'_>,
@@ -1037,6 +1209,8 @@ impl CasterSet {
         opts: &AliasFreeOptions,
         opaque_only: bool,
         any_inside: bool,
+        (center, radius): (DVec3, f64),
+        cut: Option<Cut>,
     ) -> CasterSet {
         let point = matches!(bounds.light.shape, Shape::Point { .. });
         let filter = match opts.caster_faces {
@@ -1085,22 +1259,32 @@ impl CasterSet {
                         .map(|p| f64::from(frustum.to_view(*p).z))
                         .fold(f64::INFINITY, f64::min);
                     let culled = any_inside && culled(id, &t);
+                    let normal = (v[1] - v[0]).cross(v[2] - v[0]);
                     Prepared {
                         id,
                         v,
-                        normal: (v[1] - v[0]).cross(v[2] - v[0]),
+                        normal,
                         alpha,
                         moved,
                         front_only: front_only(id),
                         culled,
                         near_depth,
+                        center_distance: (normal.dot(v[0]) - normal.dot(center))
+                            * (1.0 / normal.length()),
                     }
                 },
             )
-            .collect();
+            .collect::<Vec<Prepared>>();
         let hulls = raw
             .par_iter()
-            .map(|c| influence_hull(frustum, bounds, &c.vertices, opts.hull_degree))
+            .zip(&prepared)
+            .map(|(c, t)| {
+                influence_hull(frustum, bounds, &c.vertices, opts.hull_degree).map(|hull| match cut
+                {
+                    Some(cut) => cut_at_supporting_plane(hull, frustum, t, (center, radius), cut),
+                    None => hull,
+                })
+            })
             .collect();
         CasterSet {
             raw,
@@ -1181,14 +1365,52 @@ impl Work {
     }
 }
 
-/// The CPU's per-texel tests over the lists, with the casters binned by bands of rows.
+/// Which test a pass of the CPU's per-texel tests makes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Pass {
+    /// Every sample, over the casters' influence regions (cut at their supporting planes).
+    Samples,
+    /// The light's center alone, for view samples outside every penumbra (section 4.3), over the
+    /// casters' projections from the center: all of the light is blocked or none, and a caster
+    /// that blocks the center covers the view sample's texel in its projection. Perforated
+    /// casters, whose texture cuts anywhere, test every sample still.
+    Center,
+}
+
+/// The CPU's per-texel tests of one pass over its lists, with the casters binned by bands of rows.
 struct Tester<'a> {
     setup: &'a TexelTests<'a>,
     lists: &'a ReceiverLists,
-    bins: &'a [Vec<u32>],
+    pass: Pass,
+    /// Per caster, its region on the lists' far plane (`None`: the whole map): the influence
+    /// region for [`Pass::Samples`] (recomputed per band on the band's far plane), the
+    /// projection from the light's center for [`Pass::Center`].
+    regions: &'a [Option<Vec<DVec2>>],
+    bins: Vec<Vec<u32>>,
+    /// Per band, the frustum whose far plane holds every view sample of its rows, in both
+    /// passes' lists (`None`: none): the regions of a band are projected there, as the GPU's
+    /// are, so that the two backends test the very same pairs (the table's bits depend on them).
+    band_frustums: &'a [Option<LightFrustum>],
 }
 
-impl Tester<'_> {
+impl<'a> Tester<'a> {
+    fn new(
+        setup: &'a TexelTests<'a>,
+        lists: &'a ReceiverLists,
+        pass: Pass,
+        regions: &'a [Option<Vec<DVec2>>],
+        band_frustums: &'a [Option<LightFrustum>],
+    ) -> Self {
+        Tester {
+            setup,
+            lists,
+            pass,
+            regions,
+            bins: lists.bin(regions),
+            band_frustums,
+        }
+    }
+
     /// Tests every band of rows in parallel, each over its own part of `masks` (the bitmasks of
     /// the list entries, in list order), returning the work done. Errors: interrupted (each
     /// band stops at its next caster once the call is asked to stop).
@@ -1203,6 +1425,22 @@ impl Tester<'_> {
         Ok(work)
     }
 
+    /// The region of caster `c` over the receivers of a band whose far plane is `band_frustum`'s.
+    fn region(&self, c: usize, band_frustum: &LightFrustum) -> Option<Vec<DVec2>> {
+        let setup = self.setup;
+        match (&self.regions[c], self.pass) {
+            (None, _) => None,
+            (Some(hull), Pass::Center) => Some(hull.clone()),
+            (Some(_), Pass::Samples) => influence_hull(
+                band_frustum,
+                setup.bounds,
+                &setup.casters.raw[c].vertices,
+                setup.hull_degree,
+            )
+            .map(|hull| setup.cut(hull, band_frustum, &setup.casters.prepared[c])),
+        }
+    }
+
     /// Tests the casters binned to band `b` (rows `rows`, list entries from `base` on) against
     /// the view samples of its lists.
     fn band(
@@ -1214,83 +1452,73 @@ impl Tester<'_> {
         watch: &crate::interrupt::Watch,
     ) -> Work {
         let setup = self.setup;
-        let (w, words, full) = (setup.frustum.width, setup.full.len(), &setup.full);
+        let (words, full) = (setup.full.len(), &setup.full);
         let (lists, view, casters) = (self.lists, setup.view, setup.casters);
-        let mut blocked = vec![0u64; words];
-        let mut scratch = vec![0u64; words];
+        let mut buffers = Buffers::new(words);
         let mut work = Work::default();
-        let Some(band_frustum) = lists.band_frustum(&rows) else {
+        let Some(band_frustum) = self.band_frustums[b] else {
             return work;
         };
         let (center, radius) = (setup.center, setup.radius);
         let unrotated = Planes {
             samples: setup.samples,
             lut: setup.lut,
+            brackets: setup.brackets,
             center,
             radius,
             rotation: None,
         };
         for &c in self.bins[b].iter().take_while(|_| !watch.requested()) {
             let t = &casters.prepared[c as usize];
-            let region = match &casters.hulls[c as usize] {
-                Some(_) => influence_hull(
-                    &band_frustum,
-                    setup.bounds,
-                    &casters.raw[c as usize].vertices,
-                    setup.hull_degree,
-                ),
-                None => None,
-            };
-            for (y, x0, x1) in lists.spans(region.as_deref(), &rows) {
-                for x in x0..x1 {
-                    let umbra_or_lit = !t.alpha && setup.penumbra.is_some_and(|f| !f[y * w + x]);
-                    for e in lists.span_entries((y, x, x + 1)) {
-                        let m = &mut band_masks[(e - base) * words..(e - base + 1) * words];
-                        if m.iter().zip(full).all(|(a, f)| a == f) {
-                            continue;
+            let center_only = self.pass == Pass::Center && !t.alpha;
+            let region = self.region(c as usize, &band_frustum);
+            for span in lists.spans(region.as_deref(), &rows) {
+                for e in lists.span_entries(span) {
+                    let m = &mut band_masks[(e - base) * words..(e - base + 1) * words];
+                    if m == full.as_slice() {
+                        continue;
+                    }
+                    let (i, s) = (lists.entries[e] as usize, &view[lists.entries[e] as usize]);
+                    // Wholly beyond both the receiver and the light: it cannot cut their segment.
+                    if (t.culled && !s.inside)
+                        || t.near_depth > lists.depths[i].max(radius) + 1e-9 * t.near_depth.abs()
+                    {
+                        continue;
+                    }
+                    let from_inside;
+                    let t = if s.inside {
+                        from_inside = t.seen_from_inside();
+                        &from_inside
+                    } else {
+                        t
+                    };
+                    let p = if t.moved { s.moved } else { s.p };
+                    work.pair_tests += 1;
+                    if center_only {
+                        if blocks_point(t, p, center) {
+                            m.copy_from_slice(full);
                         }
-                        let (i, s) = (lists.entries[e] as usize, &view[lists.entries[e] as usize]);
-                        // Wholly beyond both the receiver and the light: it cannot cut their segment.
-                        if (t.culled && !s.inside)
-                            || t.near_depth
-                                > lists.depths[i].max(radius) + 1e-9 * t.near_depth.abs()
-                        {
-                            continue;
+                        continue;
+                    }
+                    let planes = Planes {
+                        rotation: s.rotation,
+                        lut: setup.lut.filter(|_| !s.exact_planes),
+                        ..unrotated
+                    };
+                    if blocked_by(t, p, &planes, full, &mut buffers, &mut work) {
+                        if t.alpha {
+                            alpha_test(
+                                setup.scene,
+                                t,
+                                p,
+                                setup.samples,
+                                |y| rotate_about(center, s.rotation, y),
+                                &mut buffers.blocked,
+                            );
                         }
-                        let from_inside;
-                        let t = if s.inside {
-                            from_inside = t.seen_from_inside();
-                            &from_inside
-                        } else {
-                            t
-                        };
-                        let p = if t.moved { s.moved } else { s.p };
-                        work.pair_tests += 1;
-                        if umbra_or_lit {
-                            // All of the light is blocked or none: the center decides.
-                            if blocks_point(t, p, center) {
-                                m.copy_from_slice(full);
-                            }
-                            continue;
-                        }
-                        let planes = Planes {
-                            rotation: s.rotation,
-                            lut: setup.lut.filter(|_| !s.exact_planes),
-                            ..unrotated
-                        };
-                        if blocked_by(t, p, &planes, full, &mut blocked, &mut scratch, &mut work) {
-                            if t.alpha {
-                                alpha_test(
-                                    setup.scene,
-                                    t,
-                                    p,
-                                    setup.samples,
-                                    |y| rotate_about(center, s.rotation, y),
-                                    &mut blocked,
-                                );
-                            }
-                            m.iter_mut().zip(&blocked).for_each(|(a, b)| *a |= b);
-                        }
+                        m.iter_mut()
+                            .zip(&buffers.blocked)
+                            .for_each(|(a, b)| *a |= b);
                     }
                 }
             }
@@ -1334,7 +1562,7 @@ mod tests {
         let bins: Vec<usize> = [1, 16, 64, 128, 256, 512, 1024]
             .map(table_bins_for)
             .to_vec();
-        assert_eq!(bins, [32, 32, 64, 96, 128, 96, 80]);
+        assert_eq!(bins, [64, 64, 64, 96, 128, 96, 80]);
         for s in 1..=MAX_SAMPLES {
             let b = table_bins_for(s) as u64;
             assert!(

@@ -1,5 +1,6 @@
-//! `pcss`: percentage-closer soft shadows (Fernando 2005), the fast single-view baseline of seed
-//! 004 (section 4: "a 64-sample blocker search and 96-sample PCF filter").
+//! `pcss`: percentage-closer soft shadows (Fernando 2005), the fast single-view baseline of Marrs,
+//! Watson and Healey 2018, "View-warped Multi-view Soft Shadows for Local Area Lights" (section 4:
+//! "a 64-sample blocker search and 96-sample PCF filter").
 //!
 //! One depth map is rendered from the light's center (as [`shadow_map`](crate::methods::shadow_map)
 //! does). For a receiver at linear depth `z_r` whose projection is `(sx, sy)`:
