@@ -80,7 +80,8 @@ const SPARSE_LANES: u32 = 3;
 /// traversal of the node's subtree (see the module doc). On the bunny (bench/shadow_rays.py,
 /// 64 shared samples, three runs alternating with and without the hand-off) it takes 0.75-0.80x
 /// the CPU time of no hand-off at 128x128 receivers, 0.94-0.96x at 256x256 and 0.95-0.98x at
-/// 512x512, with the same answers bit for bit.
+/// 512x512, with the same answers bit for bit. At 128x128, 2 lanes took 1.06-1.07x the CPU time
+/// of 4, and 8 the same as 4 within the noise (three alternating runs each).
 const SINGLE_RAY_LANES: u32 = 4;
 
 /// The instruction sets the packet traversal is compiled for; [`Isa::detect`] picks the
