@@ -621,6 +621,22 @@ impl Bvh {
         casts: Option<&dyn Fn(u32) -> bool>,
         stack: &mut [u32; STACK],
     ) -> Option<u32> {
+        self.any_hit_inline(scene, r, t_max, start, casts, stack)
+    }
+
+    /// [`Bvh::any_hit`] inlined into its caller: the packet traversal hands its sparse lanes
+    /// to it (`bvh/packet.rs`), compiled there for each instruction set and without a call's
+    /// set-up per lane.
+    #[inline(always)]
+    fn any_hit_inline(
+        &self,
+        scene: &Scene,
+        r: &RayData,
+        t_max: f32,
+        start: u32,
+        casts: Option<&dyn Fn(u32) -> bool>,
+        stack: &mut [u32; STACK],
+    ) -> Option<u32> {
         let mut sp = 0usize;
         let mut cur = start;
         loop {
@@ -714,7 +730,9 @@ impl Bvh {
 }
 
 /// The ray of the open segment t in (0, `t_max`) of `origin + t dir`; `None` when it is empty
-/// (`t_max <= 0` or NaN, a zero `dir`) or not finite.
+/// (`t_max <= 0` or NaN, a zero `dir`) or not finite. Inlined, so that the ray is built where
+/// it is used rather than returned by copy (`RayData` is about 300 bytes, copied once per ray).
+#[inline(always)]
 fn segment(origin: Vec3, dir: Vec3, t_max: f32) -> Option<RayData> {
     if t_max.is_nan() || t_max <= 0.0 {
         return None;

@@ -20,7 +20,15 @@
 //!   watertight test of `bvh/triangle.rs`: triangle by triangle, many lanes at once (the
 //!   vertices permuted once when the lanes share their shear axes, as nearly parallel rays
 //!   do), or lane by lane, four triangles at once, for a chunk bringing only a few lanes;
-//! - a blocked lane leaves the packet, and the traversal stops when no lane is left.
+//! - a blocked lane leaves the packet, and the traversal stops when no lane is left;
+//! - a node reached by at most [`SINGLE_RAY_LANES`] active lanes is left to single-ray
+//!   traversals of its subtree, one per lane (`Bvh::any_hit` from that node, on the lane's own
+//!   `RayData`): the hybrid of Benthin, Wald, Woop, Ernst and Mark, "Combining Single and
+//!   Packet-Ray Tracing for Arbitrary Ray Distributions on the Intel MIC Architecture" (IEEE
+//!   TVCG 18(9), 2012). A packet's node visit (frustum, four slope rectangles, lane masks per
+//!   stack entry) costs several single-ray node tests, so below a few lanes the lanes' own
+//!   traversals are cheaper; incoherent packets (small images, whose tiles of receivers cover
+//!   more of the scene) lose most of their lanes a few levels down.
 //!
 //! Lane data is transposed into [`Chunk`]s of [`W`] lanes and every per-lane test is a plain
 //! loop over a chunk, which LLVM vectorizes to the registers of the instruction set it is
@@ -33,7 +41,9 @@
 //! Exactness: every lane does the IEEE operations, in the same order, of the `RayData` that
 //! [`Bvh::occluded`] builds for the same segment and of its slab and watertight tests (LLVM
 //! never fuses or reorders float operations, whatever the vector width; lanes tested one by
-//! one run `hit4` itself on their own `RayData`); a leaf is skipped for
+//! one run `hit4` itself on their own `RayData`, and lanes handed to single-ray traversals run
+//! `Bvh::any_hit` itself, whose answer for a subtree is that of [`Bvh::occluded`] restricted
+//! to it); a leaf is skipped for
 //! a lane only when the frustum or the projection test (both conservative, with margins far
 //! above float rounding) or that lane's own slab test (identical to the single ray's, which
 //! never culls a leaf holding a watertight hit) rejects it. An opaque hit anywhere in the open
@@ -48,7 +58,7 @@ use glam::{Vec3, Vec4};
 use std::cell::RefCell;
 
 thread_local! {
-    /// Per-thread packet buffer (about 8 KiB, rewritten lane by lane, never zeroed again).
+    /// Per-thread packet buffer (about 11 KiB, rewritten lane by lane, never zeroed again).
     static PACKET: RefCell<Box<Packet>> = RefCell::new(Box::new(Packet::empty()));
 }
 
@@ -65,6 +75,14 @@ const CHUNK_MASK: u64 = (1 << W) - 1;
 /// AVX-512, and a leaf holds 3.5 triangles on average: the break-even is near 3 lanes. In
 /// the bunny's packets 57% of the chunks that reach a leaf bring at most 3 lanes (28% one).
 const SPARSE_LANES: u32 = 3;
+
+/// Most active lanes at a node for which the packet hands each lane its own single-ray
+/// traversal of the node's subtree (see the module doc). On the bunny (bench/shadow_rays.py,
+/// 64 shared samples, three runs alternating with and without the hand-off) it takes 0.75-0.80x
+/// the CPU time of no hand-off at 128x128 receivers, 0.94-0.96x at 256x256 and 0.95-0.98x at
+/// 512x512, with the same answers bit for bit. At 128x128, 2 lanes took 1.06-1.07x the CPU time
+/// of 4, and 8 the same as 4 within the noise (three alternating runs each).
+const SINGLE_RAY_LANES: u32 = 4;
 
 /// The instruction sets the packet traversal is compiled for; [`Isa::detect`] picks the
 /// widest the CPU has.
@@ -179,6 +197,8 @@ pub(super) struct Packet {
     /// node and slot (`4 parent + slot`).
     lane_stack: [u64; STACK],
     slot_stack: [usize; STACK],
+    /// The stack of the single-ray traversals that the packet hands its sparse lanes.
+    ray_stack: [u32; STACK],
 }
 
 /// The slot of a leaf with no parent node (the root of a tree of at most four triangles).
@@ -718,6 +738,7 @@ impl Packet {
             },
             lane_stack: [0; STACK],
             slot_stack: [NO_SLOT; STACK],
+            ray_stack: [0; STACK],
         }
     }
 
@@ -1092,7 +1113,8 @@ impl Bvh {
     /// it is popped run their slab tests, and those accepted the triangle tests.
     ///
     /// One loop, no inner one (see [`Packet::child_lanes`]): leaves are stacked like nodes,
-    /// after the inner children of their parent, so they are tested first.
+    /// after the inner children of their parent, so they are tested first. A node popped with
+    /// at most [`SINGLE_RAY_LANES`] active lanes goes to [`Bvh::single_ray_lanes`].
     #[inline(always)]
     fn packet_traverse(
         &self,
@@ -1115,6 +1137,8 @@ impl Bvh {
                 if lanes != 0 {
                     *active &= !p.blocked_lanes(scene, &self.blocks[(cur & !LEAF) as usize], lanes);
                 }
+            } else if lanes != 0 && lanes.count_ones() <= SINGLE_RAY_LANES {
+                *active &= !self.single_ray_lanes(scene, p, cur, lanes);
             } else if lanes != 0 {
                 let node = &self.nodes[cur as usize];
                 let children = f.overlaps(node);
@@ -1141,6 +1165,26 @@ impl Bvh {
             sp -= 1;
             (cur, lanes, slot) = (stack[sp], p.lane_stack[sp], p.slot_stack[sp]);
         }
+    }
+
+    /// The lanes of `lanes` blocked within the subtree of node `node`, each found by its own
+    /// single-ray traversal (inlined: compiled for the packet's instruction set).
+    #[inline(always)]
+    fn single_ray_lanes(&self, scene: &Scene, p: &mut Packet, node: u32, lanes: u64) -> u64 {
+        let mut blocked = 0u64;
+        let mut m = lanes;
+        while m != 0 {
+            let l = m.trailing_zeros() as usize;
+            m &= m - 1;
+            let r = p.chunks[l / W].ray(l % W);
+            if self
+                .any_hit_inline(scene, &r, 1.0, node, None, &mut p.ray_stack)
+                .is_some()
+            {
+                blocked |= 1 << l;
+            }
+        }
+        blocked
     }
 }
 
@@ -1359,6 +1403,55 @@ mod tests {
             }
         }
         assert!(blocked > 100 && lit > 100, "blocked {blocked}, lit {lit}");
+    }
+
+    /// Packets of a few lanes (at most [`SINGLE_RAY_LANES`] + 1 per target, so that some go
+    /// to single-ray traversals from the root and some from a node further down): the answers
+    /// of single rays, lane for lane, on every instruction set.
+    #[test]
+    fn sparse_lanes_equal_single_rays() {
+        let scene = scene(600, 13);
+        let bvh = Bvh::build(&scene).unwrap();
+        let mut rng = Rng::new(21);
+        let origins: Vec<Vec3> = (0..LANES)
+            .map(|_| {
+                Vec3::new(
+                    rng.next_f32() * 4.0,
+                    -0.49 + rng.next_f32() * 4.0,
+                    rng.next_f32() * 4.0,
+                )
+            })
+            .collect();
+        let targets: Vec<Vec3> = (0..200)
+            .map(|_| {
+                Vec3::new(
+                    rng.next_f32() * 6.0 - 1.0,
+                    6.0 + rng.next_f32(),
+                    rng.next_f32() * 6.0 - 1.0,
+                )
+            })
+            .collect();
+        let lanes: Vec<u64> = (0..targets.len())
+            .map(|t| {
+                let count = 1 + t % (SINGLE_RAY_LANES as usize + 1);
+                (0..count).fold(0u64, |m, _| m | 1 << rng.below(LANES))
+            })
+            .collect();
+        let (mut blocked, mut lit) = (0, 0);
+        for isa in isas() {
+            let mut out = vec![u64::MAX; targets.len()];
+            bvh.occluded_converging_lanes_with(isa, &scene, &origins, &targets, &lanes, &mut out);
+            for ((&y, &m), &got) in targets.iter().zip(&lanes).zip(&out) {
+                let expected = (0..LANES)
+                    .filter(|&i| {
+                        m >> i & 1 != 0 && bvh.occluded(&scene, origins[i], y - origins[i], 1.0)
+                    })
+                    .fold(0u64, |acc, i| acc | 1 << i);
+                assert_eq!(got, expected, "{isa:?} target {y} lanes {m:#x}");
+                (blocked, lit) = (blocked + got.count_ones(), lit + (m & !got).count_ones());
+            }
+        }
+        assert!(blocked > 50 && lit > 50, "blocked {blocked}, lit {lit}");
     }
 
     /// Segments through the shared vertices and edges of a grid of unit triangles (integer
