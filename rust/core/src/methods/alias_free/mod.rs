@@ -363,10 +363,15 @@ impl<'a> Planes<'a> {
         }
         // Exact: `out` gathers the samples some planes may put below all of them, `sure` those
         // every plane does; the rest of `out` is tested against every plane, sample by sample.
+        // The bracketing table's entries are found before any is read, as above.
+        let mut reads = [Read::Test; 4];
+        for (i, r) in reads.iter_mut().enumerate().take(planes.len()) {
+            *r = read(i);
+        }
         sure.copy_from_slice(full);
-        for (i, &(m, k, _)) in planes.iter().enumerate() {
+        for (&(m, k, _), read) in planes.iter().zip(reads) {
             *ops += 1;
-            match read(i) {
+            match read {
                 Read::Bracket(below, unsure) => {
                     and_into(sure, below);
                     out.iter_mut()
