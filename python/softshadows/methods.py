@@ -1121,9 +1121,9 @@ def alias_free(
     samples tests 41 million pairs (217 per view sample) and reads 2.1 plane masks per pair (exact),
     in about 5.6x ``ray_traced``'s CPU time with ``lut=64``, 6.2x with ``lut="auto"`` (128 bins) and
     7.4-7.9x exact (``bench/alias_free.py``, one loaded machine). A triangle's own plane, its sphere
-    test and its table entry are set up once per band of the light's map; the three planes through
-    the receiver and the triangle's edges are built, normalized and located in the table per pair,
-    and a read far into a table of megabytes bounds what is left.
+    test and its table entry (for unrotated samples) are set up once per band of the light's map;
+    the three planes through the receiver and the triangle's edges are built, normalized and located
+    in the table per pair, and a read far into a table of megabytes bounds what is left.
 
     Parameters
     ----------
