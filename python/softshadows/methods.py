@@ -1117,6 +1117,14 @@ def alias_free(
     On the same samples the exact mode (``lut=None``) computes ``ray_traced``'s visibility with
     the same ``caster_faces``: ``ray_traced(..., caster_faces="backfacing")`` for the default.
 
+    On the CPU the time goes to the (view sample, triangle) pairs: the bunny at 512x512 with 256
+    samples tests 41 million pairs (217 per view sample) and reads 2.1 plane masks per pair (exact),
+    in about 5.6x ``ray_traced``'s CPU time with ``lut=64``, 6.2x with ``lut="auto"`` (128 bins) and
+    7.4-7.9x exact (``bench/alias_free.py``, one loaded machine). A triangle's own plane, its sphere
+    test and its table entry (for unrotated samples) are set up once per band of the light's map;
+    the three planes through the receiver and the triangle's edges are built, normalized and located
+    in the table per pair, and a read far into a table of megabytes bounds what is left.
+
     Parameters
     ----------
     scene : Scene

@@ -495,7 +495,8 @@ def _versus_shadow_rays(tier):
                                    "light reads the table for each of them ("
                                  + ", ".join(f"{values[f'lookups_per_pair_{n}']:.1f}" for n in RAY_TRACER_SCENES)
                                  + " per pair), each a normalization, two bin searches and a read far into a table of "
-                                   "megabytes, where a shadow ray visits a few BVH nodes and triangles for each sample; "
+                                   "megabytes (the triangle's own plane once per band of the map, the three through the "
+                                   "view sample and its edges per pair), where a shadow ray visits a few BVH nodes and triangles for each sample; "
                                    "the GPU of the paper hid those reads behind thousands of threads.")
 
 

@@ -273,6 +273,7 @@ impl LightSamples {
 /// Plane masks of the light samples, through the paper's table or exactly (through the
 /// bracketing table where one was built), for one view sample whose samples may be rotated about
 /// the light's center.
+#[derive(Clone, Copy)]
 struct Planes<'a> {
     samples: &'a LightSamples,
     lut: Option<&'a Lut>,
@@ -286,7 +287,7 @@ struct Planes<'a> {
     rotation: Option<DMat3>,
 }
 
-impl Planes<'_> {
+impl<'a> Planes<'a> {
     /// The plane `(m, k)` (`inv = 1 / |m|`) for the unrotated samples, with its `1 / |m|`.
     fn unrotated(&self, (m, k, inv): Plane) -> Plane {
         match self.rotation {
@@ -302,35 +303,57 @@ impl Planes<'_> {
         }
     }
 
+    /// How the paper's table (if this view sample reads it) or the bracketing table serves the
+    /// unrotated plane `(m, k)` (`inv = 1 / |m|`).
+    fn read(&self, (m, k, inv): Plane) -> Read<'a> {
+        if let Some(lut) = self.lut {
+            return match lut.lookup(m, k, inv) {
+                Some(mask) => Read::Lut(mask),
+                None if m.dot(lut.grid.center) >= k => Read::Nothing,
+                None => Read::Everything,
+            };
+        }
+        match self.brackets.and_then(|b| b.lookup(m, k, inv)) {
+            Some((sure, unsure)) => Read::Bracket(sure, unsure),
+            None => Read::Test,
+        }
+    }
+
     /// The samples that every plane of `planes` (unrotated) puts strictly below it, into `out`
-    /// (`scratch` and `sure` of the same length); false when none. Counts the planes' masks
-    /// AND-ed in `ops`.
+    /// (`scratch` and `sure` of the same length); false when none. `first` is how the tables
+    /// serve `planes[0]`, where the caller has read it already. Counts the planes' masks AND-ed
+    /// in `ops`.
     #[allow(clippy::too_many_arguments)]
     fn below_all(
         &self,
         planes: &[Plane],
+        first: Option<Read<'a>>,
         full: &[u64],
         out: &mut [u64],
         scratch: &mut [u64],
         sure: &mut [u64],
         ops: &mut u64,
     ) -> bool {
+        let read = |i: usize| match (i, first) {
+            (0, Some(read)) => read,
+            _ => self.read(planes[i]),
+        };
         out.copy_from_slice(full);
-        if let Some(lut) = self.lut {
+        if self.lut.is_some() {
             // The paper's table: each plane's mask is read, the planes' masks AND-ed. Every
             // entry is found before any is read, so that the reads (far apart in a table of
             // megabytes) overlap.
             let mut entries: [&[u64]; 4] = [&[]; 4];
             let mut found = 0;
-            for &(m, k, inv) in planes {
+            for i in 0..planes.len() {
                 *ops += 1;
-                match lut.lookup(m, k, inv) {
-                    Some(table) => {
+                match read(i) {
+                    Read::Lut(table) => {
                         entries[found] = table;
                         found += 1;
                     }
-                    None if m.dot(lut.grid.center) >= k => return false,
-                    None => {}
+                    Read::Nothing => return false,
+                    _ => {}
                 }
             }
             entries[..found]
@@ -340,17 +363,22 @@ impl Planes<'_> {
         }
         // Exact: `out` gathers the samples some planes may put below all of them, `sure` those
         // every plane does; the rest of `out` is tested against every plane, sample by sample.
+        // The bracketing table's entries are found before any is read, as above.
+        let mut reads = [Read::Test; 4];
+        for (i, r) in reads.iter_mut().enumerate().take(planes.len()) {
+            *r = read(i);
+        }
         sure.copy_from_slice(full);
-        for &(m, k, inv) in planes {
+        for (&(m, k, _), read) in planes.iter().zip(reads) {
             *ops += 1;
-            match self.brackets.and_then(|b| b.lookup(m, k, inv)) {
-                Some((below, unsure)) => {
+            match read {
+                Read::Bracket(below, unsure) => {
                     and_into(sure, below);
                     out.iter_mut()
                         .zip(below.iter().zip(unsure))
                         .for_each(|(a, (b, u))| *a &= b | u);
                 }
-                None => {
+                _ => {
                     self.samples.below(m, k, scratch);
                     and_into(sure, scratch);
                     and_into(out, scratch);
@@ -373,6 +401,93 @@ impl Planes<'_> {
             }
         }
         out.iter().any(|w| *w != 0)
+    }
+}
+
+/// How the tables serve one plane `m · y < k`.
+#[derive(Clone, Copy)]
+enum Read<'a> {
+    /// The plane misses the light with its center above: no sample lies below it.
+    Nothing,
+    /// The plane misses the light with its center below: it removes no sample.
+    Everything,
+    /// The paper's table's mask.
+    Lut(&'a [u64]),
+    /// The bracketing table's `(sure, unsure)` masks.
+    Bracket(&'a [u64], &'a [u64]),
+    /// No table serves it: every sample is tested.
+    Test,
+}
+
+/// Where a plane lies against the light's bounding sphere.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Reach {
+    /// Wholly above it: nothing is blocked.
+    Above,
+    /// Wholly below it: the plane removes nothing.
+    Below,
+    /// Across it.
+    Straddles,
+}
+
+/// Where the plane `(m, k)` lies against the sphere `(center, radius)`, and `1 / |m|`.
+fn reach(m: DVec3, k: f64, center: DVec3, radius: f64) -> (Reach, f64) {
+    let inv = 1.0 / m.length();
+    let distance = (k - m.dot(center)) * inv;
+    let reach = if distance < -radius {
+        Reach::Above
+    } else if distance <= radius {
+        Reach::Straddles
+    } else {
+        Reach::Below
+    };
+    (reach, inv)
+}
+
+/// A caster's supporting plane seen from either of its sides, set up once per caster and band:
+/// from a view sample on side `σ` of the triangle's plane (index 0 for `σ = +1`, 1 for `−1`),
+/// a blocked sample lies strictly below `σ n · y < σ n · v0`, whichever the view sample.
+struct Supporting<'a> {
+    sides: [SupportingSide<'a>; 2],
+}
+
+/// One side of [`Supporting`]: the plane, where it lies against the light's bounding sphere and
+/// its table reads, the same for every view sample on that side, so that the pair loop builds
+/// and looks up only the three edge planes.
+#[derive(Clone, Copy)]
+struct SupportingSide<'a> {
+    plane: Plane,
+    reach: Reach,
+    /// How the tables serve it for unrotated samples, with the paper's table (where one is read)
+    /// and without it (the bracketing table of exact view samples).
+    lut: Read<'a>,
+    exact: Read<'a>,
+}
+
+impl<'a> Supporting<'a> {
+    fn new(t: &Prepared, unrotated: &Planes<'a>) -> Self {
+        let exact = Planes {
+            lut: None,
+            ..*unrotated
+        };
+        let side = |sigma: f64| {
+            let (m, k) = (t.normal * sigma, sigma * t.normal.dot(t.v[0]));
+            let (reach, inv) = reach(m, k, unrotated.center, unrotated.radius);
+            let plane = (m, k, inv);
+            let read = |planes: &Planes<'a>| match reach {
+                Reach::Straddles => planes.read(plane),
+                _ => Read::Test,
+            };
+            SupportingSide {
+                plane,
+                reach,
+                lut: read(unrotated),
+                exact: read(&exact),
+            }
+        };
+        Self {
+            sides: [side(1.0), side(-1.0)],
+        }
     }
 }
 
@@ -423,7 +538,9 @@ impl Prepared {
 /// triangle's edges. `None` when no point can be blocked (`p` on the triangle's plane or one of
 /// its edge planes, or behind a front-only caster).
 fn bounding_planes(t: &Prepared, p: DVec3) -> Option<[(DVec3, f64); 4]> {
-    edge_planes(t, p, side_of(t, p)?)
+    let sigma = side_of(t, p)?;
+    let [a, b, c] = edge_planes(t, p)?;
+    Some([(t.normal * sigma, sigma * t.normal.dot(t.v[0])), a, b, c])
 }
 
 /// The side (+1 or −1) of `t`'s plane that `p` lies on, `None` where `t` can block nothing from
@@ -433,12 +550,11 @@ fn side_of(t: &Prepared, p: DVec3) -> Option<f64> {
     (side != 0.0 && !(t.front_only && side < 0.0)).then(|| side.signum())
 }
 
-/// [`bounding_planes`] for a view point `p` on side `sigma` of `t`'s plane.
-fn edge_planes(t: &Prepared, p: DVec3, sigma: f64) -> Option<[(DVec3, f64); 4]> {
-    // Behind the triangle's plane as seen from p, then inside its three edge planes through p:
-    // e · (y − p) with the sign of e · (w − p), i.e. (−sign e) · y < −sign e · p.
-    let mut bounds = [(t.normal * sigma, sigma * t.normal.dot(t.v[0])); 4];
-    for k in 0..3 {
+/// The three edge planes of [`bounding_planes`]: inside the planes through `p` and each edge of
+/// `t`, i.e. `e · (y − p)` with the sign of `e · (w − p)`: `(−sign e) · y < −sign e · p`.
+fn edge_planes(t: &Prepared, p: DVec3) -> Option<[(DVec3, f64); 3]> {
+    let mut bounds = [(DVec3::ZERO, 0.0); 3];
+    for (k, bound) in bounds.iter_mut().enumerate() {
         let (u, v, w) = (t.v[k], t.v[(k + 1) % 3], t.v[(k + 2) % 3]);
         let e = (u - p).cross(v - p);
         let s = e.dot(w - p);
@@ -446,7 +562,7 @@ fn edge_planes(t: &Prepared, p: DVec3, sigma: f64) -> Option<[(DVec3, f64); 4]> 
             return None;
         }
         let m = -e * s.signum();
-        bounds[k + 1] = (m, m.dot(p));
+        *bound = (m, m.dot(p));
     }
     Some(bounds)
 }
@@ -456,11 +572,13 @@ fn blocks_point(t: &Prepared, p: DVec3, y: DVec3) -> bool {
     bounding_planes(t, p).is_some_and(|planes| planes.iter().all(|(m, k)| m.dot(y) < *k))
 }
 
-/// The samples of `samples` that triangle `t` blocks from view point `p`, written into `out`
-/// (false when none), following the module documentation.
+/// The samples of `samples` that triangle `t` (its supporting plane set up in `supporting`)
+/// blocks from view point `p`, written into `out` (false when none), following the module
+/// documentation.
 fn blocked_by(
     t: &Prepared,
     p: DVec3,
+    supporting: &Supporting<'_>,
     planes: &Planes<'_>,
     full: &[u64],
     buffers: &mut Buffers,
@@ -470,28 +588,38 @@ fn blocked_by(
         return false;
     };
     // The light wholly on p's side of the supporting plane: nothing is behind it (the test of
-    // its plane below, made before the edge planes are built).
-    if sigma * t.center_distance < -planes.radius {
+    // its plane, made before the edge planes are built).
+    let side = &supporting.sides[usize::from(sigma < 0.0)];
+    if side.reach == Reach::Above {
         return false;
     }
-    let Some(bounds) = edge_planes(t, p, sigma) else {
+    let Some(edges) = edge_planes(t, p) else {
         return false;
     };
     // The light's bounding sphere decides most planes without looking at a sample: wholly above a
     // plane, nothing is blocked; wholly below, the plane removes nothing.
     let mut straddling = [(DVec3::ZERO, 0.0, 0.0); 4];
     let mut count = 0;
-    for (m, bound) in bounds {
-        let inv = 1.0 / m.length();
-        let distance = (bound - m.dot(planes.center)) * inv;
-        if distance < -planes.radius {
-            return false;
-        }
-        if distance <= planes.radius {
-            straddling[count] = planes.unrotated((m, bound, inv));
-            count += 1;
+    if side.reach == Reach::Straddles {
+        straddling[0] = planes.unrotated(side.plane);
+        count = 1;
+    }
+    for (m, bound) in edges {
+        match reach(m, bound, planes.center, planes.radius) {
+            (Reach::Above, _) => return false,
+            (Reach::Straddles, inv) => {
+                straddling[count] = planes.unrotated((m, bound, inv));
+                count += 1;
+            }
+            (Reach::Below, _) => {}
         }
     }
+    // The supporting plane's reads hold for unrotated samples only.
+    let first =
+        (side.reach == Reach::Straddles && planes.rotation.is_none()).then_some(match planes.lut {
+            Some(_) => side.lut,
+            None => side.exact,
+        });
     let Buffers {
         blocked,
         scratch,
@@ -499,6 +627,7 @@ fn blocked_by(
     } = buffers;
     planes.below_all(
         &straddling[..count],
+        first,
         full,
         blocked,
         scratch,
@@ -1391,6 +1520,8 @@ struct Tester<'a> {
     /// passes' lists (`None`: none): the regions of a band are projected there, as the GPU's
     /// are, so that the two backends test the very same pairs (the table's bits depend on them).
     band_frustums: &'a [Option<LightFrustum>],
+    /// The lists' view samples copied in list order (see [`Entry`]).
+    entries: Vec<Entry>,
 }
 
 impl<'a> Tester<'a> {
@@ -1408,6 +1539,7 @@ impl<'a> Tester<'a> {
             regions,
             bins: lists.bin(regions),
             band_frustums,
+            entries: Entry::of(lists, setup.view, setup.radius),
         }
     }
 
@@ -1468,21 +1600,19 @@ impl<'a> Tester<'a> {
             radius,
             rotation: None,
         };
+        let entries = &self.entries;
         for &c in self.bins[b].iter().take_while(|_| !watch.requested()) {
             let t = &casters.prepared[c as usize];
             let center_only = self.pass == Pass::Center && !t.alpha;
             let region = self.region(c as usize, &band_frustum);
+            let supporting = Supporting::new(t, &unrotated);
+            let slack = 1e-9 * t.near_depth.abs();
             for span in lists.spans(region.as_deref(), &rows) {
                 for e in lists.span_entries(span) {
                     let m = &mut band_masks[(e - base) * words..(e - base + 1) * words];
-                    if m == full.as_slice() {
-                        continue;
-                    }
-                    let (i, s) = (lists.entries[e] as usize, &view[lists.entries[e] as usize]);
+                    let s = &entries[e];
                     // Wholly beyond both the receiver and the light: it cannot cut their segment.
-                    if (t.culled && !s.inside)
-                        || t.near_depth > lists.depths[i].max(radius) + 1e-9 * t.near_depth.abs()
-                    {
+                    if (t.culled && !s.inside) || t.near_depth > s.reach + slack || m == full {
                         continue;
                     }
                     let from_inside;
@@ -1500,19 +1630,23 @@ impl<'a> Tester<'a> {
                         }
                         continue;
                     }
+                    let rotation = match s.rotated {
+                        true => view[s.view as usize].rotation,
+                        false => None,
+                    };
                     let planes = Planes {
-                        rotation: s.rotation,
+                        rotation,
                         lut: setup.lut.filter(|_| !s.exact_planes),
                         ..unrotated
                     };
-                    if blocked_by(t, p, &planes, full, &mut buffers, &mut work) {
+                    if blocked_by(t, p, &supporting, &planes, full, &mut buffers, &mut work) {
                         if t.alpha {
                             alpha_test(
                                 setup.scene,
                                 t,
                                 p,
                                 setup.samples,
-                                |y| rotate_about(center, s.rotation, y),
+                                |y| rotate_about(center, rotation, y),
                                 &mut buffers.blocked,
                             );
                         }
@@ -1524,6 +1658,44 @@ impl<'a> Tester<'a> {
             }
         }
         work
+    }
+}
+
+/// A list entry's view sample as the per-texel tests read it. The lists point into the view
+/// samples at random; these copies lie in list order, so that a span's entries are read in turn.
+#[derive(Debug, Clone, Copy)]
+struct Entry {
+    p: DVec3,
+    moved: DVec3,
+    /// Its depth in the lists' frustum, or the light's radius where larger: a caster nearer
+    /// than neither cannot cut a segment from it to the light.
+    reach: f64,
+    /// Its index among the view samples, whose rotation is read only where `rotated`.
+    view: u32,
+    inside: bool,
+    rotated: bool,
+    exact_planes: bool,
+}
+
+impl Entry {
+    /// The entries of `lists`, in list order.
+    fn of(lists: &ReceiverLists, view: &[ViewSample], radius: f64) -> Vec<Entry> {
+        lists
+            .entries
+            .par_iter()
+            .map(|&i| {
+                let s = &view[i as usize];
+                Entry {
+                    p: s.p,
+                    moved: s.moved,
+                    reach: lists.depths[i as usize].max(radius),
+                    view: i,
+                    inside: s.inside,
+                    rotated: s.rotation.is_some(),
+                    exact_planes: s.exact_planes,
+                }
+            })
+            .collect()
     }
 }
 

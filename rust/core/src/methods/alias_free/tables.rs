@@ -31,31 +31,69 @@ use super::LightSamples;
 /// `phi_bounds`) that its normal reaches: the same bins as `acos` and `atan2` give up to rounding
 /// at a boundary, and the same arithmetic as `methods/alias_free/alias_free.wgsl`, which has no
 /// 64-bit `acos` or `atan2`, so both backends read the same entries. The shader counts by binary
-/// search; the CPU starts from a guide (per cell of a fine grid over `u.z` and over a pseudo-angle
-/// of the azimuth, the boundaries certainly reached there) and steps over the one or two
-/// boundaries left: the same count of the same tests, without a binary search's mispredicted
-/// branches.
+/// search; the CPU reads a [`Guide`] (per cell of a fine grid over `u.z` and over a pseudo-angle
+/// of the azimuth, the boundaries certainly reached there) and tests the next one or two: the
+/// same count of the same tests, without a search's mispredicted branches.
 pub(crate) struct PlaneBins {
     pub bins: usize,
     pub center: DVec3,
     pub extent: f64,
+    /// `1 / extent`.
+    inv_extent: f64,
+    /// `|center|`, for the bracketing table's round-off bound.
+    center_length: f64,
     /// `cos(k π / bins)` for k = 1..bins: the polar angle's inner bin boundaries, decreasing.
     pub theta_bounds: Vec<f64>,
     /// `(cos, sin)` of `2 k π / bins` for k = 1..bins: the azimuth's inner bin boundaries.
     pub phi_bounds: Vec<[f64; 2]>,
-    /// Per cell of [`GUIDE_CELLS`] `* bins` over `u.z` in [−1, 1], the polar boundaries reached
-    /// by every `u.z` of the cell.
-    theta_guide: Vec<usize>,
-    /// Per cell of as many over [`pseudo_angle`] in [0, 4), the azimuth boundaries reached by
-    /// every direction of the cell.
-    phi_guide: Vec<usize>,
+    /// Over `u.z + 1` in [0, 2): the polar boundaries reached.
+    theta_guide: Guide,
+    /// Over [`pseudo_angle`] in [0, 4): the azimuth boundaries reached.
+    phi_guide: Guide,
 }
 
-/// Guide cells per bin of each angle.
-const GUIDE_CELLS: usize = 4;
+/// Guide cells per bin of each angle: fine enough that a cell rarely holds two boundaries.
+const GUIDE_CELLS: usize = 16;
 
 /// A margin of the guides, far above the round-off of `u.z` and of [`pseudo_angle`].
 const GUIDE_MARGIN: f64 = 1e-9;
+
+/// Per cell of a uniform grid over `[0, span)`, the number of boundaries (of a predicate true
+/// on a prefix of them, and monotone in the value) that every value of the cell reaches.
+struct Guide {
+    span: f64,
+    starts: Vec<u16>,
+}
+
+impl Guide {
+    /// `reached(k, value)`: whether boundary `k` of `n` is reached at `value`.
+    fn new(cells: usize, span: f64, n: usize, reached: impl Fn(usize, f64) -> bool) -> Self {
+        let edge = |c: usize| c as f64 / cells as f64 * span;
+        let count = |value: f64| (0..n).take_while(|&k| reached(k, value)).count() as u16;
+        Self {
+            span,
+            starts: (0..cells)
+                .map(|c| count(edge(c) - GUIDE_MARGIN).min(count(edge(c + 1) + GUIDE_MARGIN)))
+                .collect(),
+        }
+    }
+
+    /// How many of `n` boundaries `value` (in `[0, span)`) reaches, `reached(k)` telling for
+    /// boundary `k`: those its cell surely reaches, then the next one tested without branching,
+    /// and only where the one after is reached too (a cell holding two boundaries), the rest in
+    /// turn.
+    #[inline]
+    fn count(&self, value: f64, n: usize, reached: impl Fn(usize) -> bool) -> usize {
+        let cells = self.starts.len();
+        let start =
+            usize::from(self.starts[((value / self.span * cells as f64) as usize).min(cells - 1)]);
+        let at = |k: usize| (k < n) & reached(k.min(n.max(1) - 1));
+        if at(start + 1) {
+            return (start + 2..n).find(|&k| !reached(k)).unwrap_or(n);
+        }
+        start + usize::from(at(start))
+    }
+}
 
 /// A value in [0, 4) that grows with the azimuth `atan2(y, x)` in [0, 2π) (the upper half-plane,
 /// `y > 0` or `y = 0 < x`, in [0, 2)), without trigonometry.
@@ -87,38 +125,26 @@ impl PlaneBins {
             })
             .collect();
         let cells = GUIDE_CELLS * bins;
-        let edge = |c: usize, span: f64| c as f64 / cells as f64 * span;
-        // Boundaries above the cell's top (polar: `u.z` below them) or below its bottom (azimuth).
-        let theta_guide = (0..cells)
-            .map(|c| {
-                let top = -1.0 + edge(c + 1, 2.0) + GUIDE_MARGIN;
-                theta_bounds.iter().take_while(|&&b| b > top).count()
-            })
-            .collect();
-        let phi_guide = (0..cells)
-            .map(|c| {
-                let bottom = edge(c, 4.0) - GUIDE_MARGIN;
-                phi_bounds
-                    .iter()
-                    .take_while(|&&[x, y]| pseudo_angle(x, y) < bottom)
-                    .count()
-            })
-            .collect();
+        // Polar: `u.z` (the value less 1) at or below the boundary. Azimuth: the boundary's
+        // pseudo-angle at or below the value.
+        let theta_guide = Guide::new(cells, 2.0, bins - 1, |k, value| {
+            value - 1.0 <= theta_bounds[k]
+        });
+        let phi_guide = Guide::new(cells, 4.0, bins - 1, |k, value| {
+            let [x, y] = phi_bounds[k];
+            pseudo_angle(x, y) <= value
+        });
         Self {
             bins,
             center,
             extent,
+            inv_extent: 1.0 / extent,
+            center_length: center.length(),
             theta_bounds,
             phi_bounds,
             theta_guide,
             phi_guide,
         }
-    }
-
-    /// The guide cell of `value` in [0, span).
-    fn guide_cell(&self, value: f64, span: f64) -> usize {
-        let cells = GUIDE_CELLS * self.bins;
-        ((value / span * cells as f64) as usize).min(cells - 1)
     }
 
     /// The unit normal at the center of normal bin `(i, j)`.
@@ -153,39 +179,40 @@ impl PlaneBins {
 
     /// The polar bin of the unit normal `u`: the number of boundaries `k π / bins` that
     /// `acos(u.z)` reaches, i.e. with `u.z <= cos(k π / bins)`.
+    #[inline]
     fn theta_bin(&self, u: DVec3) -> usize {
-        let start = self.theta_guide[self.guide_cell(u.z + 1.0, 2.0)];
-        count_from(start, self.theta_bounds.len(), |k| {
-            u.z <= self.theta_bounds[k]
-        })
+        let bounds = &self.theta_bounds;
+        self.theta_guide
+            .count(u.z + 1.0, bounds.len(), |k| u.z <= bounds[k])
     }
 
     /// The azimuth bin of the unit normal `u`: the number of boundaries `2 k π / bins` that
     /// `atan2(u.y, u.x)` (in [0, 2π)) reaches. Within one half-plane the angle grows with the
     /// sign of the cross product against the boundary's direction; a boundary in the upper half
     /// ([0, π)) is reached by every direction of the lower half.
+    #[inline]
     fn phi_bin(&self, u: DVec3) -> usize {
         if u.x == 0.0 && u.y == 0.0 {
             return 0;
         }
         let upper = u.y > 0.0 || (u.y == 0.0 && u.x > 0.0);
-        let start = self.phi_guide[self.guide_cell(pseudo_angle(u.x, u.y), 4.0)];
-        count_from(start, self.phi_bounds.len(), |k| {
-            let bound_upper = 2 * (k + 1) < self.bins;
-            if bound_upper != upper {
-                return bound_upper;
-            }
-            let [c, s] = self.phi_bounds[k];
-            c * u.y - s * u.x >= 0.0
-        })
+        let (bins, bounds) = (self.bins, &self.phi_bounds);
+        self.phi_guide
+            .count(pseudo_angle(u.x, u.y), bounds.len(), |k| {
+                let bound_upper = 2 * (k + 1) < bins;
+                let [c, s] = bounds[k];
+                (bound_upper != upper && bound_upper)
+                    | (bound_upper == upper && c * u.y - s * u.x >= 0.0)
+            })
     }
 
     /// The bin of the plane `m · y < k` (flat index `(i · bins + j) · bins + k`), or `None` when
     /// it misses the light (its distance from the center is `extent` or more); `inv` is
     /// `1 / |m|` (the shader's arithmetic, one division and one square root per plane).
+    #[inline]
     fn locate(&self, m: DVec3, k: f64, inv: f64) -> Option<usize> {
         let u = m * inv;
-        let d = (k * inv - u.dot(self.center)) * (1.0 / self.extent);
+        let d = (k * inv - u.dot(self.center)) * self.inv_extent;
         if !(-1.0..1.0).contains(&d) {
             return None;
         }
@@ -209,13 +236,6 @@ impl PlaneBins {
             .enumerate()
             .for_each(|(ij, chunk)| fill(ij / bins, ij % bins, chunk));
     }
-}
-
-/// How many of the first `n` indices satisfy `pred`, for a predicate true on a prefix that holds
-/// at least `start` indices: the count `leading_true` in `methods/alias_free/alias_free.wgsl`
-/// finds by binary search.
-fn count_from(start: usize, n: usize, pred: impl Fn(usize) -> bool) -> usize {
-    (start..n).find(|&k| !pred(k)).unwrap_or(n)
 }
 
 /// Sets bit `s` of the distance bin `first[s]` (none when it is `bins` or more) of a normal
@@ -365,7 +385,7 @@ impl BracketTable {
     /// every sample then).
     pub(crate) fn lookup(&self, m: DVec3, k: f64, inv: f64) -> Option<(&[u64], &[u64])> {
         let g = &self.grid;
-        let round_off = 1e-9 * (k.abs() * inv + g.center.length() + g.extent);
+        let round_off = 1e-9 * (k.abs() * inv + g.center_length + g.extent);
         if round_off > 0.25 * SURE_MARGIN * g.extent {
             return None;
         }
