@@ -91,14 +91,14 @@ fn clip_by_sides(
 /// Three shortcuts leave every bit of the result as the full clip gives it:
 /// - an edge that has every vertex on its inner side leaves the polygon as it is (the clip keeps
 ///   each vertex, in order, and adds none), so it is skipped;
-/// - a vertex inside the window's inscribed disk or inscribed square about the origin, both
-///   shrunk by a relative `1e-9`, is inside every edge, so a polygon of such vertices is its own
-///   clip;
+/// - a polygon inside the window's inscribed disk or inscribed square about the origin, both
+///   shrunk by a relative `1e-9`, is inside every edge, so it is its own clip;
 /// - a polygon whose vertices all lie outside one edge by `1e-9` of the edge's length times
 ///   `1 + M` (`M` the largest coordinate of the polygon and the window) clips to nothing: each
 ///   clip by an earlier edge adds vertices on the segments between the ones it had, off them by
 ///   a few units of round-off times `M`, so after at most a few hundred clips they still lie
-///   outside that edge, where the clip drops them all.
+///   outside that edge, where the clip drops them all. (A polygon with a vertex that is not
+///   finite takes the full clip.)
 ///
 /// The margins of `1e-9` exceed those round-offs (some `1e-16` times `M` per operation) by
 /// orders of magnitude.
@@ -189,26 +189,27 @@ impl ConvexWindow {
         }
     }
 
-    /// Whether `v` lies inside every edge, by the second shortcut of the type's documentation.
+    /// Whether the polygon of bounding box `(lo, hi)` lies inside every edge, by the second
+    /// shortcut of the type's documentation.
     #[inline]
-    fn surely_inside(&self, v: DVec2) -> bool {
-        v.length_squared() < self.disk_squared
-            || (v.x.abs() < self.square && v.y.abs() < self.square)
+    fn surely_inside(&self, poly: &[DVec2], (lo, hi): (DVec2, DVec2)) -> bool {
+        lo.abs().max(hi.abs()).max_element() < self.square
+            || poly.iter().all(|v| v.length_squared() < self.disk_squared)
     }
 
-    /// Whether `poly` clips to nothing, by the third shortcut of the type's documentation.
-    fn surely_outside(&self, poly: &[DVec2]) -> bool {
-        let mut m = self.extent;
-        for v in poly {
-            m = m.max(v.abs().max_element());
-        }
-        for e in &self.edges {
-            let margin = -MARGIN * e.length * (1.0 + m);
-            if poly.iter().all(|&p| e.dir.perp_dot(p - e.a) < margin) {
-                return true;
-            }
-        }
-        false
+    /// Whether the polygon of bounding box `(lo, hi)` clips to nothing, by the third shortcut of
+    /// the type's documentation: an edge's side is linear, so over the box it is largest at the
+    /// corner its inner normal points to, and that corner must lie outside by the margin.
+    #[inline]
+    fn surely_outside(&self, (lo, hi): (DVec2, DVec2)) -> bool {
+        let m = lo.abs().max(hi.abs()).max_element().max(self.extent);
+        self.edges.iter().any(|e| {
+            let corner = DVec2::new(
+                if e.dir.y < 0.0 { hi.x } else { lo.x },
+                if e.dir.x > 0.0 { hi.y } else { lo.y },
+            );
+            e.dir.perp_dot(corner - e.a) < -MARGIN * e.length * (1.0 + m)
+        })
     }
 
     /// The unsigned area of the part of `poly` inside the window: the same bits as clipping
@@ -216,17 +217,19 @@ impl ConvexWindow {
     /// magnitude.
     #[inline]
     pub fn clipped_area(&self, poly: &[DVec2], buffers: &mut ClipBuffers) -> f64 {
-        if poly.iter().all(|&v| self.surely_inside(v)) {
-            return signed_area(poly).abs();
+        if let Some(bounds) = finite_bounds(poly) {
+            if self.surely_inside(poly, bounds) {
+                return signed_area(poly).abs();
+            }
+            if self.surely_outside(bounds) {
+                return 0.0;
+            }
         }
         self.clip(poly, buffers)
     }
 
-    /// [`ConvexWindow::clipped_area`] of a polygon not surely inside, clipped edge by edge.
+    /// [`ConvexWindow::clipped_area`] of a polygon that no shortcut settles, clipped edge by edge.
     fn clip(&self, poly: &[DVec2], buffers: &mut ClipBuffers) -> f64 {
-        if self.surely_outside(poly) {
-            return 0.0;
-        }
         if poly.len() > CLIP_CAPACITY {
             return self.clipped_area_on_heap(poly);
         }
@@ -268,6 +271,20 @@ impl ConvexWindow {
         }
         signed_area(&current).abs()
     }
+}
+
+/// The bounding box `(min, max)` of `poly`, `None` when it is empty or a vertex is not finite.
+#[inline]
+fn finite_bounds(poly: &[DVec2]) -> Option<(DVec2, DVec2)> {
+    let first = *poly.first()?;
+    let mut bounds = (first, first);
+    for &v in poly {
+        if !v.is_finite() {
+            return None;
+        }
+        bounds = (bounds.0.min(v), bounds.1.max(v));
+    }
+    Some(bounds)
 }
 
 /// [`clip_by_sides`] into a fixed buffer: the vertices written, or `None` when they do not fit.
