@@ -20,7 +20,7 @@ use softshadows_core::raster::cube;
 use softshadows_core::raster::depth::{
     rasterize_depth, FaceFilter, RasterMode, RasterOptions, Rasterizer,
 };
-use softshadows_core::raster::frustum::{LightFrustum, TexelRect};
+use softshadows_core::raster::frustum::{GridRays, LightFrustum, TexelRect};
 use softshadows_core::raster::pyramid::{MinMaxPyramid, MipMap, MultiScaleMap, SummedAreaTable};
 use softshadows_core::Error;
 
@@ -139,6 +139,34 @@ fn frustum_projects_and_unprojects() {
     );
     let w = f.texel_world_size(2.0);
     assert!((w - 2.0 * 2.0 * f.tan_half_x / 300.0).abs() < 1e-6);
+}
+
+#[test]
+fn grid_rays_unproject_texel_corners_to_the_same_bits_as_the_frustum() {
+    let (lo, hi) = (Vec3::new(-2.0, 0.0, -1.0), Vec3::new(3.0, 0.5, 2.0));
+    let mut rng = Rng::new(4);
+    for (eye, (w, h)) in [
+        (Vec3::new(0.3, 5.0, -0.2), (64, 64)),
+        (Vec3::new(10.0, 1.0, 0.5), (37, 90)),
+    ] {
+        let f = LightFrustum::fit(eye, lo, hi, 64).unwrap();
+        let f = LightFrustum {
+            width: w,
+            height: h,
+            ..f
+        };
+        let rays = GridRays::new(&f);
+        for y in 0..=h {
+            for x in 0..=w {
+                let d = f.near + rng.next_f32() * (f.far - f.near);
+                let (a, b) = (rays.unproject(x, y, d), f.unproject(x as f32, y as f32, d));
+                assert_eq!(
+                    a.to_array().map(f32::to_bits),
+                    b.to_array().map(f32::to_bits)
+                );
+            }
+        }
+    }
 }
 
 #[test]

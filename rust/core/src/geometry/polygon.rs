@@ -35,31 +35,288 @@ pub fn convex_hull(points: &[DVec2]) -> Vec<DVec2> {
     hull
 }
 
-/// Sutherland–Hodgman: the part of `poly` to the left of the directed line `a → b`.
-pub fn clip_half_plane(poly: &[DVec2], a: DVec2, b: DVec2) -> Vec<DVec2> {
-    clip_affine(poly, |p| (b - a).perp_dot(p - a))
+/// Sutherland–Hodgman: the part of `poly` to the left of the directed line `a → b`, written to
+/// `out` (cleared first, so that a caller clipping many polygons reuses one buffer).
+pub fn clip_half_plane(poly: &[DVec2], a: DVec2, b: DVec2, out: &mut Vec<DVec2>) {
+    let sides: Vec<f64> = poly.iter().map(|&p| side_of(a, b, p)).collect();
+    clip_to_vec(poly, &sides, out);
 }
 
 /// Sutherland–Hodgman: the part of `poly` where the affine function `side` is >= 0.
 pub fn clip_affine(poly: &[DVec2], side: impl Fn(DVec2) -> f64) -> Vec<DVec2> {
+    let sides: Vec<f64> = poly.iter().map(|&p| side(p)).collect();
     let mut out = Vec::with_capacity(poly.len() + 1);
-    for i in 0..poly.len() {
-        let (p, q) = (poly[i], poly[(i + 1) % poly.len()]);
-        let (sp, sq) = (side(p), side(q));
-        if sp >= 0.0 {
-            out.push(p);
-        }
-        if (sp >= 0.0) != (sq >= 0.0) {
-            out.push(p + (q - p) * (sp / (sp - sq)));
-        }
-    }
+    clip_to_vec(poly, &sides, &mut out);
     out
 }
 
+/// The clip of `poly` by its vertices' sides, written to `out` (cleared first).
+fn clip_to_vec(poly: &[DVec2], sides: &[f64], out: &mut Vec<DVec2>) {
+    out.clear();
+    clip_by_sides(poly, sides, |v| {
+        out.push(v);
+        Some(())
+    });
+}
+
+/// Where `p` lies relative to the directed line `a → b`: positive on its left.
+#[inline]
+fn side_of(a: DVec2, b: DVec2, p: DVec2) -> f64 {
+    (b - a).perp_dot(p - a)
+}
+
+/// The index of the vertex after `i` of a polygon of `n` vertices.
+#[inline]
+fn after(i: usize, n: usize) -> usize {
+    if i + 1 == n {
+        0
+    } else {
+        i + 1
+    }
+}
+
+/// [`clip_half_plane`] with the vertices' sides (of [`side_of`]) given, each vertex of the result
+/// handed to `push`; stops at the first `None` it returns.
+#[inline]
+fn clip_by_sides(
+    poly: &[DVec2],
+    sides: &[f64],
+    mut push: impl FnMut(DVec2) -> Option<()>,
+) -> Option<()> {
+    let n = poly.len().min(sides.len());
+    for i in 0..n {
+        let j = after(i, n);
+        let (p, q, sp, sq) = (poly[i], poly[j], sides[i], sides[j]);
+        if sp >= 0.0 {
+            push(p)?;
+        }
+        if (sp >= 0.0) != (sq >= 0.0) {
+            push(p + (q - p) * (sp / (sp - sq)))?;
+        }
+    }
+    Some(())
+}
+
+/// A convex polygon (counter-clockwise, around the origin) that measures the part of other
+/// polygons inside it: Sutherland–Hodgman against each of its edges in turn, then the shoelace
+/// area, on fixed buffers.
+///
+/// Three shortcuts leave every bit of the result as the full clip gives it:
+/// - an edge that has every vertex on its inner side leaves the polygon as it is (the clip keeps
+///   each vertex, in order, and adds none), so it is skipped;
+/// - a polygon inside the window's inscribed disk or inscribed square about the origin, both
+///   shrunk by a relative `1e-9`, is inside every edge, so it is its own clip;
+/// - a polygon whose vertices all lie outside one edge by `1e-9` of the edge's length times
+///   `1 + M` (`M` the largest coordinate of the polygon and the window) clips to nothing: each
+///   clip by an earlier edge adds vertices on the segments between the ones it had, off them by
+///   a few units of round-off times `M`, so after at most a few hundred clips they still lie
+///   outside that edge, where the clip drops them all. (A polygon with a vertex that is not
+///   finite takes the full clip.)
+///
+/// The margins of `1e-9` exceed those round-offs (some `1e-16` times `M` per operation) by
+/// orders of magnitude.
+#[derive(Debug, Clone)]
+pub struct ConvexWindow {
+    edges: Vec<WindowEdge>,
+    /// The squared radius of the shrunk inscribed disk (0 when the origin lies outside).
+    disk_squared: f64,
+    /// The half side of the shrunk inscribed square (0 when the origin lies outside).
+    square: f64,
+    /// The largest coordinate of the outline.
+    extent: f64,
+}
+
+/// An edge `a → b` of a [`ConvexWindow`], with `b − a` and its length.
+#[derive(Debug, Clone, Copy)]
+struct WindowEdge {
+    a: DVec2,
+    b: DVec2,
+    dir: DVec2,
+    length: f64,
+}
+
+/// The margins of [`ConvexWindow`]'s shortcuts, relative.
+const MARGIN: f64 = 1e-9;
+
+/// The most vertices [`ClipBuffers`] holds; a clip that would exceed it starts again on the
+/// heap with [`clip_half_plane`].
+const CLIP_CAPACITY: usize = 32;
+
+/// The scratch of [`ConvexWindow::clipped_area`]: the polygon, its clipped successor and the
+/// vertices' sides of the edge at hand.
+#[derive(Debug, Clone)]
+pub struct ClipBuffers {
+    poly: [DVec2; CLIP_CAPACITY],
+    next: [DVec2; CLIP_CAPACITY],
+    sides: [f64; CLIP_CAPACITY],
+}
+
+impl Default for ClipBuffers {
+    fn default() -> Self {
+        Self {
+            poly: [DVec2::ZERO; CLIP_CAPACITY],
+            next: [DVec2::ZERO; CLIP_CAPACITY],
+            sides: [0.0; CLIP_CAPACITY],
+        }
+    }
+}
+
+impl ConvexWindow {
+    /// The window whose outline is `outline`, counter-clockwise.
+    pub fn new(outline: &[DVec2]) -> Self {
+        let n = outline.len();
+        let edges: Vec<WindowEdge> = (0..n)
+            .map(|i| {
+                let (a, b) = (outline[i], outline[after(i, n)]);
+                WindowEdge {
+                    a,
+                    b,
+                    dir: b - a,
+                    length: (b - a).length(),
+                }
+            })
+            .collect();
+        // Per edge, the origin's distance `h` to it and its unit normal `u`: the disk of radius
+        // `h` and the square of half side `h / (|u.x| + |u.y|)` lie on its inner side.
+        let (disk, square) = edges
+            .iter()
+            .map(|e| {
+                let (h, u) = (
+                    side_of(e.a, e.b, DVec2::ZERO) / e.length,
+                    e.dir.perp() / e.length,
+                );
+                (h, h / (u.x.abs() + u.y.abs()))
+            })
+            .fold((f64::INFINITY, f64::INFINITY), |(d, s), (h, q)| {
+                (d.min(h), s.min(q))
+            });
+        let shrink = |r: f64| r.max(0.0) * (1.0 - MARGIN);
+        Self {
+            edges,
+            disk_squared: shrink(disk).powi(2),
+            square: shrink(square),
+            extent: outline
+                .iter()
+                .map(|v| v.abs().max_element())
+                .fold(0.0, f64::max),
+        }
+    }
+
+    /// Whether the polygon of bounding box `(lo, hi)` lies inside every edge, by the second
+    /// shortcut of the type's documentation.
+    #[inline]
+    fn surely_inside(&self, poly: &[DVec2], (lo, hi): (DVec2, DVec2)) -> bool {
+        lo.abs().max(hi.abs()).max_element() < self.square
+            || poly.iter().all(|v| v.length_squared() < self.disk_squared)
+    }
+
+    /// Whether the polygon of bounding box `(lo, hi)` clips to nothing, by the third shortcut of
+    /// the type's documentation: an edge's side is linear, so over the box it is largest at the
+    /// corner its inner normal points to, and that corner must lie outside by the margin.
+    #[inline]
+    fn surely_outside(&self, (lo, hi): (DVec2, DVec2)) -> bool {
+        let m = lo.abs().max(hi.abs()).max_element().max(self.extent);
+        self.edges.iter().any(|e| {
+            let corner = DVec2::new(
+                if e.dir.y < 0.0 { hi.x } else { lo.x },
+                if e.dir.x > 0.0 { hi.y } else { lo.y },
+            );
+            e.dir.perp_dot(corner - e.a) < -MARGIN * e.length * (1.0 + m)
+        })
+    }
+
+    /// The unsigned area of the part of `poly` inside the window: the same bits as clipping
+    /// `poly` by [`clip_half_plane`] against each edge in order and taking [`signed_area`]'s
+    /// magnitude.
+    #[inline]
+    pub fn clipped_area(&self, poly: &[DVec2], buffers: &mut ClipBuffers) -> f64 {
+        if let Some(bounds) = finite_bounds(poly) {
+            if self.surely_inside(poly, bounds) {
+                return signed_area(poly).abs();
+            }
+            if self.surely_outside(bounds) {
+                return 0.0;
+            }
+        }
+        self.clip(poly, buffers)
+    }
+
+    /// [`ConvexWindow::clipped_area`] of a polygon that no shortcut settles, clipped edge by edge.
+    fn clip(&self, poly: &[DVec2], buffers: &mut ClipBuffers) -> f64 {
+        if poly.len() > CLIP_CAPACITY {
+            return self.clipped_area_on_heap(poly);
+        }
+        let (mut current, mut next) = (&mut buffers.poly, &mut buffers.next);
+        let sides = &mut buffers.sides;
+        current[..poly.len()].copy_from_slice(poly);
+        let mut n = poly.len();
+        for e in &self.edges {
+            // `side_of(e.a, e.b, p)` with `e.b − e.a` computed once.
+            let mut inside = true;
+            for i in 0..n {
+                sides[i] = e.dir.perp_dot(current[i] - e.a);
+                inside &= sides[i] >= 0.0;
+            }
+            if inside {
+                continue;
+            }
+            let Some(m) = clip_into(&current[..n], &sides[..n], next) else {
+                return self.clipped_area_on_heap(poly);
+            };
+            std::mem::swap(&mut current, &mut next);
+            n = m;
+            if n == 0 {
+                return 0.0;
+            }
+        }
+        signed_area(&current[..n]).abs()
+    }
+
+    /// [`ConvexWindow::clipped_area`] by the plain chain of [`clip_half_plane`].
+    fn clipped_area_on_heap(&self, poly: &[DVec2]) -> f64 {
+        let (mut current, mut next) = (poly.to_vec(), Vec::new());
+        for e in &self.edges {
+            clip_half_plane(&current, e.a, e.b, &mut next);
+            std::mem::swap(&mut current, &mut next);
+            if current.is_empty() {
+                return 0.0;
+            }
+        }
+        signed_area(&current).abs()
+    }
+}
+
+/// The bounding box `(min, max)` of `poly`, `None` when it is empty or a vertex is not finite.
+#[inline]
+fn finite_bounds(poly: &[DVec2]) -> Option<(DVec2, DVec2)> {
+    let first = *poly.first()?;
+    let mut bounds = (first, first);
+    for &v in poly {
+        if !v.is_finite() {
+            return None;
+        }
+        bounds = (bounds.0.min(v), bounds.1.max(v));
+    }
+    Some(bounds)
+}
+
+/// [`clip_by_sides`] into a fixed buffer: the vertices written, or `None` when they do not fit.
+fn clip_into(poly: &[DVec2], sides: &[f64], out: &mut [DVec2; CLIP_CAPACITY]) -> Option<usize> {
+    let mut m = 0;
+    clip_by_sides(poly, sides, |v| {
+        *out.get_mut(m)? = v;
+        m += 1;
+        Some(())
+    })?;
+    Some(m)
+}
+
 /// The signed area of the polygon `poly` (positive counter-clockwise; shoelace formula).
+#[inline]
 pub fn signed_area(poly: &[DVec2]) -> f64 {
-    0.5 * (0..poly.len())
-        .map(|i| poly[i].perp_dot(poly[(i + 1) % poly.len()]))
+    let n = poly.len();
+    0.5 * (0..n)
+        .map(|i| poly[i].perp_dot(poly[after(i, n)]))
         .sum::<f64>()
 }
 
@@ -189,8 +446,101 @@ mod tests {
             DVec2::new(0.0, 2.0),
         ];
         assert_eq!(signed_area(&square), 4.0);
-        let half = clip_half_plane(&square, DVec2::new(0.0, 0.0), DVec2::new(2.0, 2.0));
+        let mut half = Vec::new();
+        clip_half_plane(
+            &square,
+            DVec2::new(0.0, 0.0),
+            DVec2::new(2.0, 2.0),
+            &mut half,
+        );
         assert_eq!(signed_area(&half), 2.0);
+    }
+
+    /// The clip chain [`ConvexWindow::clipped_area`] must match bit for bit: each edge's
+    /// half-plane in turn on the heap, nothing once empty, the area's magnitude.
+    fn chain_area(poly: &[DVec2], outline: &[DVec2]) -> f64 {
+        let mut current = poly.to_vec();
+        for i in 0..outline.len() {
+            let mut next = Vec::new();
+            clip_half_plane(
+                &current,
+                outline[i],
+                outline[after(i, outline.len())],
+                &mut next,
+            );
+            current = next;
+            if current.is_empty() {
+                return 0.0;
+            }
+        }
+        signed_area(&current).abs()
+    }
+
+    #[test]
+    fn a_window_measures_the_same_bits_as_the_clip_chain() {
+        let square = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)].map(DVec2::from);
+        let gon: Vec<DVec2> = (0..64)
+            .map(|i| DVec2::from_angle(std::f64::consts::TAU * i as f64 / 64.0) * 1.0013)
+            .collect();
+        let mut rng = crate::light::sampling::Rng::new(7);
+        let mut uniform = |lo: f64, hi: f64| lo + (hi - lo) * f64::from(rng.next_f32());
+        let mut buffers = ClipBuffers::default();
+        let mut seen = [0usize; 3];
+        for outline in [&square[..], &gon[..]] {
+            let window = ConvexWindow::new(outline);
+            for k in 0..40_000 {
+                // Quads (projected micro-occluders), degenerate ones, and stars of up to 60
+                // vertices (more than the fixed buffers hold), from far inside to far outside.
+                let n = match k % 10 {
+                    0 => 3 + (k / 10) % 58,
+                    _ => 4,
+                };
+                let (center, radius) = (
+                    DVec2::new(uniform(-3.0, 3.0), uniform(-3.0, 3.0)),
+                    10f64.powf(uniform(-6.0, 1.0)),
+                );
+                let mut poly: Vec<DVec2> = (0..n)
+                    .map(|_| center + DVec2::new(uniform(-1.0, 1.0), uniform(-1.0, 1.0)) * radius)
+                    .collect();
+                if k % 7 == 1 {
+                    // Collinear vertices along a line through the window's edge.
+                    let dir = DVec2::new(uniform(-1.0, 1.0), uniform(-1.0, 1.0));
+                    poly = (0..n)
+                        .map(|i| DVec2::new(1.0, 0.5) + dir * (i as f64 - 1.5))
+                        .collect();
+                }
+                let mut same_bits = |poly: &[DVec2]| {
+                    let (fast, chain) = (
+                        window.clipped_area(poly, &mut buffers),
+                        chain_area(poly, outline),
+                    );
+                    assert_eq!(
+                        fast.to_bits(),
+                        chain.to_bits(),
+                        "{poly:?}: {fast} against {chain}"
+                    );
+                    chain
+                };
+                if k % 11 == 5 {
+                    // A vertex that is not finite, which no shortcut may settle.
+                    let mut broken = poly.clone();
+                    broken[k % n].x = [f64::INFINITY, f64::NEG_INFINITY, f64::NAN][k % 3];
+                    same_bits(&broken);
+                }
+                let chain = same_bits(&poly);
+                seen[if chain == 0.0 {
+                    0
+                } else if chain == signed_area(&poly).abs() {
+                    1
+                } else {
+                    2
+                }] += 1;
+            }
+        }
+        assert!(
+            seen.iter().all(|&n| n > 5000),
+            "outside, inside, straddling: {seen:?}"
+        );
     }
 
     #[test]

@@ -43,7 +43,7 @@
 
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
-use crate::geometry::polygon::{clip_half_plane, signed_area};
+use crate::geometry::polygon::{ClipBuffers, ConvexWindow};
 use crate::geometry::receivers::Receivers;
 use crate::influence::light_polytope;
 use crate::interrupt;
@@ -53,7 +53,7 @@ use crate::limits::Peak;
 use crate::raster::cube::{self, by_light_face};
 use crate::raster::depth::{raster_peak, raster_work, rasterize_depth, RasterOptions};
 use crate::raster::frustum::check_resolution;
-use crate::raster::frustum::LightFrustum;
+use crate::raster::frustum::{GridRays, LightFrustum};
 use crate::raster::pcf::{DepthBias, ReceiverDepth};
 use crate::raster::pyramid::{MinMaxPyramid, MultiScaleMap};
 use crate::stats::Stats;
@@ -378,7 +378,7 @@ struct LightPlane {
     normal: DVec3,
     /// Maps a point of the plane (relative to the center) to light coordinates.
     to_light: [DVec3; 2],
-    outline: Vec<DVec2>,
+    outline: ConvexWindow,
     outline_area: f64,
     samples: Vec<DVec2>,
     /// The samples in world space.
@@ -423,7 +423,7 @@ impl LightPlane {
                     center: center.as_dvec3(),
                     normal: u.cross(v).normalize(),
                     to_light,
-                    outline,
+                    outline: ConvexWindow::new(&outline),
                     outline_area: 4.0,
                     samples,
                     world,
@@ -440,7 +440,7 @@ impl LightPlane {
                 let scale = (2.0 * std::f64::consts::PI
                     / (k as f64 * (2.0 * std::f64::consts::PI / k as f64).sin()))
                 .sqrt();
-                let outline = (0..k)
+                let outline: Vec<DVec2> = (0..k)
                     .map(|i| {
                         DVec2::from_angle(2.0 * std::f64::consts::PI * i as f64 / k as f64) * scale
                     })
@@ -458,7 +458,7 @@ impl LightPlane {
                     center: center.as_dvec3(),
                     normal: normal.as_dvec3(),
                     to_light: [t.as_dvec3() / r, b.as_dvec3() / r],
-                    outline,
+                    outline: ConvexWindow::new(&outline),
                     outline_area: std::f64::consts::PI,
                     samples,
                     world,
@@ -471,47 +471,140 @@ impl LightPlane {
         }
     }
 
-    /// Light coordinates of the projection of `x` from `p` onto the light's plane; `None` unless
-    /// `x` lies strictly between `p` and the plane.
-    fn project(&self, p: DVec3, x: DVec3) -> Option<DVec2> {
-        let (dp, dx) = (
-            self.normal.dot(p - self.center),
-            self.normal.dot(x - self.center),
-        );
-        if dp == 0.0 || dp * dx < 0.0 || dx.abs() >= dp.abs() {
-            return None;
+    /// The projection from receiver `p` onto the light's plane.
+    fn from(&self, p: DVec3) -> Projector<'_> {
+        Projector {
+            light: self,
+            p,
+            dp: self.normal.dot(p - self.center),
         }
-        let y = p + (x - p) * (dp / (dp - dx)) - self.center;
-        Some(DVec2::new(self.to_light[0].dot(y), self.to_light[1].dot(y)))
     }
 
-    /// The samples behind the tangent plane of receiver `(p, n)` as set bits (they are blocked,
-    /// `docs/design.md` section 3), and the fraction in front.
-    fn behind(&self, p: DVec3, n: DVec3) -> (Vec<u64>, f64) {
+    /// Whether light sample `y` lies in front of the tangent plane of receiver `(p, n)` (those
+    /// behind it are blocked, `docs/design.md` section 3).
+    fn in_front(y: DVec3, (p, n): (DVec3, DVec3)) -> bool {
+        (y - p).dot(n) > 0.0
+    }
+
+    /// The fraction of the samples in front of receiver `(p, n)`.
+    fn front(&self, receiver: (DVec3, DVec3)) -> f64 {
+        let front = self
+            .world
+            .iter()
+            .filter(|&&y| Self::in_front(y, receiver))
+            .count();
+        front as f64 / self.world.len() as f64
+    }
+
+    /// The samples behind receiver `(p, n)`, as set bits.
+    fn behind(&self, receiver: (DVec3, DVec3)) -> Vec<u64> {
         let mut bits = vec![0u64; self.samples.len().div_ceil(64)];
-        let mut front = 0usize;
-        for (k, y) in self.world.iter().enumerate() {
-            if (*y - p).dot(n) > 0.0 {
-                front += 1;
-            } else {
+        for (k, &y) in self.world.iter().enumerate() {
+            if !Self::in_front(y, receiver) {
                 bits[k / 64] |= 1 << (k % 64);
             }
         }
-        (bits, front as f64 / self.world.len() as f64)
+        bits
+    }
+}
+
+/// The projections from one receiver `p` onto the light's plane, with `p`'s side of the plane
+/// computed once.
+struct Projector<'a> {
+    light: &'a LightPlane,
+    p: DVec3,
+    /// `p`'s signed distance to the light's plane (along its normal).
+    dp: f64,
+}
+
+impl Projector<'_> {
+    /// Light coordinates of the projection of `x` from `p` onto the light's plane; `None` unless
+    /// `x` lies strictly between `p` and the plane.
+    fn project(&self, x: DVec3) -> Option<DVec2> {
+        let light = self.light;
+        let (p, dp, dx) = (self.p, self.dp, light.normal.dot(x - light.center));
+        if dp == 0.0 || dp * dx < 0.0 || dx.abs() >= dp.abs() {
+            return None;
+        }
+        let y = p + (x - p) * (dp / (dp - dx)) - light.center;
+        Some(DVec2::new(
+            light.to_light[0].dot(y),
+            light.to_light[1].dot(y),
+        ))
     }
 
-    /// The fraction of the light covered by the convex polygon `poly` (light coordinates).
-    fn covered_fraction(&self, poly: &[DVec2]) -> f64 {
-        let mut clipped = poly.to_vec();
-        let n = self.outline.len();
-        for i in 0..n {
-            let (a, b) = (self.outline[i], self.outline[(i + 1) % n]);
-            clipped = clip_half_plane(&clipped, a, b);
-            if clipped.is_empty() {
-                return 0.0;
+    /// The light-coordinate quad of `quad`; `None` unless all of it lies between `p` and the
+    /// light.
+    fn project_quad(&self, quad: [DVec3; 4]) -> Option<[DVec2; 4]> {
+        Some([
+            self.project(quad[0])?,
+            self.project(quad[1])?,
+            self.project(quad[2])?,
+            self.project(quad[3])?,
+        ])
+    }
+}
+
+/// The part of the light one receiver's micro-occluders block, as they are backprojected.
+enum Occlusion<'a> {
+    /// The sum of the backprojected areas clipped to the light (fractions of its area), and the
+    /// fraction of the light in front of the receiver.
+    Area {
+        light: &'a LightPlane,
+        covered: f64,
+        front: f64,
+        buffers: Box<ClipBuffers>,
+    },
+    /// The occlusion bitmap, the samples behind the receiver set from the start.
+    Bitmask {
+        samples: &'a [DVec2],
+        bits: Vec<u64>,
+    },
+}
+
+impl<'a> Occlusion<'a> {
+    fn new(light: &'a LightPlane, accumulation: Accumulation, receiver: (DVec3, DVec3)) -> Self {
+        match accumulation {
+            Accumulation::Area => Occlusion::Area {
+                light,
+                covered: 0.0,
+                front: light.front(receiver),
+                buffers: Box::default(),
+            },
+            Accumulation::Bitmask { .. } => Occlusion::Bitmask {
+                samples: &light.samples,
+                bits: light.behind(receiver),
+            },
+        }
+    }
+
+    /// Adds the backprojected quad `q` (light coordinates).
+    fn add(&mut self, q: &[DVec2; 4]) {
+        match self {
+            Occlusion::Area {
+                light,
+                covered,
+                buffers,
+                ..
+            } => *covered += light.outline.clipped_area(q, buffers) / light.outline_area,
+            Occlusion::Bitmask { samples, bits } => {
+                for (k, sample) in samples.iter().enumerate() {
+                    if in_quad(q, *sample) {
+                        bits[k / 64] |= 1 << (k % 64);
+                    }
+                }
             }
         }
-        signed_area(&clipped).abs() / self.outline_area
+    }
+
+    /// The visible fraction of the light.
+    fn visible(&self) -> f64 {
+        match self {
+            Occlusion::Area { covered, front, .. } => front * (1.0 - covered.min(1.0)),
+            Occlusion::Bitmask { samples, bits } => {
+                1.0 - bits.iter().map(|b| b.count_ones()).sum::<u32>() as f64 / samples.len() as f64
+            }
+        }
     }
 }
 
@@ -524,6 +617,9 @@ fn in_quad(q: &[DVec2; 4], s: DVec2) -> bool {
 /// Everything the per-receiver passes read.
 struct Context<'a> {
     frustum: LightFrustum,
+    /// The frustum's rays through the texel corners, which every micropatch and microrect
+    /// unprojects.
+    rays: GridRays,
     accel: &'a Accel,
     levels: &'a Levels,
     light: &'a LightPlane,
@@ -685,11 +781,11 @@ impl Context<'_> {
         (side / allowed).log2().clamp(0.0, top)
     }
 
-    /// Steps 3 and 4 at integer level `level`: the visibility of receiver `p` (`rd`) from the
+    /// Steps 3 and 4 at integer level `level`: the visibility of `receiver` (`rd`) from the
     /// micro-occluders of `area`, and how many the scan read and backprojected.
     fn visibility(
         &self,
-        (p, n): (DVec3, DVec3),
+        receiver: (DVec3, DVec3),
         rd: &ReceiverDepth,
         area: Rect,
         level: usize,
@@ -697,194 +793,301 @@ impl Context<'_> {
         let level = level.min(self.top());
         let lv = &self.levels.levels[level];
         let s = 1usize << level;
-        let (mut bits, front) = self.light.behind(p, n);
-        let mut covered = 0.0f64;
-        let (tx0, ty0) = (area.0 / s, area.1 / s);
-        let (tx1, ty1) = (
+        let texels = (
+            area.0 / s,
+            area.1 / s,
             area.2.div_ceil(s).min(lv.width),
             area.3.div_ceil(s).min(lv.height),
         );
-        let mut counts = Counts {
-            processed: ((tx1 - tx0) * (ty1 - ty0)) as u32,
-            backprojected: 0,
+        let scan = Scan {
+            ctx: self,
+            rd,
+            lv,
+            s,
+            from: self.light.from(receiver.0),
+            texels,
         };
-        let mut occlude = |q: [DVec2; 4]| match self.opts.accumulation {
-            Accumulation::Area => covered += self.light.covered_fraction(&q),
-            Accumulation::Bitmask { .. } => {
-                for (k, sample) in self.light.samples.iter().enumerate() {
-                    if in_quad(&q, *sample) {
-                        bits[k / 64] |= 1 << (k % 64);
-                    }
-                }
-            }
+        let mut occlusion = Occlusion::new(self.light, self.opts.accumulation, receiver);
+        let backprojected = match self.opts.occluder {
+            Occluder::Micropatch { extend } => scan.micropatches(extend, &mut occlusion),
+            Occluder::Microrect => scan.microrects(&mut occlusion),
+            Occluder::Microquad => scan.microquads(&mut occlusion),
         };
-        let cell = |tx: usize, ty: usize| (tx * s, ty * s, tx * s + s, ty * s + s);
-        let f = &self.frustum;
-        for ty in ty0..ty1 {
-            for tx in tx0..tx1 {
-                let d = lv.depth[ty * lv.width + tx];
-                if d == EMPTY {
-                    continue;
-                }
-                let (rect, d) = match self.opts.occluder {
-                    Occluder::Micropatch { .. } => (cell(tx, ty), d),
-                    Occluder::Microrect => {
-                        let e = lv.extent[ty * lv.width + tx].map(|v| v as usize);
-                        ((e[0], e[1], e[2], e[3]), d)
-                    }
-                    Occluder::Microquad => {
-                        if tx + 1 >= lv.width || ty + 1 >= lv.height {
-                            continue;
-                        }
-                        let corners = [(tx, ty), (tx + 1, ty), (tx + 1, ty + 1), (tx, ty + 1)];
-                        let depths = corners.map(|(x, y)| lv.depth[y * lv.width + x]);
-                        if !corners
-                            .iter()
-                            .zip(&depths)
-                            .all(|(&(x, y), &dz)| dz != EMPTY && dz < plane_min(rd, cell(x, y)))
-                        {
-                            continue;
-                        }
-                        let quad = [0, 1, 2, 3].map(|i| {
-                            f.unproject(
-                                ((corners[i].0 * s) as f32) + 0.5 * s as f32,
-                                ((corners[i].1 * s) as f32) + 0.5 * s as f32,
-                                depths[i],
-                            )
-                            .as_dvec3()
-                        });
-                        if let Some(q) = project_quad(self.light, p, quad) {
-                            counts.backprojected += 1;
-                            occlude(q);
-                        }
-                        continue;
-                    }
-                };
-                if d >= plane_min(rd, rect) {
-                    continue;
-                }
-                let Some(q) = project_quad(self.light, p, self.rect(rect, d)) else {
-                    continue;
-                };
-                counts.backprojected += 1;
-                occlude(q);
-                if self.opts.occluder == (Occluder::Micropatch { extend: true }) {
-                    for wall in [
-                        self.gap_wall(p, rd, lv, level, (tx, ty), &q, Neighbour::Left),
-                        self.gap_wall(p, rd, lv, level, (tx, ty), &q, Neighbour::Bottom),
-                    ] {
-                        wall.map(&mut occlude);
-                    }
-                }
-            }
-        }
-        let visible = match self.opts.accumulation {
-            Accumulation::Area => front * (1.0 - covered.min(1.0)),
-            Accumulation::Bitmask { .. } => {
-                1.0 - bits.iter().map(|b| b.count_ones()).sum::<u32>() as f64
-                    / self.light.samples.len() as f64
-            }
+        let counts = Counts {
+            processed: ((texels.2 - texels.0) * (texels.3 - texels.1)) as u32,
+            backprojected,
         };
-        (visible as f32, counts)
-    }
-
-    /// The gap filling of Guennebaud et al. 2006, as Schwarz and Stamminger 2008 (section 3) sum it
-    /// up: "extending a micropatch to its left and bottom neighbors in texture space". Seen from
-    /// `p`, adjacent micropatches at different depths leave a gap (or overlap) between their
-    /// backprojections, since their shared edge lies at two depths along the same light ray. The
-    /// micropatch at texel `(tx, ty)` of `level`, backprojected as `patch`, closes the gap to its
-    /// left or bottom neighbour by the backprojection of the wall between the two copies of the
-    /// shared edge (at its own depth and at the neighbour's), when the neighbour occludes `p` too
-    /// and its copy of the edge falls outside `patch`. Each edge has one owner, so every gap
-    /// between two occluding micropatches closes once, and no wall reaches a texel that no
-    /// occluder covers: an empty neighbour, or one behind `p`, gets none.
-    #[allow(clippy::too_many_arguments)]
-    fn gap_wall(
-        &self,
-        p: DVec3,
-        rd: &ReceiverDepth,
-        lv: &Level,
-        level: usize,
-        (tx, ty): (usize, usize),
-        patch: &[DVec2; 4],
-        towards: Neighbour,
-    ) -> Option<[DVec2; 4]> {
-        let s = 1usize << level;
-        let (nx, ny) = match towards {
-            Neighbour::Left => (tx.checked_sub(1)?, ty),
-            Neighbour::Bottom => (tx, ty + 1),
-        };
-        if ny >= lv.height {
-            return None;
-        }
-        let dn = lv.depth[ny * lv.width + nx];
-        if dn == EMPTY || dn >= plane_min(rd, (nx * s, ny * s, nx * s + s, ny * s + s)) {
-            return None;
-        }
-        // The shared edge in level-0 texel coordinates: the patch's corners 3 → 0 (left) or 2 → 3
-        // (bottom) of `rect`'s winding.
-        let (x0, y0, x1, y1) = (
-            (tx * s) as f32,
-            (ty * s) as f32,
-            ((tx + 1) * s) as f32,
-            ((ty + 1) * s) as f32,
-        );
-        let (a, b, (ia, ib)) = match towards {
-            Neighbour::Left => ((x0, y1), (x0, y0), (3, 0)),
-            Neighbour::Bottom => ((x1, y1), (x0, y1), (2, 3)),
-        };
-        let f = &self.frustum;
-        let far = [
-            self.light
-                .project(p, f.unproject(a.0, a.1, dn).as_dvec3())?,
-            self.light
-                .project(p, f.unproject(b.0, b.1, dn).as_dvec3())?,
-        ];
-        let (ea, eb) = (patch[ia], patch[ib]);
-        let centroid = (patch[0] + patch[1] + patch[2] + patch[3]) * 0.25;
-        let mid = (far[0] + far[1]) * 0.5;
-        (side(ea, eb, centroid) * side(ea, eb, mid) < 0.0).then_some([ea, eb, far[1], far[0]])
-    }
-
-    /// The world quad of the level-0 texel rectangle `(x0, y0, x1, y1)` at linear depth `d`, wound
-    /// `(x0, y0), (x1, y0), (x1, y1), (x0, y1)`.
-    fn rect(&self, (x0, y0, x1, y1): Rect, d: f32) -> [DVec3; 4] {
-        let f = &self.frustum;
-        let (x0, y0, x1, y1) = (x0 as f32, y0 as f32, x1 as f32, y1 as f32);
-        [(x0, y0), (x1, y0), (x1, y1), (x0, y1)].map(|(x, y)| f.unproject(x, y, d).as_dvec3())
+        (occlusion.visible() as f32, counts)
     }
 }
 
-/// The neighbours whose gaps a micropatch fills ([`Context::gap_wall`]).
-#[derive(Debug, Clone, Copy)]
-enum Neighbour {
-    /// `−x` in the map.
-    Left,
-    /// `+y` in the map.
-    Bottom,
+/// One receiver's scan of one level's micro-occluders over its search area (steps 3 and 4).
+struct Scan<'a> {
+    ctx: &'a Context<'a>,
+    rd: &'a ReceiverDepth,
+    lv: &'a Level,
+    /// Level-0 texels per side of one of the level's texels.
+    s: usize,
+    from: Projector<'a>,
+    /// The level's texels `[x0, x1) × [y0, y1)` the scan reads.
+    texels: Rect,
+}
+
+/// One row of texels of a micropatch scan, from the column left of the search area: per texel,
+/// whether its micropatch lies nearer than the receiver's plane all over its texel, and if so its
+/// corners projected onto the light at its depth (in [`corner_of`]'s order; `None` where a corner
+/// does not lie between the receiver and the light). A micropatch and the gap walls of its right
+/// and upper neighbours read the same corners, so each is projected once.
+struct PatchRow {
+    occludes: Vec<bool>,
+    corners: Vec<[Option<DVec2>; 4]>,
+    /// The receiver-plane bound of each texel ([`plane_min`]).
+    plane: Vec<f32>,
+}
+
+impl PatchRow {
+    fn new(len: usize) -> Self {
+        Self {
+            occludes: vec![false; len],
+            corners: vec![[None; 4]; len],
+            plane: vec![0.0; len],
+        }
+    }
+
+    /// The backprojected micropatch of texel `c`, when it occludes and all of it projects.
+    #[inline]
+    fn patch(&self, c: usize) -> Option<[DVec2; 4]> {
+        if !self.occludes[c] {
+            return None;
+        }
+        let [a, b, e, f] = self.corners[c];
+        Some([a?, b?, e?, f?])
+    }
+
+    /// The gap filling of Guennebaud et al. 2006, as Schwarz and Stamminger 2008 (section 3) sum
+    /// it up: "extending a micropatch to its left and bottom neighbors in texture space". Seen
+    /// from the receiver, adjacent micropatches at different depths leave a gap (or overlap)
+    /// between their backprojections, since their shared edge lies at two depths along the same
+    /// light ray. A micropatch, backprojected as `patch` (with its vertices' mean `centroid`),
+    /// closes the gap to its neighbour, texel `c` of this row, by the backprojection of the wall
+    /// between the two copies of the shared edge: `patch`'s corners `own` and the neighbour's
+    /// corners `theirs` (the same two texel corners, at the neighbour's depth), when the
+    /// neighbour occludes the receiver too and its copy of the edge falls outside `patch`. Each
+    /// edge has one owner, so every gap between two occluding micropatches closes once, and no
+    /// wall reaches a texel that no occluder covers: an empty neighbour, or one behind the
+    /// receiver, gets none.
+    #[inline]
+    fn gap_wall(
+        &self,
+        c: usize,
+        theirs: [usize; 2],
+        own: [usize; 2],
+        (patch, centroid): (&[DVec2; 4], DVec2),
+    ) -> Option<[DVec2; 4]> {
+        if !self.occludes[c] {
+            return None;
+        }
+        let far = [self.corners[c][theirs[0]]?, self.corners[c][theirs[1]]?];
+        let (ea, eb) = (patch[own[0]], patch[own[1]]);
+        let mid = (far[0] + far[1]) * 0.5;
+        (side(ea, eb, centroid) * side(ea, eb, mid) < 0.0).then_some([ea, eb, far[1], far[0]])
+    }
+}
+
+/// Corner `k` of the level-0 texel rectangle `(x0, y0, x1, y1)`, wound `(x0, y0), (x1, y0),
+/// (x1, y1), (x0, y1)`.
+#[inline]
+fn corner_of((x0, y0, x1, y1): Rect, k: usize) -> (usize, usize) {
+    (
+        if k == 1 || k == 2 { x1 } else { x0 },
+        if k >= 2 { y1 } else { y0 },
+    )
+}
+
+impl Scan<'_> {
+    #[inline]
+    fn depth(&self, (x, y): (usize, usize)) -> f32 {
+        self.lv.depth[y * self.lv.width + x]
+    }
+
+    /// The level-0 texels of the level's texel `(x, y)`.
+    #[inline]
+    fn cell(&self, (x, y): (usize, usize)) -> Rect {
+        let s = self.s;
+        (x * s, y * s, x * s + s, y * s + s)
+    }
+
+    /// The world point of level-0 texel corner `(x, y)` at linear depth `d`.
+    #[inline]
+    fn unproject(&self, (x, y): (usize, usize), d: f32) -> DVec3 {
+        self.ctx.rays.unproject(x, y, d).as_dvec3()
+    }
+
+    /// The world quad of the level-0 texel rectangle `rect` at linear depth `d`, wound as
+    /// [`corner_of`].
+    fn rect(&self, rect: Rect, d: f32) -> [DVec3; 4] {
+        [0, 1, 2, 3].map(|k| self.unproject(corner_of(rect, k), d))
+    }
+
+    /// Plain micropatches, or with `extend` the gap filling of Guennebaud et al. 2006
+    /// ([`PatchRow::gap_wall`]); returns how many it backprojected. Each row of the area is filled
+    /// before the row above it is backprojected, since the lower gap walls read it.
+    fn micropatches(&self, extend: bool, occlusion: &mut Occlusion) -> u32 {
+        let (tx0, ty0, tx1, ty1) = self.texels;
+        let (mut row, mut below) = (PatchRow::new(tx1 - tx0 + 1), PatchRow::new(tx1 - tx0 + 1));
+        // Texel `tx` sits at index `tx + 1 - tx0` of a row.
+        self.fill(&mut row, ty0);
+        let mut backprojected = 0;
+        for ty in ty0..ty1 {
+            if ty + 1 < self.lv.height {
+                self.fill(&mut below, ty + 1);
+            } else {
+                below.occludes.fill(false);
+            }
+            for c in 1..=tx1 - tx0 {
+                let Some(patch) = row.patch(c) else {
+                    continue;
+                };
+                backprojected += 1;
+                occlusion.add(&patch);
+                if !extend {
+                    continue;
+                }
+                // The left neighbour's right edge is its corners 2 → 1, the lower neighbour's top
+                // edge its corners 1 → 0; they face the patch's edges 3 → 0 and 2 → 3.
+                let centroid = (patch[0] + patch[1] + patch[2] + patch[3]) * 0.25;
+                let left = row.gap_wall(c - 1, [2, 1], [3, 0], (&patch, centroid));
+                let lower = below.gap_wall(c, [1, 0], [2, 3], (&patch, centroid));
+                for wall in [left, lower].into_iter().flatten() {
+                    occlusion.add(&wall);
+                }
+            }
+            std::mem::swap(&mut row, &mut below);
+        }
+        backprojected
+    }
+
+    /// Fills `row` with the texels of row `ty` (see [`PatchRow`]).
+    fn fill(&self, row: &mut PatchRow, ty: usize) {
+        let (tx0, tx1, s) = (self.texels.0, self.texels.2, self.s);
+        // The columns `first..tx1` at indices `skip..`: from the one left of the area, if any.
+        let first = tx0.saturating_sub(1);
+        let skip = first + 1 - tx0;
+        row.occludes[..skip].fill(false);
+        let plane = &mut row.plane[skip..];
+        if s == 1 {
+            // `plane_min` of a level-0 texel is its one prediction.
+            self.rd.at_row(first as i32, ty as i32, plane);
+        } else {
+            for (tx, p) in (first..).zip(plane.iter_mut()) {
+                *p = plane_min(self.rd, self.cell((tx, ty)));
+            }
+        }
+        let depth = &self.lv.depth[ty * self.lv.width..][first..tx1];
+        for ((o, &d), &p) in row.occludes[skip..]
+            .iter_mut()
+            .zip(depth)
+            .zip(&row.plane[skip..])
+        {
+            *o = d != EMPTY && d < p;
+        }
+        let (y0, y1) = (ty * s, ty * s + s);
+        for (c, tx) in (skip..row.occludes.len()).zip(first..) {
+            if row.occludes[c] {
+                let (x0, x1) = (tx * s, tx * s + s);
+                let d = depth[c - skip];
+                let project = |x, y| self.from.project(self.unproject((x, y), d));
+                row.corners[c] = [
+                    project(x0, y0),
+                    project(x1, y0),
+                    project(x1, y1),
+                    project(x0, y1),
+                ];
+            }
+        }
+    }
+
+    /// Microrects (section 5.2): each texel's extent at its depth; returns how many it
+    /// backprojected.
+    fn microrects(&self, occlusion: &mut Occlusion) -> u32 {
+        let (tx0, ty0, tx1, ty1) = self.texels;
+        let mut backprojected = 0;
+        for ty in ty0..ty1 {
+            for tx in tx0..tx1 {
+                let d = self.depth((tx, ty));
+                let e = self.lv.extent[ty * self.lv.width + tx].map(|v| v as usize);
+                let rect = (e[0], e[1], e[2], e[3]);
+                if d == EMPTY || d >= plane_min(self.rd, rect) {
+                    continue;
+                }
+                if let Some(q) = self.from.project_quad(self.rect(rect, d)) {
+                    backprojected += 1;
+                    occlusion.add(&q);
+                }
+            }
+        }
+        backprojected
+    }
+
+    /// Microquads: the texel centers of each 2 × 2 block as a quad, when all four lie nearer than
+    /// the receiver's plane; returns how many it backprojected.
+    fn microquads(&self, occlusion: &mut Occlusion) -> u32 {
+        let (tx0, ty0, tx1, ty1) = self.texels;
+        let (lv, s) = (self.lv, self.s);
+        let mut backprojected = 0;
+        for ty in ty0..ty1 {
+            for tx in tx0..tx1 {
+                if self.depth((tx, ty)) == EMPTY || tx + 1 >= lv.width || ty + 1 >= lv.height {
+                    continue;
+                }
+                let corners = [(tx, ty), (tx + 1, ty), (tx + 1, ty + 1), (tx, ty + 1)];
+                let depths = corners.map(|t| self.depth(t));
+                if !corners
+                    .iter()
+                    .zip(&depths)
+                    .all(|(&t, &dz)| dz != EMPTY && dz < plane_min(self.rd, self.cell(t)))
+                {
+                    continue;
+                }
+                let center = |c: usize| ((c * s) as f32) + 0.5 * s as f32;
+                let quad = [0, 1, 2, 3].map(|i| {
+                    let (x, y) = corners[i];
+                    self.ctx
+                        .frustum
+                        .unproject(center(x), center(y), depths[i])
+                        .as_dvec3()
+                });
+                if let Some(q) = self.from.project_quad(quad) {
+                    backprojected += 1;
+                    occlusion.add(&q);
+                }
+            }
+        }
+        backprojected
+    }
 }
 
 /// The nearest depth of the receiver's tangent plane over the level-0 texels `[x0, x1) × [y0, y1)`
 /// (at a corner: the plane's depth is monotonic across the map). A coarse micro-occluder takes the
 /// minimum depth of its texels, so it must be nearer than the receiver's plane everywhere over its
-/// extent, or a tilted receiver would shadow itself.
-fn plane_min(rd: &ReceiverDepth, (x0, y0, x1, y1): (usize, usize, usize, usize)) -> f32 {
+/// extent, or a tilted receiver would shadow itself. A texel one level-0 texel wide or high has
+/// fewer distinct corners, each read once.
+fn plane_min(rd: &ReceiverDepth, (x0, y0, x1, y1): Rect) -> f32 {
     let (x1, y1) = (x1.max(x0 + 1) - 1, y1.max(y0 + 1) - 1);
-    [(x0, y0), (x1, y0), (x0, y1), (x1, y1)]
-        .map(|(x, y)| rd.at(x as i64, y as i64))
-        .into_iter()
-        .fold(f32::INFINITY, f32::min)
-}
-
-/// The light-coordinate quad of `quad` projected from `p`; `None` unless it lies between them.
-fn project_quad(light: &LightPlane, p: DVec3, quad: [DVec3; 4]) -> Option<[DVec2; 4]> {
-    let q = [
-        light.project(p, quad[0])?,
-        light.project(p, quad[1])?,
-        light.project(p, quad[2])?,
-        light.project(p, quad[3])?,
-    ];
-    Some(q)
+    let at = |x: usize, y: usize| rd.at(x as i64, y as i64);
+    let column = |x: usize| {
+        let top = f32::INFINITY.min(at(x, y0));
+        if y1 == y0 {
+            top
+        } else {
+            top.min(at(x, y1))
+        }
+    };
+    if x1 == x0 {
+        column(x0)
+    } else {
+        column(x0).min(column(x1))
+    }
 }
 
 /// Smooths the LOQ map (section 4.2): per axis, a box filter of `side` texels over the receiver
@@ -1154,6 +1357,7 @@ fn backprojection_view(
             .sum::<usize>() as f64,
     );
     let ctx = Context {
+        rays: GridRays::new(&frustum),
         frustum,
         accel: &accel,
         levels: &levels,
@@ -1214,12 +1418,10 @@ fn backprojection_view(
             match (search, rd, level) {
                 (Search::Fixed(v), _, _) => (*v, None),
                 (Search::Lit, _, _) => (
-                    ctx.light
-                        .behind(
-                            receivers.points[i].as_dvec3(),
-                            receivers.normals[i].as_dvec3(),
-                        )
-                        .1 as f32,
+                    ctx.light.front((
+                        receivers.points[i].as_dvec3(),
+                        receivers.normals[i].as_dvec3(),
+                    )) as f32,
                     None,
                 ),
                 (Search::Umbra, _, _) => (0.0, None),

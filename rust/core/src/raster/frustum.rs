@@ -370,9 +370,17 @@ impl LightFrustum {
     /// World direction through texel coordinates `(sx, sy)`, scaled so that its `forward`
     /// component is 1: `eye + texel_ray(sx, sy) * depth` lies at linear depth `depth`.
     pub fn texel_ray(&self, sx: f32, sy: f32) -> Vec3 {
-        let x = (2.0 * sx / self.width as f32 - 1.0) * self.tan_half_x;
-        let y = (1.0 - 2.0 * sy / self.height as f32) * self.tan_half_y;
-        self.forward + self.right * x + self.up * y
+        self.forward + self.right * self.ray_x(sx) + self.up * self.ray_y(sy)
+    }
+
+    /// The `right` component of [`LightFrustum::texel_ray`] at texel coordinate `sx`.
+    fn ray_x(&self, sx: f32) -> f32 {
+        (2.0 * sx / self.width as f32 - 1.0) * self.tan_half_x
+    }
+
+    /// The `up` component of [`LightFrustum::texel_ray`] at texel coordinate `sy`.
+    fn ray_y(&self, sy: f32) -> f32 {
+        (1.0 - 2.0 * sy / self.height as f32) * self.tan_half_y
     }
 
     /// The world point at texel coordinates `(sx, sy)` and linear depth `depth` (inverse of
@@ -398,6 +406,38 @@ impl LightFrustum {
     pub fn texel_world_size(&self, depth: f32) -> f32 {
         2.0 * depth
             * (self.tan_half_x / self.width as f32).max(self.tan_half_y / self.height as f32)
+    }
+}
+
+/// The rays through the corners of a map's texel grid (integer texel coordinates `0..=width` by
+/// `0..=height`), computed once for code that unprojects many texel corners: a part per column
+/// corner and one per row corner, which [`GridRays::unproject`] adds in
+/// [`LightFrustum::texel_ray`]'s order, so that it gives the same bits as
+/// [`LightFrustum::unproject`] with no division.
+#[derive(Debug, Clone)]
+pub struct GridRays {
+    eye: Vec3,
+    /// `forward + right * x` per column corner `x`.
+    columns: Vec<Vec3>,
+    /// `up * y` per row corner `y`.
+    rows: Vec<Vec3>,
+}
+
+impl GridRays {
+    pub fn new(f: &LightFrustum) -> Self {
+        Self {
+            eye: f.eye,
+            columns: (0..=f.width)
+                .map(|x| f.forward + f.right * f.ray_x(x as f32))
+                .collect(),
+            rows: (0..=f.height).map(|y| f.up * f.ray_y(y as f32)).collect(),
+        }
+    }
+
+    /// The world point at texel corner `(x, y)` and linear depth `depth`.
+    #[inline]
+    pub fn unproject(&self, x: usize, y: usize, depth: f32) -> Vec3 {
+        self.eye + (self.columns[x] + self.rows[y]) * depth
     }
 }
 

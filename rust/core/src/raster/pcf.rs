@@ -65,6 +65,8 @@ impl DepthBias {
 pub struct ReceiverDepth {
     /// Texel coordinates and linear depth of the receiver.
     s: Vec3,
+    /// `1 / s.z`, which every prediction starts from.
+    inv_z: f32,
     /// `∂(1/z)/∂sx`, `∂(1/z)/∂sy` of the receiver's tangent plane (0 with a constant bias).
     grad: Vec2,
     /// Subtracted from every predicted depth.
@@ -80,6 +82,7 @@ impl ReceiverDepth {
             DepthBias::Constant(b) => {
                 return Self {
                     s,
+                    inv_z: 1.0 / s.z,
                     grad: Vec2::ZERO,
                     slack: b,
                     reach: 0.0,
@@ -109,6 +112,7 @@ impl ReceiverDepth {
         let grad = if grad.is_finite() { grad } else { Vec2::ZERO };
         Self {
             s,
+            inv_z: 1.0 / s.z,
             grad,
             slack,
             reach: 20.0 * texel,
@@ -128,13 +132,38 @@ impl ReceiverDepth {
     /// The depth to compare with the depth stored in texel `(x, y)`.
     #[inline]
     pub fn at(&self, x: i64, y: i64) -> f32 {
-        let (dx, dy) = (x as f32 + 0.5 - self.s.x, y as f32 + 0.5 - self.s.y);
-        let inv = 1.0 / self.s.z + self.grad.x * dx + self.grad.y * dy;
+        self.predict(x as f32 + 0.5 - self.s.x, y as f32 + 0.5 - self.s.y)
+    }
+
+    /// [`ReceiverDepth::at`] of the texels `(x0 + k, y)` for `k` in `0..out.len()`, into `out`:
+    /// the same bits, in a loop without branches that the compiler vectorizes. Texel coordinates
+    /// are below [`crate::raster::frustum::MAX_RESOLUTION`], so exact as `i32` and as `f32`.
+    pub fn at_row(&self, x0: i32, y: i32, out: &mut [f32]) {
+        let dy = y as f32 + 0.5 - self.s.y;
+        for (x, o) in (x0..).zip(out.iter_mut()) {
+            *o = self.predict(x as f32 + 0.5 - self.s.x, dy);
+        }
+    }
+
+    /// The predicted depth `dx`, `dy` texels away from the receiver's projection.
+    #[inline]
+    fn predict(&self, dx: f32, dy: f32) -> f32 {
+        let inv = self.inv_z + self.grad.x * dx + self.grad.y * dy;
         let limit = self.reach * (dx.abs().max(dy.abs()) + 1.0);
+        let (lo, hi) = (self.s.z - limit, self.s.z + limit);
         let plane = if inv > 0.0 {
-            (1.0 / inv).clamp(self.s.z - limit, self.s.z + limit)
+            // `(1 / inv).clamp(lo, hi)`, less its check of `lo <= hi` (`limit >= 0`), which
+            // keeps the loop of `at_row` from vectorizing.
+            let v = 1.0 / inv;
+            if v < lo {
+                lo
+            } else if v > hi {
+                hi
+            } else {
+                v
+            }
         } else {
-            self.s.z + limit
+            hi
         };
         plane - self.slack
     }
