@@ -48,7 +48,7 @@ use crate::geometry::mesh::{AlphaTexture, Scene};
 use crate::geometry::polygon::clip_to_side;
 use crate::geometry::receivers::Receivers;
 use crate::influence::{check_hull_degree, LightBounds, ObjectOptions, Origins};
-use crate::light::lights::{tangent_frame, Light};
+use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, object_work, Peak};
 use crate::methods::alias_free::{
@@ -91,21 +91,26 @@ struct Volume {
     mesh: usize,
     /// The triangle's vertices (for its influence region).
     triangle: [Vec3; 3],
+    /// The closed volume's corners: the front cap t', then the back cap.
+    corners: [DVec3; 6],
+    /// `S` of equation 4.
+    to_texture: DMat3,
+    /// The fields below are in world coordinates as built, in those of the [`SamplePlane`] once
+    /// [`Volume::in_plane`] moved them there (where the perforated pass tests receivers and
+    /// samples).
+    ///
     /// Inside: on the inner side of the front cap and the three outer planes (a plane is left out,
     /// [`Bound::EVERYWHERE`], where the light reaches past it: conservative).
     planes: [Bound; 4],
-    /// The closed volume's corners: the front cap t', then the back cap.
-    corners: [DVec3; 6],
-    /// `M'` of equation 2, `S` of equation 4, the triangle's first vertex.
+    /// `M'` of equation 2 and the triangle's first vertex.
     to_triangle: DMat3,
-    to_texture: DMat3,
     v0: DVec3,
-    /// The triangle's vertices in the coordinates of the [`SamplePlane`] (set where the samples
-    /// are binned).
-    in_plane: [DVec3; 3],
+    /// The triangle's vertices.
+    vertices: [DVec3; 3],
 }
 
-/// A plane of a volume, inside where `m · x >= k`, with the slack of [`Volume::contains`].
+/// A plane of a volume, inside where `m · x >= k - slack`: [`Volume::in_plane`] sets the slack
+/// that keeps [`Volume::contains`] conservative against round-off.
 #[derive(Clone, Copy)]
 struct Bound {
     m: DVec3,
@@ -122,10 +127,18 @@ impl Bound {
     };
 
     fn new((m, k): (DVec3, f64)) -> Self {
+        Self { m, k, slack: 0.0 }
+    }
+
+    /// The bound in the coordinates of `plane` (`x = R^T u + o`, so `m · x = (R m) · u + m · o`),
+    /// for points whose world coordinates are at most `reach` in magnitude: a slack of 1e-9 of
+    /// the largest `|m · x|` covers the round-off of both frames many times over.
+    fn in_plane(&self, plane: &SamplePlane, reach: f64) -> Self {
+        let m = plane.to_plane * self.m;
         Self {
             m,
-            k,
-            slack: 1e-9 * m.length(),
+            k: self.k - self.m.dot(plane.origin),
+            slack: 1e-9 * self.m.length() * (1.0 + reach + plane.origin.abs().max_element()),
         }
     }
 }
@@ -270,21 +283,32 @@ impl Volume {
             triangle: tri,
             planes: bounds,
             corners,
-            to_triangle,
             to_texture,
+            to_triangle,
             v0: v[0],
-            in_plane: [DVec3::ZERO; 3],
+            vertices: v,
         })
     }
 
-    /// Whether `p` lies inside (section 2.3), with a relative tolerance that keeps the test
-    /// conservative against round-off.
+    /// The volume with its planes and triangle space in the coordinates of `plane`, for
+    /// receivers whose world coordinates are at most `reach` in magnitude.
+    fn in_plane(&self, plane: &SamplePlane, reach: f64) -> Self {
+        Self {
+            planes: self.planes.map(|b| b.in_plane(plane, reach)),
+            // M' (x − v0) = M' R^T (u − R (v0 − o)) for x = R^T u + o.
+            to_triangle: self.to_triangle * plane.to_plane.transpose(),
+            v0: plane.coordinates(self.v0),
+            vertices: self.vertices.map(|x| plane.coordinates(x)),
+            ..*self
+        }
+    }
+
+    /// Whether `p` lies inside (section 2.3), within the planes' slack.
     fn contains(&self, p: DVec3) -> bool {
-        let scale = 1.0 + p.abs().max_element();
         // Every plane, without a branch per plane: receivers fall on either side at random.
-        self.planes.iter().fold(true, |inside, b| {
-            inside & (b.m.dot(p) - b.k >= -b.slack * scale)
-        })
+        self.planes
+            .iter()
+            .fold(true, |inside, b| inside & (b.m.dot(p) - b.k >= -b.slack))
     }
 
     /// The receiver `p`, the projective center of equations 1 and 3, in triangle space
@@ -303,8 +327,8 @@ impl Volume {
     /// (`s_h` inside the triangle, and `y` across the plane from `p`), without building `J` per
     /// receiver. Then the texture coordinates `S s_h / s_h.z` (equations 4 and 5) are looked up.
     #[inline]
-    fn hides(&self, c: DVec3, y: Vec3, texture: &AlphaTexture) -> bool {
-        let q = self.to_triangle * (y.as_dvec3() - self.v0);
+    fn hides(&self, c: DVec3, y: DVec3, texture: &AlphaTexture) -> bool {
+        let q = self.to_triangle * (y - self.v0);
         // Both sides of the plane alike: every γ times the sign of γ_p.
         let side = c.z.signum();
         let (g, qz) = (c.z * side, q.z * side);
@@ -323,7 +347,7 @@ impl Volume {
     fn block(
         &self,
         p: DVec3,
-        sample: impl Fn(usize) -> Vec3,
+        sample: impl Fn(usize) -> DVec3,
         candidates: &[u64],
         texture: &AlphaTexture,
         blocked: &mut [u64],
@@ -454,17 +478,19 @@ pub fn stsv_volumes(
 /// for a rectangle or a disk, else the one facing the receivers (normal `forward`).
 struct SamplePlane {
     origin: DVec3,
-    /// World to plane coordinates `(a, b, z)`: rows the plane's two axes and its unit normal.
+    /// World to plane coordinates `(a, b, z)`: rows the plane's two axes and its unit normal,
+    /// orthonormal in f64, so that its transpose takes plane coordinates back to the world (the
+    /// volumes' planes and triangle spaces are moved by it: [`Volume::in_plane`]).
     to_plane: DMat3,
 }
 
 impl SamplePlane {
     fn new(light: &Light, forward: Vec3) -> Self {
-        let n = light.normal().unwrap_or(forward);
-        let (t, b) = tangent_frame(n);
+        let n = light.normal().unwrap_or(forward).as_dvec3().normalize();
+        let (t, b) = n.any_orthonormal_pair();
         Self {
             origin: light.center().as_dvec3(),
-            to_plane: DMat3::from_cols(t.as_dvec3(), b.as_dvec3(), n.as_dvec3()).transpose(),
+            to_plane: DMat3::from_cols(t, b, n).transpose(),
         }
     }
 
@@ -497,13 +523,10 @@ struct SampleBins {
 }
 
 impl SampleBins {
-    fn new(plane: &SamplePlane, samples: &[Vec3]) -> Self {
-        let words = samples.len().div_ceil(64);
-        let at: Vec<DVec3> = samples
-            .iter()
-            .map(|y| plane.coordinates(y.as_dvec3()))
-            .collect();
-        let bins = samples.len().clamp(8, 256);
+    /// Bins `at`, samples in the coordinates of the [`SamplePlane`].
+    fn new(at: &[DVec3]) -> Self {
+        let words = at.len().div_ceil(64);
+        let bins = at.len().clamp(8, 256);
         let mut out = Self {
             thickness: at.iter().map(|c| c.z.abs()).fold(0.0, f64::max),
             low: [f64::INFINITY; 2],
@@ -513,10 +536,10 @@ impl SampleBins {
             words,
             from: [vec![0; bins * words], vec![0; bins * words]],
             upto: [vec![0; bins * words], vec![0; bins * words]],
-            all: every_sample(samples.len()),
+            all: every_sample(at.len()),
         };
         for axis in 0..2 {
-            for c in &at {
+            for c in at {
                 out.low[axis] = out.low[axis].min(c[axis]);
                 out.high[axis] = out.high[axis].max(c[axis]);
             }
@@ -620,49 +643,32 @@ fn every_sample(count: usize) -> Vec<u64> {
         .collect()
 }
 
-thread_local! {
-    /// A worker's buffers for one receiver's samples and weights.
-    static OWN_SAMPLES: std::cell::RefCell<(Vec<Vec3>, Vec<f32>)> =
-        const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
-}
+/// The words of one list entry in the perforated pass beside its bitmask of blocked samples:
+/// the entry's volumes tested, volumes it lies inside and samples projected, counted in the
+/// entry, where no two workers meet, and summed at the end.
+const ENTRY_COUNTS: usize = 3;
 
-/// The words of one list entry in the perforated pass beside its two bitmasks.
-const ENTRY_COUNTS: usize = 4;
-
-/// One list entry's words in the perforated pass (`2 words + ENTRY_COUNTS`).
-struct Entry<'a> {
-    /// The samples blocked so far.
-    blocked: &'a mut [u64],
-    /// The samples that count: in front of the receiver's tangent plane and of non-zero weight
-    /// (the others never count, docs/design.md section 3).
-    counted: &'a mut [u64],
-    /// 1 once `counted` is known (found at the receiver's first volume: most lie in none), then
-    /// the entry's volumes tested, volumes it lies inside and samples projected: counted in the
-    /// entry, where no two workers meet, and summed at the end.
-    counts: &'a mut [u64],
-}
-
-impl<'a> Entry<'a> {
-    fn new(data: &'a mut [u64], words: usize) -> Self {
-        let (blocked, rest) = data.split_at_mut(words);
-        let (counted, counts) = rest.split_at_mut(words);
-        Self {
-            blocked,
-            counted,
-            counts,
-        }
-    }
-}
-
-/// Sets in `counted` the samples `ys` of weights `ws` that count for the receiver `(p, n)`,
-/// as `ray_traced` tells them.
-fn counted_samples(ys: &[Vec3], ws: &[f32], (p, n): (Vec3, Vec3), counted: &mut [u64]) {
-    counted.fill(0);
-    for (k, (y, &w)) in ys.iter().zip(ws).enumerate() {
-        if w != 0.0 && (*y - p).dot(n) > 0.0 {
-            counted[k / 64] |= 1 << (k % 64);
-        }
-    }
+/// Per list entry of `lists`, the bitmask (`words`) of the samples that count for its receiver:
+/// in front of the receiver's tangent plane and of non-zero weight, as `ray_traced` tells them
+/// (the others never count, docs/design.md section 3).
+fn counted_samples(origins: &Origins, words: usize) -> Vec<u64> {
+    let mut counted = vec![0u64; origins.lists.entries.len() * words];
+    counted
+        .par_chunks_mut(words)
+        .zip(&origins.lists.entries)
+        .for_each_init(
+            || (Vec::new(), Vec::new()),
+            |(ys, ws), (counted, &k)| {
+                let (ys, ws) = origins.samples_of(k as usize, ys, ws);
+                let (p, n) = origins.receiver(k as usize);
+                for (s, (y, &w)) in ys.iter().zip(ws).enumerate() {
+                    if w != 0.0 && (*y - p).dot(n) > 0.0 {
+                        counted[s / 64] |= 1 << (s % 64);
+                    }
+                }
+            },
+        );
+    counted
 }
 
 /// Per list entry of `origins`, the bitmask of the samples that the perforated triangles block
@@ -676,126 +682,138 @@ fn perforated_masks(
     stats: &mut Stats,
 ) -> Result<Vec<u64>> {
     let lists = &origins.lists;
-    let per_entry = 2 * words + ENTRY_COUNTS;
+    let per_entry = words + ENTRY_COUNTS;
     limits::check_memory(
         "stsv bitmasks",
         limits::bytes(&[
             lists.entries.len() as u64,
-            // the entries, the masks returned, the origins in the samples' plane (3 f64)
-            per_entry as u64 + words as u64 + 3,
+            // the entries, the samples that count, the masks returned, the origins in the
+            // samples' plane (3 f64)
+            per_entry as u64 + 2 * words as u64 + 3,
             8,
         ]),
     )?;
-    let bounds = padded_bounds(scene, &origins.origins);
+    // Receivers and samples are tested in the light plane's coordinates, where the samples are
+    // binned, with the receivers in list order: a span of texels reads its receivers in a row.
+    let plane = SamplePlane::new(origins.light, lists.frustum.forward);
+    let at: Vec<DVec3> = lists
+        .entries
+        .par_iter()
+        .map(|&k| plane.coordinates(origins.origins[k as usize].as_dvec3()))
+        .collect();
+    let reach = origins
+        .origins
+        .iter()
+        .fold(0.0f32, |r, o| r.max(o.abs().max_element()));
     let mut volumes = volumes(
         scene,
         &origins.bounds,
         opts.object.hull_degree,
         opts.two_sided,
-        bounds,
+        padded_bounds(scene, &origins.origins),
     );
+    for v in &mut volumes {
+        *v = v.in_plane(&plane, f64::from(reach));
+    }
     stats.set("volumes", volumes.len() as f64);
-    // Receivers that share a pattern (not rotated) find the samples worth projecting in its bins.
+    let counted = counted_samples(origins, words);
     let samples = origins.samples;
-    let plane = SamplePlane::new(origins.light, lists.frustum.forward);
+    let light = origins.light;
+    let patterns: Vec<Vec<DVec3>> = samples
+        .patterns()
+        .iter()
+        .map(|pattern| {
+            pattern
+                .iter()
+                .map(|y| plane.coordinates(y.as_dvec3()))
+                .collect()
+        })
+        .collect();
+    // Receivers that share a pattern (not rotated) find the samples worth projecting in its bins.
     let bins: Option<Vec<SampleBins>> = (samples.rotation_for(0).is_none()).then(|| {
-        samples
-            .patterns()
+        patterns
             .iter()
-            .map(|pattern| SampleBins::new(&plane, pattern))
+            .map(|pattern| SampleBins::new(pattern))
             .collect()
     });
-    for v in &mut volumes {
-        v.in_plane = v.triangle.map(|x| plane.coordinates(x.as_dvec3()));
-    }
-    let single_pattern = samples.patterns().len() == 1;
-    let in_plane: Vec<DVec3> = match bins {
-        Some(_) => origins
-            .origins
-            .par_iter()
-            .map(|o| plane.coordinates(o.as_dvec3()))
-            .collect(),
-        None => Vec::new(),
+    let pattern_of = |k: usize| {
+        let (x, y) = origins.receivers.pixel(origins.ids[k] as usize);
+        samples.pattern_index(x, y)
     };
     // A triangle's volumes (one per side of its plane that the light reaches) share its influence
     // region and its projection: a receiver inside either has each sample projected once.
     let triangles: Vec<&[Volume]> = volumes.chunk_by(|a, b| a.face == b.face).collect();
     let mut data = vec![0u64; lists.entries.len() * per_entry];
-    lists.visit_regions(
+    lists.visit_region_spans(
         &origins.bounds,
         opts.object.hull_degree,
         &triangles,
         |sides| &sides[0].triangle,
         &mut data,
         per_entry,
-        |sides, k, data| {
-            let entry = Entry::new(data, words);
-            if entry.counts[0] == 0 {
-                OWN_SAMPLES.with_borrow_mut(|(ys, ws)| {
-                    let (ys, ws) = origins.samples_of(k, ys, ws);
-                    counted_samples(ys, ws, origins.receiver(k), entry.counted);
-                });
-                entry.counts[0] = 1;
-            }
-            // Every sample that counts is blocked already: the volume cannot change the bits.
-            if entry
-                .counted
-                .iter()
-                .zip(&*entry.blocked)
-                .all(|(c, b)| c & !b == 0)
-            {
-                return;
-            }
-            let p = origins.origins[k].as_dvec3();
-            let inside = sides.iter().filter(|v| v.contains(p)).count();
-            entry.counts[1] += sides.len() as u64;
-            entry.counts[2] += inside as u64;
-            if inside == 0 {
-                return;
-            }
+        |sides, entries, part| {
             let volume = &sides[0];
             let Some(texture) = &scene.meshes[volume.mesh].alpha else {
                 return;
             };
-            let mut candidates = [0u64; MAX_SAMPLES / 64];
-            let candidates = &mut candidates[..words];
-            entry.counts[3] += match &bins {
-                Some(bins) => {
-                    let pattern = if single_pattern {
-                        0
-                    } else {
-                        let (x, y) = origins.receivers.pixel(origins.ids[k] as usize);
-                        samples.pattern_index(x, y)
-                    };
-                    bins[pattern].candidates(in_plane[k], &volume.in_plane, candidates);
-                    candidates
-                        .iter_mut()
-                        .zip(&*entry.counted)
-                        .for_each(|(c, n)| *c &= n);
-                    let ys = &samples.patterns()[pattern];
-                    volume.block(p, |s| ys[s], candidates, texture, entry.blocked)
+            for (e, entry) in entries.zip(part.chunks_mut(per_entry)) {
+                let (blocked, counts) = entry.split_at_mut(words);
+                let counted = &counted[e * words..(e + 1) * words];
+                // Every sample that counts is blocked already: the volume cannot change the bits.
+                if counted.iter().zip(&*blocked).all(|(c, b)| c & !b == 0) {
+                    continue;
                 }
-                None => {
-                    // Each sample rotated as the receiver's own (`SampleSet::fill`), and only
-                    // those projected.
-                    let i = origins.ids[k] as usize;
-                    let (x, y) = origins.receivers.pixel(i);
-                    let (ys, rotation) = (samples.pattern_for(x, y), samples.rotation_for(i));
-                    let own = |s: usize| rotation.map_or(ys[s], |r| origins.light.rotate(ys[s], r));
-                    candidates.copy_from_slice(entry.counted);
-                    volume.block(p, own, candidates, texture, entry.blocked)
+                let p = at[e];
+                let inside = sides.iter().filter(|v| v.contains(p)).count();
+                counts[0] += sides.len() as u64;
+                counts[1] += inside as u64;
+                if inside == 0 {
+                    continue;
                 }
-            };
+                let mut candidates = [0u64; MAX_SAMPLES / 64];
+                let candidates = &mut candidates[..words];
+                let k = lists.entries[e] as usize;
+                counts[2] += match &bins {
+                    Some(bins) => {
+                        let pattern = if patterns.len() == 1 {
+                            0
+                        } else {
+                            pattern_of(k)
+                        };
+                        bins[pattern].candidates(p, &volume.vertices, candidates);
+                        candidates
+                            .iter_mut()
+                            .zip(counted)
+                            .for_each(|(c, n)| *c &= n);
+                        let ys = &patterns[pattern];
+                        volume.block(p, |s| ys[s], candidates, texture, blocked)
+                    }
+                    None => {
+                        // Each sample rotated as the receiver's own (`SampleSet::fill`), and only
+                        // those projected.
+                        let (ys, rotation) = (
+                            &samples.patterns()[pattern_of(k)],
+                            samples.rotation_for(origins.ids[k] as usize),
+                        );
+                        let own = |s: usize| {
+                            let y = rotation.map_or(ys[s], |r| light.rotate(ys[s], r));
+                            plane.coordinates(y.as_dvec3())
+                        };
+                        candidates.copy_from_slice(counted);
+                        volume.block(p, own, candidates, texture, blocked)
+                    }
+                };
+            }
         },
     )?;
     let total = |i: usize| -> f64 {
         data.chunks(per_entry)
-            .map(|entry| entry[2 * words + i] as f64)
+            .map(|entry| entry[words + i] as f64)
             .sum()
     };
-    stats.set("receivers_tested", total(1));
-    stats.set("receivers_inside", total(2));
-    stats.set("sample_projections", total(3));
+    stats.set("receivers_tested", total(0));
+    stats.set("receivers_inside", total(1));
+    stats.set("sample_projections", total(2));
     Ok(data
         .chunks(per_entry)
         .flat_map(|entry| &entry[..words])
