@@ -63,6 +63,7 @@ use crate::raster::cube::by_light_face;
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// How the opaque meshes cast (Forest et al. 2009, section 3 and Algorithm 2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -643,37 +644,71 @@ fn every_sample(count: usize) -> Vec<u64> {
         .collect()
 }
 
-/// The words of one list entry in the perforated pass beside its bitmask of blocked samples:
-/// the entry's volumes tested, volumes it lies inside and samples projected, counted in the
-/// entry, where no two workers meet, and summed at the end.
-const ENTRY_COUNTS: usize = 3;
-
-/// Per list entry of `lists`, the bitmask (`words`) of the samples that count for its receiver:
-/// in front of the receiver's tangent plane and of non-zero weight, as `ray_traced` tells them
-/// (the others never count, docs/design.md section 3).
-fn counted_samples(origins: &Origins, words: usize) -> Vec<u64> {
-    let mut counted = vec![0u64; origins.lists.entries.len() * words];
-    counted
+/// Per list entry of `origins` and its bitmask in `masks` (`words` each), `merge(mask, counted)`
+/// with the bitmask of the samples that count for its receiver: in front of the receiver's
+/// tangent plane and of non-zero weight, as `ray_traced` tells them (the others never count,
+/// docs/design.md section 3). Computed per receiver where it is needed, not kept.
+fn merge_counted_samples(
+    origins: &Origins,
+    masks: &mut [u64],
+    words: usize,
+    merge: impl Fn(&mut [u64], &[u64]) + Sync,
+) {
+    masks
         .par_chunks_mut(words)
         .zip(&origins.lists.entries)
         .for_each_init(
             || (Vec::new(), Vec::new()),
-            |(ys, ws), (counted, &k)| {
+            |(ys, ws), (mask, &k)| {
                 let (ys, ws) = origins.samples_of(k as usize, ys, ws);
                 let (p, n) = origins.receiver(k as usize);
+                let mut counted = [0u64; MAX_SAMPLES / 64];
                 for (s, (y, &w)) in ys.iter().zip(ws).enumerate() {
                     if w != 0.0 && (*y - p).dot(n) > 0.0 {
                         counted[s / 64] |= 1 << (s % 64);
                     }
                 }
+                merge(mask, &counted[..words]);
             },
         );
-    counted
 }
 
-/// Per list entry of `origins`, the bitmask of the samples that the perforated triangles block
-/// (`words` per entry; samples that do not count may be left out); stats `volumes`,
-/// `receivers_tested`, `receivers_inside`, `sample_projections`.
+/// The perforated pass's stats, summed over the spans of texels that the workers visit (integer
+/// sums: the same whatever the order).
+#[derive(Default)]
+struct Tally {
+    tested: AtomicU64,
+    inside: AtomicU64,
+    projected: AtomicU64,
+}
+
+impl Tally {
+    fn add(&self, [tested, inside, projected]: [u64; 3]) {
+        self.tested.fetch_add(tested, Ordering::Relaxed);
+        self.inside.fetch_add(inside, Ordering::Relaxed);
+        self.projected.fetch_add(projected, Ordering::Relaxed);
+    }
+
+    fn record(&self, stats: &mut Stats) {
+        stats.set(
+            "receivers_tested",
+            self.tested.load(Ordering::Relaxed) as f64,
+        );
+        stats.set(
+            "receivers_inside",
+            self.inside.load(Ordering::Relaxed) as f64,
+        );
+        stats.set(
+            "sample_projections",
+            self.projected.load(Ordering::Relaxed) as f64,
+        );
+    }
+}
+
+/// Per list entry of `origins`, the bitmask of the samples that count and that the perforated
+/// triangles block (`words` per entry: the one bit per sample and receiver of Forest et al.
+/// 2009, section 5.1); stats `volumes`, `receivers_tested`, `receivers_inside`,
+/// `sample_projections`.
 fn perforated_masks(
     scene: &Scene,
     origins: &Origins,
@@ -682,25 +717,14 @@ fn perforated_masks(
     stats: &mut Stats,
 ) -> Result<Vec<u64>> {
     let lists = &origins.lists;
-    let per_entry = words + ENTRY_COUNTS;
     limits::check_memory(
         "stsv bitmasks",
-        limits::bytes(&[
-            lists.entries.len() as u64,
-            // the entries, the samples that count, the masks returned, the origins in the
-            // samples' plane (3 f64)
-            per_entry as u64 + 2 * words as u64 + 3,
-            8,
-        ]),
+        limits::bytes(&[lists.entries.len() as u64, words as u64, 8]),
     )?;
     // Receivers and samples are tested in the light plane's coordinates, where the samples are
-    // binned, with the receivers in list order: a span of texels reads its receivers in a row.
+    // binned; a receiver's are computed where it is tested (three dot products), not stored.
     let plane = SamplePlane::new(origins.light, lists.frustum.forward);
-    let at: Vec<DVec3> = lists
-        .entries
-        .par_iter()
-        .map(|&k| plane.coordinates(origins.origins[k as usize].as_dvec3()))
-        .collect();
+    let at = |e: usize| plane.coordinates(origins.origins[lists.entries[e] as usize].as_dvec3());
     let reach = origins
         .origins
         .iter()
@@ -716,7 +740,6 @@ fn perforated_masks(
         *v = v.in_plane(&plane, f64::from(reach));
     }
     stats.set("volumes", volumes.len() as f64);
-    let counted = counted_samples(origins, words);
     let samples = origins.samples;
     let light = origins.light;
     let patterns: Vec<Vec<DVec3>> = samples
@@ -740,38 +763,43 @@ fn perforated_masks(
         let (x, y) = origins.receivers.pixel(origins.ids[k] as usize);
         samples.pattern_index(x, y)
     };
+    let every = every_sample(samples.count());
+    // Each entry's one mask holds the samples blocked or that do not count: neither needs
+    // projecting, and a receiver whose mask is full is done. The samples that do not count are
+    // cleared at the end.
+    let mut masks = vec![0u64; lists.entries.len() * words];
+    merge_counted_samples(origins, &mut masks, words, |mask, counted| {
+        mask.iter_mut().zip(counted).for_each(|(m, c)| *m = !c);
+    });
     // A triangle's volumes (one per side of its plane that the light reaches) share its influence
     // region and its projection: a receiver inside either has each sample projected once.
     let triangles: Vec<&[Volume]> = volumes.chunk_by(|a, b| a.face == b.face).collect();
-    let mut data = vec![0u64; lists.entries.len() * per_entry];
+    let tally = Tally::default();
     lists.visit_region_spans(
         &origins.bounds,
         opts.object.hull_degree,
         &triangles,
         |sides| &sides[0].triangle,
-        &mut data,
-        per_entry,
+        &mut masks,
+        words,
         |sides, entries, part| {
             let volume = &sides[0];
             let Some(texture) = &scene.meshes[volume.mesh].alpha else {
                 return;
             };
-            for (e, entry) in entries.zip(part.chunks_mut(per_entry)) {
-                let (blocked, counts) = entry.split_at_mut(words);
-                let counted = &counted[e * words..(e + 1) * words];
-                // Every sample that counts is blocked already: the volume cannot change the bits.
-                if counted.iter().zip(&*blocked).all(|(c, b)| c & !b == 0) {
+            let mut counts = [0u64; 3];
+            for (e, done) in entries.zip(part.chunks_mut(words)) {
+                // Every sample is blocked or does not count: the volume cannot change the bits.
+                if every.iter().zip(&*done).all(|(a, d)| a & !d == 0) {
                     continue;
                 }
-                let p = at[e];
+                let p = at(e);
                 let inside = sides.iter().filter(|v| v.contains(p)).count();
                 counts[0] += sides.len() as u64;
                 counts[1] += inside as u64;
                 if inside == 0 {
                     continue;
                 }
-                let mut candidates = [0u64; MAX_SAMPLES / 64];
-                let candidates = &mut candidates[..words];
                 let k = lists.entries[e] as usize;
                 counts[2] += match &bins {
                     Some(bins) => {
@@ -780,13 +808,11 @@ fn perforated_masks(
                         } else {
                             pattern_of(k)
                         };
+                        let mut candidates = [0u64; MAX_SAMPLES / 64];
+                        let candidates = &mut candidates[..words];
                         bins[pattern].candidates(p, &volume.vertices, candidates);
-                        candidates
-                            .iter_mut()
-                            .zip(counted)
-                            .for_each(|(c, n)| *c &= n);
                         let ys = &patterns[pattern];
-                        volume.block(p, |s| ys[s], candidates, texture, blocked)
+                        volume.block(p, |s| ys[s], candidates, texture, done)
                     }
                     None => {
                         // Each sample rotated as the receiver's own (`SampleSet::fill`), and only
@@ -799,26 +825,18 @@ fn perforated_masks(
                             let y = rotation.map_or(ys[s], |r| light.rotate(ys[s], r));
                             plane.coordinates(y.as_dvec3())
                         };
-                        candidates.copy_from_slice(counted);
-                        volume.block(p, own, candidates, texture, blocked)
+                        volume.block(p, own, &every, texture, done)
                     }
                 };
             }
+            tally.add(counts);
         },
     )?;
-    let total = |i: usize| -> f64 {
-        data.chunks(per_entry)
-            .map(|entry| entry[words + i] as f64)
-            .sum()
-    };
-    stats.set("receivers_tested", total(0));
-    stats.set("receivers_inside", total(1));
-    stats.set("sample_projections", total(2));
-    Ok(data
-        .chunks(per_entry)
-        .flat_map(|entry| &entry[..words])
-        .copied()
-        .collect())
+    tally.record(stats);
+    merge_counted_samples(origins, &mut masks, words, |mask, counted| {
+        mask.iter_mut().zip(counted).for_each(|(m, c)| *m &= c);
+    });
+    Ok(masks)
 }
 
 /// Whether some opaque triangle of `scene` may cut a segment from an origin of `origins` to a
@@ -931,7 +949,7 @@ fn stsv_in_one_frustum(
     Peak::default()
         .buffer(&[n as u64, 4])
         .and(Origins::peak(n, &opts.object))
-        .buffer(&[n as u64, (3 * words + ENTRY_COUNTS + 3) as u64, 8])
+        .buffer(&[n as u64, words as u64, 8])
         .buffer(&[
             scene.num_faces() as u64,
             2 * std::mem::size_of::<Volume>() as u64 + 16 * 8,
