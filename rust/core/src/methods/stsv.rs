@@ -92,8 +92,6 @@ struct Volume {
     mesh: usize,
     /// The triangle's vertices (for its influence region).
     triangle: [Vec3; 3],
-    /// The closed volume's corners: the front cap t', then the back cap.
-    corners: [DVec3; 6],
     /// `S` of equation 4.
     to_texture: DMat3,
     /// The fields below are in world coordinates as built, in those of the [`SamplePlane`] once
@@ -106,8 +104,6 @@ struct Volume {
     /// `M'` of equation 2 and the triangle's first vertex.
     to_triangle: DMat3,
     v0: DVec3,
-    /// The triangle's vertices.
-    vertices: [DVec3; 3],
 }
 
 /// A plane of a volume, inside where `m · x >= k - slack`: [`Volume::in_plane`] sets the slack
@@ -197,7 +193,9 @@ fn exit_distance(o: DVec3, dir: DVec3, (lo, hi): (DVec3, DVec3)) -> f64 {
 
 impl Volume {
     /// The volume of triangle `tri` (face `face`, texture coordinates `uv`) for the part `light` of
-    /// the light's polytope on one side of it, seen from `center`; `None` for a degenerate triangle.
+    /// the light's polytope on one side of it, seen from `center`, with the closed volume's
+    /// corners (the front cap t', then the back cap: only [`stsv_volumes`] returns them, the
+    /// volume is not kept with them); `None` for a degenerate triangle.
     fn build(
         face: u32,
         mesh: usize,
@@ -206,7 +204,7 @@ impl Volume {
         light: &[DVec3],
         center: DVec3,
         bounds: (DVec3, DVec3),
-    ) -> Option<Volume> {
+    ) -> Option<(Volume, [DVec3; 6])> {
         let v = tri.map(|p| p.as_dvec3());
         let normal = (v[1] - v[0]).cross(v[2] - v[0]);
         let dist = v.map(|p| (p - center).length());
@@ -278,17 +276,16 @@ impl Volume {
         for (b, &plane) in bounds.iter_mut().zip(&planes) {
             *b = Bound::new(plane);
         }
-        Some(Volume {
+        let volume = Volume {
             face,
             mesh,
             triangle: tri,
             planes: bounds,
-            corners,
             to_texture,
             to_triangle,
             v0: v[0],
-            vertices: v,
-        })
+        };
+        Some((volume, corners))
     }
 
     /// The volume with its planes and triangle space in the coordinates of `plane`, for
@@ -299,7 +296,6 @@ impl Volume {
             // M' (x − v0) = M' R^T (u − R (v0 − o)) for x = R^T u + o.
             to_triangle: self.to_triangle * plane.to_plane.transpose(),
             v0: plane.coordinates(self.v0),
-            vertices: self.vertices.map(|x| plane.coordinates(x)),
             ..*self
         }
     }
@@ -377,14 +373,15 @@ impl Volume {
 
 /// The volumes of every perforated triangle of `scene` (two per triangle with `two_sided` when
 /// the light or its samples reach both sides) for the light and samples of `light`, within
-/// `bounds`.
-fn volumes(
+/// `bounds`, each as `keep` keeps it from the volume and its corners (see [`Volume::build`]).
+fn volumes<T>(
     scene: &Scene,
     light: &LightBounds<'_>,
     degree: usize,
     two_sided: bool,
     bounds: (DVec3, DVec3),
-) -> Vec<Volume> {
+    keep: impl Fn(Volume, [DVec3; 6]) -> T,
+) -> Vec<T> {
     let polytope = light.polytope(degree);
     let center = light.light.center().as_dvec3();
     let mut out = Vec::new();
@@ -414,15 +411,10 @@ fn volumes(
             } else {
                 part.iter().sum::<DVec3>() / part.len() as f64
             };
-            out.extend(Volume::build(
-                id,
-                r.mesh as usize,
-                tri,
-                uv,
-                &part,
-                part_center,
-                bounds,
-            ));
+            out.extend(
+                Volume::build(id, r.mesh as usize, tri, uv, &part, part_center, bounds)
+                    .map(|(volume, corners)| keep(volume, corners)),
+            );
         }
     }
     out
@@ -459,10 +451,8 @@ pub fn stsv_volumes(
         hull_degree,
         two_sided,
         padded_bounds(scene, points),
-    )
-    .iter()
-    .map(|v| (v.face, v.corners.map(|c| c.as_vec3())))
-    .collect();
+        |v, corners| (v.face, corners.map(|c| c.as_vec3())),
+    );
     if volumes
         .iter()
         .any(|(_, corners)| !corners.iter().all(|c| c.is_finite()))
@@ -729,16 +719,14 @@ fn perforated_masks(
         .origins
         .iter()
         .fold(0.0f32, |r, o| r.max(o.abs().max_element()));
-    let mut volumes = volumes(
+    let volumes = volumes(
         scene,
         &origins.bounds,
         opts.object.hull_degree,
         opts.two_sided,
         padded_bounds(scene, &origins.origins),
+        |v, _| v.in_plane(&plane, f64::from(reach)),
     );
-    for v in &mut volumes {
-        *v = v.in_plane(&plane, f64::from(reach));
-    }
     stats.set("volumes", volumes.len() as f64);
     let samples = origins.samples;
     let light = origins.light;
@@ -787,6 +775,8 @@ fn perforated_masks(
             let Some(texture) = &scene.meshes[volume.mesh].alpha else {
                 return;
             };
+            // The cone boxes' triangle in the plane's coordinates, as the volume's planes.
+            let vertices = volume.triangle.map(|x| plane.coordinates(x.as_dvec3()));
             let mut counts = [0u64; 3];
             for (e, done) in entries.zip(part.chunks_mut(words)) {
                 // Every sample is blocked or does not count: the volume cannot change the bits.
@@ -810,7 +800,7 @@ fn perforated_masks(
                         };
                         let mut candidates = [0u64; MAX_SAMPLES / 64];
                         let candidates = &mut candidates[..words];
-                        bins[pattern].candidates(p, &volume.vertices, candidates);
+                        bins[pattern].candidates(p, &vertices, candidates);
                         let ys = &patterns[pattern];
                         volume.block(p, |s| ys[s], candidates, texture, done)
                     }
@@ -940,7 +930,15 @@ fn stsv_in_one_frustum(
         backend: Backend::Cpu,
     };
     let n = receivers.len();
-    // The visibility, the origins, the perforated bitmasks and volumes, then the opaque part's.
+    // The visibility, the origins, the perforated bitmasks and volumes (per perforated triangle,
+    // one per side of it), then the opaque part's.
+    let perforated_faces: u64 = scene
+        .meshes
+        .iter()
+        .filter(|m| m.is_perforated())
+        .map(|m| m.faces.len() as u64)
+        .sum();
+    let sides = if opts.two_sided { 2 } else { 1 };
     let opaque_peak = match opts.opaque {
         Opaque::Bitmask => masks_peak(scene, n, s, &af),
         Opaque::Dcs => depth_complexity_peak(scene, n, s),
@@ -951,8 +949,8 @@ fn stsv_in_one_frustum(
         .and(Origins::peak(n, &opts.object))
         .buffer(&[n as u64, words as u64, 8])
         .buffer(&[
-            scene.num_faces() as u64,
-            2 * std::mem::size_of::<Volume>() as u64 + 16 * 8,
+            perforated_faces,
+            sides * std::mem::size_of::<Volume>() as u64 + 16 * 8,
         ])
         .and(opaque_peak)
         .check("stsv", &mut stats)?;
