@@ -695,9 +695,10 @@ impl Tally {
     }
 }
 
-/// Per list entry of `origins`, the bitmask of the samples that count and that the perforated
-/// triangles block (`words` per entry: the one bit per sample and receiver of Forest et al.
-/// 2009, section 5.1); stats `volumes`, `receivers_tested`, `receivers_inside`,
+/// Per list entry of `origins`, the bitmask of the samples that the perforated triangles block
+/// or that do not count (`words` per entry: the one bit per sample and receiver of Forest et al.
+/// 2009, section 5.1; [`unblocked_fraction`] and the penumbra wedges' sum read the samples that
+/// count only); stats `volumes`, `receivers_tested`, `receivers_inside`,
 /// `sample_projections`.
 fn perforated_masks(
     scene: &Scene,
@@ -753,8 +754,7 @@ fn perforated_masks(
     };
     let every = every_sample(samples.count());
     // Each entry's one mask holds the samples blocked or that do not count: neither needs
-    // projecting, and a receiver whose mask is full is done. The samples that do not count are
-    // cleared at the end.
+    // projecting, and a receiver whose mask is full is done.
     let mut masks = vec![0u64; lists.entries.len() * words];
     merge_counted_samples(origins, &mut masks, words, |mask, counted| {
         mask.iter_mut().zip(counted).for_each(|(m, c)| *m = !c);
@@ -823,9 +823,6 @@ fn perforated_masks(
         },
     )?;
     tally.record(stats);
-    merge_counted_samples(origins, &mut masks, words, |mask, counted| {
-        mask.iter_mut().zip(counted).for_each(|(m, c)| *m &= c);
-    });
     Ok(masks)
 }
 
@@ -959,7 +956,7 @@ fn stsv_in_one_frustum(
     let Some(origins) = Origins::new(light, receivers, samples, &opts.object)? else {
         return Ok((vis, stats));
     };
-    let perforated = {
+    let mut perforated = {
         let start = std::time::Instant::now();
         let masks = perforated_masks(scene, &origins, opts, words, &mut stats)?;
         stats.add("perforated_seconds", start.elapsed().as_secs_f64());
@@ -978,6 +975,10 @@ fn stsv_in_one_frustum(
     match opts.opaque {
         Opaque::Bitmask => {
             let mut opaque = sample_masks(scene, light, receivers, samples, &af, true, &mut stats)?;
+            // `alias_free`'s visibility reads every bit: only the samples that count are added.
+            merge_counted_samples(&origins, &mut perforated, words, |mask, counted| {
+                mask.iter_mut().zip(counted).for_each(|(m, c)| *m &= c);
+            });
             for (e, &k) in origins.lists.entries.iter().enumerate() {
                 let i = origins.ids[k as usize] as usize;
                 let words = opaque.words.min(words);
