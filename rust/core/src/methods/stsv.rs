@@ -663,38 +663,6 @@ fn merge_counted_samples(
         );
 }
 
-/// The perforated pass's stats, summed over the spans of texels that the workers visit (integer
-/// sums: the same whatever the order).
-#[derive(Default)]
-struct Tally {
-    tested: AtomicU64,
-    inside: AtomicU64,
-    projected: AtomicU64,
-}
-
-impl Tally {
-    fn add(&self, [tested, inside, projected]: [u64; 3]) {
-        self.tested.fetch_add(tested, Ordering::Relaxed);
-        self.inside.fetch_add(inside, Ordering::Relaxed);
-        self.projected.fetch_add(projected, Ordering::Relaxed);
-    }
-
-    fn record(&self, stats: &mut Stats) {
-        stats.set(
-            "receivers_tested",
-            self.tested.load(Ordering::Relaxed) as f64,
-        );
-        stats.set(
-            "receivers_inside",
-            self.inside.load(Ordering::Relaxed) as f64,
-        );
-        stats.set(
-            "sample_projections",
-            self.projected.load(Ordering::Relaxed) as f64,
-        );
-    }
-}
-
 /// Per list entry of `origins`, the bitmask of the samples that the perforated triangles block
 /// or that do not count (`words` per entry: the one bit per sample and receiver of Forest et al.
 /// 2009, section 5.1; [`unblocked_fraction`] and the penumbra wedges' sum read the samples that
@@ -762,7 +730,9 @@ fn perforated_masks(
     // A triangle's volumes (one per side of its plane that the light reaches) share its influence
     // region and its projection: a receiver inside either has each sample projected once.
     let triangles: Vec<&[Volume]> = volumes.chunk_by(|a, b| a.face == b.face).collect();
-    let tally = Tally::default();
+    // The pass's stats, summed over the spans of texels that the workers visit (integer sums:
+    // the same whatever the order).
+    let tally: [AtomicU64; 3] = Default::default();
     lists.visit_region_spans(
         &origins.bounds,
         opts.object.hull_degree,
@@ -819,10 +789,15 @@ fn perforated_masks(
                     }
                 };
             }
-            tally.add(counts);
+            for (total, count) in tally.iter().zip(counts) {
+                total.fetch_add(count, Ordering::Relaxed);
+            }
         },
     )?;
-    tally.record(stats);
+    let keys = ["receivers_tested", "receivers_inside", "sample_projections"];
+    for (key, total) in keys.into_iter().zip(&tally) {
+        stats.set(key, total.load(Ordering::Relaxed) as f64);
+    }
     Ok(masks)
 }
 
