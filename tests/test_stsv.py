@@ -221,3 +221,21 @@ def test_every_light_and_sampling_option_gives_the_oracles_bits(kind, options):
     assert np.mean((exact > 0) & (exact < 1) & gb.mask) > 0.02, "the case needs a penumbra"
     vis = ss.stsv(scene, light, gb, samples=32, pattern="poisson", seed=5, opaque="dcs", **options)
     np.testing.assert_array_equal(vis, exact)
+
+
+@pytest.mark.parametrize("samples", [64, 128])
+def test_within_penumbra_wedges_stsv_adds_one_bit_per_sample_and_receiver(samples):
+    # Forest et al. 2009, section 5.1: the light sample buffer, one bit per sample and receiver
+    # ("64 x 1024^2 x 1 bit"); the rest of stsv's own memory grows with the perforated
+    # triangles, not with the receivers.
+    extra = {}
+    for size in (64, 96):
+        setup, gb = case("fence", size=size)
+        _, with_stsv = ss.stsv(setup.scene, setup.light, gb, samples=samples, opaque="penumbra_wedge",
+                               two_sided=False, return_stats=True)
+        opaque = ss.Scene([m for m in setup.scene.meshes if not m.perforated])
+        _, alone = ss.penumbra_wedge(opaque, setup.light, gb, samples=samples, return_stats=True)
+        extra[gb.mask.size] = with_stsv["peak_bytes"] - alone["peak_bytes"]
+    (small, low), (large, high) = sorted(extra.items())
+    assert (high - low) / (large - small) == samples / 8
+    assert 0 < low - small * samples / 8 < 4096, "the four perforated triangles' volumes and edges"

@@ -637,6 +637,6 @@ def _memory_and_geometry(tier):
               "extra_mib_at_most": extra[high] / 2**20}
     note = (f"The methods' own peak-memory estimate: stsv over penumbra_wedge alone on the leaves with {2 * low} and "
             f"{2 * high} perforated triangles, 48^2 receivers, 64 samples. Ours builds every volume up front and keeps "
-            "it, where the paper's geometry program extrudes each on the fly. The estimate also reserves room for a "
-            "volume per opaque triangle, which never gets one.")
+            "it, where the paper's geometry program extrudes each on the fly; the rest is penumbra_wedge's list of every "
+            "edge of the scene, the perforated triangles' included, before it keeps the opaque silhouettes.")
     return Measured(values, note=note)

@@ -382,6 +382,36 @@ impl ReceiverLists {
         per_entry: usize,
         visit: impl Fn(&I, usize, &mut [T]) + Sync,
     ) -> Result<()> {
+        self.visit_region_spans(
+            bounds,
+            degree,
+            items,
+            vertices,
+            data,
+            per_entry,
+            |item, entries, values| {
+                for (e, values) in entries.zip(values.chunks_mut(per_entry)) {
+                    visit(item, self.entries[e] as usize, values);
+                }
+            },
+        )
+    }
+
+    /// [`ReceiverLists::visit_regions`] a span of texels at a time: calls `visit(item, entries,
+    /// values)` for the list entries `entries` of each span of texels (one row) that the item's
+    /// region covers, with their values of `data` (`per_entry` per entry, in list order), so that
+    /// a visit can test the span's points together.
+    #[allow(clippy::too_many_arguments)]
+    pub fn visit_region_spans<I: Sync, T: Send>(
+        &self,
+        bounds: &LightBounds<'_>,
+        degree: usize,
+        items: &[I],
+        vertices: impl Fn(&I) -> &[Vec3] + Sync,
+        data: &mut [T],
+        per_entry: usize,
+        visit: impl Fn(&I, Range<usize>, &mut [T]) + Sync,
+    ) -> Result<()> {
         let hulls: Vec<Option<Vec<DVec2>>> = items
             .par_iter()
             .map(|it| influence_hull(&self.frustum, bounds, vertices(it), degree))
@@ -403,13 +433,10 @@ impl ReceiverLists {
                         None => None,
                     };
                     for span in self.spans(region.as_deref(), &rows) {
-                        for e in self.span_entries(span) {
-                            visit(
-                                item,
-                                self.entries[e] as usize,
-                                &mut part[(e - base) * per_entry..(e - base + 1) * per_entry],
-                            );
-                        }
+                        let entries = self.span_entries(span);
+                        let values = &mut part
+                            [(entries.start - base) * per_entry..(entries.end - base) * per_entry];
+                        visit(item, entries, values);
                     }
                 }
             });

@@ -48,7 +48,7 @@ use crate::geometry::mesh::{AlphaTexture, Scene};
 use crate::geometry::polygon::clip_to_side;
 use crate::geometry::receivers::Receivers;
 use crate::influence::{check_hull_degree, LightBounds, ObjectOptions, Origins};
-use crate::light::lights::{tangent_frame, Light};
+use crate::light::lights::Light;
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, object_work, Peak};
 use crate::methods::alias_free::{
@@ -63,6 +63,7 @@ use crate::raster::cube::by_light_face;
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// How the opaque meshes cast (Forest et al. 2009, section 3 and Algorithm 2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -91,21 +92,22 @@ struct Volume {
     mesh: usize,
     /// The triangle's vertices (for its influence region).
     triangle: [Vec3; 3],
+    /// `S` of equation 4.
+    to_texture: DMat3,
+    /// The fields below are in world coordinates as built, in those of the [`SamplePlane`] once
+    /// [`Volume::in_plane`] moved them there (where the perforated pass tests receivers and
+    /// samples).
+    ///
     /// Inside: on the inner side of the front cap and the three outer planes (a plane is left out,
     /// [`Bound::EVERYWHERE`], where the light reaches past it: conservative).
     planes: [Bound; 4],
-    /// The closed volume's corners: the front cap t', then the back cap.
-    corners: [DVec3; 6],
-    /// `M'` of equation 2, `S` of equation 4, the triangle's first vertex.
+    /// `M'` of equation 2 and the triangle's first vertex.
     to_triangle: DMat3,
-    to_texture: DMat3,
     v0: DVec3,
-    /// The triangle's vertices in the coordinates of the [`SamplePlane`] (set where the samples
-    /// are binned).
-    in_plane: [DVec3; 3],
 }
 
-/// A plane of a volume, inside where `m · x >= k`, with the slack of [`Volume::contains`].
+/// A plane of a volume, inside where `m · x >= k - slack`: [`Volume::in_plane`] sets the slack
+/// that keeps [`Volume::contains`] conservative against round-off.
 #[derive(Clone, Copy)]
 struct Bound {
     m: DVec3,
@@ -122,10 +124,18 @@ impl Bound {
     };
 
     fn new((m, k): (DVec3, f64)) -> Self {
+        Self { m, k, slack: 0.0 }
+    }
+
+    /// The bound in the coordinates of `plane` (`x = R^T u + o`, so `m · x = (R m) · u + m · o`),
+    /// for points whose world coordinates are at most `reach` in magnitude: a slack of 1e-9 of
+    /// the largest `|m · x|` covers the round-off of both frames many times over.
+    fn in_plane(&self, plane: &SamplePlane, reach: f64) -> Self {
+        let m = plane.to_plane * self.m;
         Self {
             m,
-            k,
-            slack: 1e-9 * m.length(),
+            k: self.k - self.m.dot(plane.origin),
+            slack: 1e-9 * self.m.length() * (1.0 + reach + plane.origin.abs().max_element()),
         }
     }
 }
@@ -183,7 +193,9 @@ fn exit_distance(o: DVec3, dir: DVec3, (lo, hi): (DVec3, DVec3)) -> f64 {
 
 impl Volume {
     /// The volume of triangle `tri` (face `face`, texture coordinates `uv`) for the part `light` of
-    /// the light's polytope on one side of it, seen from `center`; `None` for a degenerate triangle.
+    /// the light's polytope on one side of it, seen from `center`, with the closed volume's
+    /// corners (the front cap t', then the back cap: only [`stsv_volumes`] returns them, the
+    /// volume is not kept with them); `None` for a degenerate triangle.
     fn build(
         face: u32,
         mesh: usize,
@@ -192,7 +204,7 @@ impl Volume {
         light: &[DVec3],
         center: DVec3,
         bounds: (DVec3, DVec3),
-    ) -> Option<Volume> {
+    ) -> Option<(Volume, [DVec3; 6])> {
         let v = tri.map(|p| p.as_dvec3());
         let normal = (v[1] - v[0]).cross(v[2] - v[0]);
         let dist = v.map(|p| (p - center).length());
@@ -264,27 +276,36 @@ impl Volume {
         for (b, &plane) in bounds.iter_mut().zip(&planes) {
             *b = Bound::new(plane);
         }
-        Some(Volume {
+        let volume = Volume {
             face,
             mesh,
             triangle: tri,
             planes: bounds,
-            corners,
-            to_triangle,
             to_texture,
+            to_triangle,
             v0: v[0],
-            in_plane: [DVec3::ZERO; 3],
-        })
+        };
+        Some((volume, corners))
     }
 
-    /// Whether `p` lies inside (section 2.3), with a relative tolerance that keeps the test
-    /// conservative against round-off.
+    /// The volume with its planes and triangle space in the coordinates of `plane`, for
+    /// receivers whose world coordinates are at most `reach` in magnitude.
+    fn in_plane(&self, plane: &SamplePlane, reach: f64) -> Self {
+        Self {
+            planes: self.planes.map(|b| b.in_plane(plane, reach)),
+            // M' (x − v0) = M' R^T (u − R (v0 − o)) for x = R^T u + o.
+            to_triangle: self.to_triangle * plane.to_plane.transpose(),
+            v0: plane.coordinates(self.v0),
+            ..*self
+        }
+    }
+
+    /// Whether `p` lies inside (section 2.3), within the planes' slack.
     fn contains(&self, p: DVec3) -> bool {
-        let scale = 1.0 + p.abs().max_element();
         // Every plane, without a branch per plane: receivers fall on either side at random.
-        self.planes.iter().fold(true, |inside, b| {
-            inside & (b.m.dot(p) - b.k >= -b.slack * scale)
-        })
+        self.planes
+            .iter()
+            .fold(true, |inside, b| inside & (b.m.dot(p) - b.k >= -b.slack))
     }
 
     /// The receiver `p`, the projective center of equations 1 and 3, in triangle space
@@ -303,8 +324,8 @@ impl Volume {
     /// (`s_h` inside the triangle, and `y` across the plane from `p`), without building `J` per
     /// receiver. Then the texture coordinates `S s_h / s_h.z` (equations 4 and 5) are looked up.
     #[inline]
-    fn hides(&self, c: DVec3, y: Vec3, texture: &AlphaTexture) -> bool {
-        let q = self.to_triangle * (y.as_dvec3() - self.v0);
+    fn hides(&self, c: DVec3, y: DVec3, texture: &AlphaTexture) -> bool {
+        let q = self.to_triangle * (y - self.v0);
         // Both sides of the plane alike: every γ times the sign of γ_p.
         let side = c.z.signum();
         let (g, qz) = (c.z * side, q.z * side);
@@ -323,7 +344,7 @@ impl Volume {
     fn block(
         &self,
         p: DVec3,
-        sample: impl Fn(usize) -> Vec3,
+        sample: impl Fn(usize) -> DVec3,
         candidates: &[u64],
         texture: &AlphaTexture,
         blocked: &mut [u64],
@@ -352,14 +373,15 @@ impl Volume {
 
 /// The volumes of every perforated triangle of `scene` (two per triangle with `two_sided` when
 /// the light or its samples reach both sides) for the light and samples of `light`, within
-/// `bounds`.
-fn volumes(
+/// `bounds`, each as `keep` keeps it from the volume and its corners (see [`Volume::build`]).
+fn volumes<T>(
     scene: &Scene,
     light: &LightBounds<'_>,
     degree: usize,
     two_sided: bool,
     bounds: (DVec3, DVec3),
-) -> Vec<Volume> {
+    keep: impl Fn(Volume, [DVec3; 6]) -> T,
+) -> Vec<T> {
     let polytope = light.polytope(degree);
     let center = light.light.center().as_dvec3();
     let mut out = Vec::new();
@@ -389,15 +411,10 @@ fn volumes(
             } else {
                 part.iter().sum::<DVec3>() / part.len() as f64
             };
-            out.extend(Volume::build(
-                id,
-                r.mesh as usize,
-                tri,
-                uv,
-                &part,
-                part_center,
-                bounds,
-            ));
+            out.extend(
+                Volume::build(id, r.mesh as usize, tri, uv, &part, part_center, bounds)
+                    .map(|(volume, corners)| keep(volume, corners)),
+            );
         }
     }
     out
@@ -434,10 +451,8 @@ pub fn stsv_volumes(
         hull_degree,
         two_sided,
         padded_bounds(scene, points),
-    )
-    .iter()
-    .map(|v| (v.face, v.corners.map(|c| c.as_vec3())))
-    .collect();
+        |v, corners| (v.face, corners.map(|c| c.as_vec3())),
+    );
     if volumes
         .iter()
         .any(|(_, corners)| !corners.iter().all(|c| c.is_finite()))
@@ -454,17 +469,19 @@ pub fn stsv_volumes(
 /// for a rectangle or a disk, else the one facing the receivers (normal `forward`).
 struct SamplePlane {
     origin: DVec3,
-    /// World to plane coordinates `(a, b, z)`: rows the plane's two axes and its unit normal.
+    /// World to plane coordinates `(a, b, z)`: rows the plane's two axes and its unit normal,
+    /// orthonormal in f64, so that its transpose takes plane coordinates back to the world (the
+    /// volumes' planes and triangle spaces are moved by it: [`Volume::in_plane`]).
     to_plane: DMat3,
 }
 
 impl SamplePlane {
     fn new(light: &Light, forward: Vec3) -> Self {
-        let n = light.normal().unwrap_or(forward);
-        let (t, b) = tangent_frame(n);
+        let n = light.normal().unwrap_or(forward).as_dvec3().normalize();
+        let (t, b) = n.any_orthonormal_pair();
         Self {
             origin: light.center().as_dvec3(),
-            to_plane: DMat3::from_cols(t.as_dvec3(), b.as_dvec3(), n.as_dvec3()).transpose(),
+            to_plane: DMat3::from_cols(t, b, n).transpose(),
         }
     }
 
@@ -497,13 +514,10 @@ struct SampleBins {
 }
 
 impl SampleBins {
-    fn new(plane: &SamplePlane, samples: &[Vec3]) -> Self {
-        let words = samples.len().div_ceil(64);
-        let at: Vec<DVec3> = samples
-            .iter()
-            .map(|y| plane.coordinates(y.as_dvec3()))
-            .collect();
-        let bins = samples.len().clamp(8, 256);
+    /// Bins `at`, samples in the coordinates of the [`SamplePlane`].
+    fn new(at: &[DVec3]) -> Self {
+        let words = at.len().div_ceil(64);
+        let bins = at.len().clamp(8, 256);
         let mut out = Self {
             thickness: at.iter().map(|c| c.z.abs()).fold(0.0, f64::max),
             low: [f64::INFINITY; 2],
@@ -513,10 +527,10 @@ impl SampleBins {
             words,
             from: [vec![0; bins * words], vec![0; bins * words]],
             upto: [vec![0; bins * words], vec![0; bins * words]],
-            all: every_sample(samples.len()),
+            all: every_sample(at.len()),
         };
         for axis in 0..2 {
-            for c in &at {
+            for c in at {
                 out.low[axis] = out.low[axis].min(c[axis]);
                 out.high[axis] = out.high[axis].max(c[axis]);
             }
@@ -620,54 +634,40 @@ fn every_sample(count: usize) -> Vec<u64> {
         .collect()
 }
 
-thread_local! {
-    /// A worker's buffers for one receiver's samples and weights.
-    static OWN_SAMPLES: std::cell::RefCell<(Vec<Vec3>, Vec<f32>)> =
-        const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
-}
-
-/// The words of one list entry in the perforated pass beside its two bitmasks.
-const ENTRY_COUNTS: usize = 4;
-
-/// One list entry's words in the perforated pass (`2 words + ENTRY_COUNTS`).
-struct Entry<'a> {
-    /// The samples blocked so far.
-    blocked: &'a mut [u64],
-    /// The samples that count: in front of the receiver's tangent plane and of non-zero weight
-    /// (the others never count, docs/design.md section 3).
-    counted: &'a mut [u64],
-    /// 1 once `counted` is known (found at the receiver's first volume: most lie in none), then
-    /// the entry's volumes tested, volumes it lies inside and samples projected: counted in the
-    /// entry, where no two workers meet, and summed at the end.
-    counts: &'a mut [u64],
-}
-
-impl<'a> Entry<'a> {
-    fn new(data: &'a mut [u64], words: usize) -> Self {
-        let (blocked, rest) = data.split_at_mut(words);
-        let (counted, counts) = rest.split_at_mut(words);
-        Self {
-            blocked,
-            counted,
-            counts,
-        }
-    }
-}
-
-/// Sets in `counted` the samples `ys` of weights `ws` that count for the receiver `(p, n)`,
-/// as `ray_traced` tells them.
-fn counted_samples(ys: &[Vec3], ws: &[f32], (p, n): (Vec3, Vec3), counted: &mut [u64]) {
-    counted.fill(0);
-    for (k, (y, &w)) in ys.iter().zip(ws).enumerate() {
-        if w != 0.0 && (*y - p).dot(n) > 0.0 {
-            counted[k / 64] |= 1 << (k % 64);
-        }
-    }
+/// Per list entry of `origins` and its bitmask in `masks` (`words` each), `merge(mask, counted)`
+/// with the bitmask of the samples that count for its receiver: in front of the receiver's
+/// tangent plane and of non-zero weight, as `ray_traced` tells them (the others never count,
+/// docs/design.md section 3). Computed per receiver where it is needed, not kept.
+fn merge_counted_samples(
+    origins: &Origins,
+    masks: &mut [u64],
+    words: usize,
+    merge: impl Fn(&mut [u64], &[u64]) + Sync,
+) {
+    masks
+        .par_chunks_mut(words)
+        .zip(&origins.lists.entries)
+        .for_each_init(
+            || (Vec::new(), Vec::new()),
+            |(ys, ws), (mask, &k)| {
+                let (ys, ws) = origins.samples_of(k as usize, ys, ws);
+                let (p, n) = origins.receiver(k as usize);
+                let mut counted = [0u64; MAX_SAMPLES / 64];
+                for (s, (y, &w)) in ys.iter().zip(ws).enumerate() {
+                    if w != 0.0 && (*y - p).dot(n) > 0.0 {
+                        counted[s / 64] |= 1 << (s % 64);
+                    }
+                }
+                merge(mask, &counted[..words]);
+            },
+        );
 }
 
 /// Per list entry of `origins`, the bitmask of the samples that the perforated triangles block
-/// (`words` per entry; samples that do not count may be left out); stats `volumes`,
-/// `receivers_tested`, `receivers_inside`, `sample_projections`.
+/// or that do not count (`words` per entry: the one bit per sample and receiver of Forest et al.
+/// 2009, section 5.1; [`unblocked_fraction`] and the penumbra wedges' sum read the samples that
+/// count only); stats `volumes`, `receivers_tested`, `receivers_inside`,
+/// `sample_projections`.
 fn perforated_masks(
     scene: &Scene,
     origins: &Origins,
@@ -676,131 +676,129 @@ fn perforated_masks(
     stats: &mut Stats,
 ) -> Result<Vec<u64>> {
     let lists = &origins.lists;
-    let per_entry = 2 * words + ENTRY_COUNTS;
     limits::check_memory(
         "stsv bitmasks",
-        limits::bytes(&[
-            lists.entries.len() as u64,
-            // the entries, the masks returned, the origins in the samples' plane (3 f64)
-            per_entry as u64 + words as u64 + 3,
-            8,
-        ]),
+        limits::bytes(&[lists.entries.len() as u64, words as u64, 8]),
     )?;
-    let bounds = padded_bounds(scene, &origins.origins);
-    let mut volumes = volumes(
+    // Receivers and samples are tested in the light plane's coordinates, where the samples are
+    // binned; a receiver's are computed where it is tested (three dot products), not stored.
+    let plane = SamplePlane::new(origins.light, lists.frustum.forward);
+    let at = |e: usize| plane.coordinates(origins.origins[lists.entries[e] as usize].as_dvec3());
+    let reach = origins
+        .origins
+        .iter()
+        .fold(0.0f32, |r, o| r.max(o.abs().max_element()));
+    let volumes = volumes(
         scene,
         &origins.bounds,
         opts.object.hull_degree,
         opts.two_sided,
-        bounds,
+        padded_bounds(scene, &origins.origins),
+        |v, _| v.in_plane(&plane, f64::from(reach)),
     );
     stats.set("volumes", volumes.len() as f64);
-    // Receivers that share a pattern (not rotated) find the samples worth projecting in its bins.
     let samples = origins.samples;
-    let plane = SamplePlane::new(origins.light, lists.frustum.forward);
+    let light = origins.light;
+    let patterns: Vec<Vec<DVec3>> = samples
+        .patterns()
+        .iter()
+        .map(|pattern| {
+            pattern
+                .iter()
+                .map(|y| plane.coordinates(y.as_dvec3()))
+                .collect()
+        })
+        .collect();
+    // Receivers that share a pattern (not rotated) find the samples worth projecting in its bins.
     let bins: Option<Vec<SampleBins>> = (samples.rotation_for(0).is_none()).then(|| {
-        samples
-            .patterns()
+        patterns
             .iter()
-            .map(|pattern| SampleBins::new(&plane, pattern))
+            .map(|pattern| SampleBins::new(pattern))
             .collect()
     });
-    for v in &mut volumes {
-        v.in_plane = v.triangle.map(|x| plane.coordinates(x.as_dvec3()));
-    }
-    let single_pattern = samples.patterns().len() == 1;
-    let in_plane: Vec<DVec3> = match bins {
-        Some(_) => origins
-            .origins
-            .par_iter()
-            .map(|o| plane.coordinates(o.as_dvec3()))
-            .collect(),
-        None => Vec::new(),
+    let pattern_of = |k: usize| {
+        let (x, y) = origins.receivers.pixel(origins.ids[k] as usize);
+        samples.pattern_index(x, y)
     };
+    let every = every_sample(samples.count());
+    // Each entry's one mask holds the samples blocked or that do not count: neither needs
+    // projecting, and a receiver whose mask is full is done.
+    let mut masks = vec![0u64; lists.entries.len() * words];
+    merge_counted_samples(origins, &mut masks, words, |mask, counted| {
+        mask.iter_mut().zip(counted).for_each(|(m, c)| *m = !c);
+    });
     // A triangle's volumes (one per side of its plane that the light reaches) share its influence
     // region and its projection: a receiver inside either has each sample projected once.
     let triangles: Vec<&[Volume]> = volumes.chunk_by(|a, b| a.face == b.face).collect();
-    let mut data = vec![0u64; lists.entries.len() * per_entry];
-    lists.visit_regions(
+    // The pass's stats, summed over the spans of texels that the workers visit (integer sums:
+    // the same whatever the order).
+    let tally: [AtomicU64; 3] = Default::default();
+    lists.visit_region_spans(
         &origins.bounds,
         opts.object.hull_degree,
         &triangles,
         |sides| &sides[0].triangle,
-        &mut data,
-        per_entry,
-        |sides, k, data| {
-            let entry = Entry::new(data, words);
-            if entry.counts[0] == 0 {
-                OWN_SAMPLES.with_borrow_mut(|(ys, ws)| {
-                    let (ys, ws) = origins.samples_of(k, ys, ws);
-                    counted_samples(ys, ws, origins.receiver(k), entry.counted);
-                });
-                entry.counts[0] = 1;
-            }
-            // Every sample that counts is blocked already: the volume cannot change the bits.
-            if entry
-                .counted
-                .iter()
-                .zip(&*entry.blocked)
-                .all(|(c, b)| c & !b == 0)
-            {
-                return;
-            }
-            let p = origins.origins[k].as_dvec3();
-            let inside = sides.iter().filter(|v| v.contains(p)).count();
-            entry.counts[1] += sides.len() as u64;
-            entry.counts[2] += inside as u64;
-            if inside == 0 {
-                return;
-            }
+        &mut masks,
+        words,
+        |sides, entries, part| {
             let volume = &sides[0];
             let Some(texture) = &scene.meshes[volume.mesh].alpha else {
                 return;
             };
-            let mut candidates = [0u64; MAX_SAMPLES / 64];
-            let candidates = &mut candidates[..words];
-            entry.counts[3] += match &bins {
-                Some(bins) => {
-                    let pattern = if single_pattern {
-                        0
-                    } else {
-                        let (x, y) = origins.receivers.pixel(origins.ids[k] as usize);
-                        samples.pattern_index(x, y)
-                    };
-                    bins[pattern].candidates(in_plane[k], &volume.in_plane, candidates);
-                    candidates
-                        .iter_mut()
-                        .zip(&*entry.counted)
-                        .for_each(|(c, n)| *c &= n);
-                    let ys = &samples.patterns()[pattern];
-                    volume.block(p, |s| ys[s], candidates, texture, entry.blocked)
+            // The cone boxes' triangle in the plane's coordinates, as the volume's planes.
+            let vertices = volume.triangle.map(|x| plane.coordinates(x.as_dvec3()));
+            let mut counts = [0u64; 3];
+            for (e, done) in entries.zip(part.chunks_mut(words)) {
+                // Every sample is blocked or does not count: the volume cannot change the bits.
+                if every.iter().zip(&*done).all(|(a, d)| a & !d == 0) {
+                    continue;
                 }
-                None => {
-                    // Each sample rotated as the receiver's own (`SampleSet::fill`), and only
-                    // those projected.
-                    let i = origins.ids[k] as usize;
-                    let (x, y) = origins.receivers.pixel(i);
-                    let (ys, rotation) = (samples.pattern_for(x, y), samples.rotation_for(i));
-                    let own = |s: usize| rotation.map_or(ys[s], |r| origins.light.rotate(ys[s], r));
-                    candidates.copy_from_slice(entry.counted);
-                    volume.block(p, own, candidates, texture, entry.blocked)
+                let p = at(e);
+                let inside = sides.iter().filter(|v| v.contains(p)).count();
+                counts[0] += sides.len() as u64;
+                counts[1] += inside as u64;
+                if inside == 0 {
+                    continue;
                 }
-            };
+                let k = lists.entries[e] as usize;
+                counts[2] += match &bins {
+                    Some(bins) => {
+                        let pattern = if patterns.len() == 1 {
+                            0
+                        } else {
+                            pattern_of(k)
+                        };
+                        let mut candidates = [0u64; MAX_SAMPLES / 64];
+                        let candidates = &mut candidates[..words];
+                        bins[pattern].candidates(p, &vertices, candidates);
+                        let ys = &patterns[pattern];
+                        volume.block(p, |s| ys[s], candidates, texture, done)
+                    }
+                    None => {
+                        // Each sample rotated as the receiver's own (`SampleSet::fill`), and only
+                        // those projected.
+                        let (ys, rotation) = (
+                            &samples.patterns()[pattern_of(k)],
+                            samples.rotation_for(origins.ids[k] as usize),
+                        );
+                        let own = |s: usize| {
+                            let y = rotation.map_or(ys[s], |r| light.rotate(ys[s], r));
+                            plane.coordinates(y.as_dvec3())
+                        };
+                        volume.block(p, own, &every, texture, done)
+                    }
+                };
+            }
+            for (total, count) in tally.iter().zip(counts) {
+                total.fetch_add(count, Ordering::Relaxed);
+            }
         },
     )?;
-    let total = |i: usize| -> f64 {
-        data.chunks(per_entry)
-            .map(|entry| entry[2 * words + i] as f64)
-            .sum()
-    };
-    stats.set("receivers_tested", total(1));
-    stats.set("receivers_inside", total(2));
-    stats.set("sample_projections", total(3));
-    Ok(data
-        .chunks(per_entry)
-        .flat_map(|entry| &entry[..words])
-        .copied()
-        .collect())
+    let keys = ["receivers_tested", "receivers_inside", "sample_projections"];
+    for (key, total) in keys.into_iter().zip(&tally) {
+        stats.set(key, total.load(Ordering::Relaxed) as f64);
+    }
+    Ok(masks)
 }
 
 /// Whether some opaque triangle of `scene` may cut a segment from an origin of `origins` to a
@@ -904,7 +902,15 @@ fn stsv_in_one_frustum(
         backend: Backend::Cpu,
     };
     let n = receivers.len();
-    // The visibility, the origins, the perforated bitmasks and volumes, then the opaque part's.
+    // The visibility, the origins, the perforated bitmasks and volumes (per perforated triangle,
+    // one per side of it), then the opaque part's.
+    let perforated_faces: u64 = scene
+        .meshes
+        .iter()
+        .filter(|m| m.is_perforated())
+        .map(|m| m.faces.len() as u64)
+        .sum();
+    let sides = if opts.two_sided { 2 } else { 1 };
     let opaque_peak = match opts.opaque {
         Opaque::Bitmask => masks_peak(scene, n, s, &af),
         Opaque::Dcs => depth_complexity_peak(scene, n, s),
@@ -913,10 +919,10 @@ fn stsv_in_one_frustum(
     Peak::default()
         .buffer(&[n as u64, 4])
         .and(Origins::peak(n, &opts.object))
-        .buffer(&[n as u64, (3 * words + ENTRY_COUNTS + 3) as u64, 8])
+        .buffer(&[n as u64, words as u64, 8])
         .buffer(&[
-            scene.num_faces() as u64,
-            2 * std::mem::size_of::<Volume>() as u64 + 16 * 8,
+            perforated_faces,
+            sides * std::mem::size_of::<Volume>() as u64 + 16 * 8,
         ])
         .and(opaque_peak)
         .check("stsv", &mut stats)?;
@@ -925,7 +931,7 @@ fn stsv_in_one_frustum(
     let Some(origins) = Origins::new(light, receivers, samples, &opts.object)? else {
         return Ok((vis, stats));
     };
-    let perforated = {
+    let mut perforated = {
         let start = std::time::Instant::now();
         let masks = perforated_masks(scene, &origins, opts, words, &mut stats)?;
         stats.add("perforated_seconds", start.elapsed().as_secs_f64());
@@ -944,6 +950,10 @@ fn stsv_in_one_frustum(
     match opts.opaque {
         Opaque::Bitmask => {
             let mut opaque = sample_masks(scene, light, receivers, samples, &af, true, &mut stats)?;
+            // `alias_free`'s visibility reads every bit: only the samples that count are added.
+            merge_counted_samples(&origins, &mut perforated, words, |mask, counted| {
+                mask.iter_mut().zip(counted).for_each(|(m, c)| *m &= c);
+            });
             for (e, &k) in origins.lists.entries.iter().enumerate() {
                 let i = origins.ids[k as usize] as usize;
                 let words = opaque.words.min(words);
