@@ -29,7 +29,7 @@ from softshadows import scenes
 from softshadows.scenes.primitives import box
 
 sys.path.insert(0, str(Path(__file__).parent))
-from shadow_rays import best_of, mitsuba, shadow_rays  # noqa: E402  (the shared Mitsuba harness)
+from shadow_rays import mitsuba, shadow_rays, side_by_side  # noqa: E402  (the shared Mitsuba harness)
 
 
 def print_rows(rows, exact, mask, t_rt, t_mi):
@@ -57,16 +57,18 @@ def room_section(size: int, n_samples: int, repeat: int) -> None:
     gb = ss.gbuffer(setup.scene, setup.camera)
     samples = setup.light.samples(n_samples, pattern="poisson", seed=0)
     print(f"\nlamp in a room: {setup.scene.num_faces} triangles, {size}^2 receivers x {n_samples} samples")
-    t_rt, exact = best_of(repeat, lambda: ss.ray_traced(setup.scene, setup.light, gb, samples=samples))
-    t_mi, _ = mitsuba(setup, *shadow_rays(gb, samples, setup.scene.epsilon)[:3], repeat)
-    rows = [("ray_traced", t_rt, exact), ("mitsuba ray_test", t_mi, None)]
-    runs = {"alias_free lut=None": lambda: ss.alias_free(setup.scene, setup.light, gb, samples=samples, lut=None,
+    runs = {"ray_traced": lambda: ss.ray_traced(setup.scene, setup.light, gb, samples=samples),
+            "mitsuba ray_test": mitsuba(setup, *shadow_rays(gb, samples, setup.scene.epsilon)[:3]),
+            "alias_free lut=None": lambda: ss.alias_free(setup.scene, setup.light, gb, samples=samples, lut=None,
                                                          return_stats=True),
             "dcs": lambda: ss.dcs(setup.scene, setup.light, gb, samples=samples, rotate=None, return_stats=True),
             "stsv": lambda: ss.stsv(setup.scene, setup.light, gb, samples=samples, rotate=None, return_stats=True)}
-    for name, run in runs.items():
-        t, (vis, stats) = best_of(repeat, run)
-        rows.append((f"{name} ({stats['light_faces']:.0f} faces)", t, vis))
+    seconds, out = side_by_side(repeat, runs)
+    t_rt, t_mi, exact = seconds["ray_traced"], seconds["mitsuba ray_test"], out["ray_traced"]
+    rows = [("ray_traced", t_rt, exact), ("mitsuba ray_test", t_mi, None)]
+    for name in list(runs)[2:]:
+        vis, stats = out[name]
+        rows.append((f"{name} ({stats['light_faces']:.0f} faces)", seconds[name], vis))
     print_rows(rows, exact, gb.mask, t_rt, t_mi)
 
 
@@ -83,15 +85,16 @@ def main() -> None:
     eps = setup.scene.epsilon
     print(f"{args.scene}: {setup.scene.num_faces} triangles, {args.size}^2 receivers x {args.samples} samples; "
           f"{os.cpu_count()} CPU threads")
-    t_rt, exact = best_of(args.repeat, lambda: ss.ray_traced(setup.scene, setup.light, gb, samples=samples))
-    o, d, maxt, _ = shadow_rays(gb, samples, eps)
-    t_mi, _ = mitsuba(setup, o, d, maxt, args.repeat)
-    rows = [("ray_traced", t_rt, exact), ("mitsuba ray_test", t_mi, None)]
+    runs = {"ray_traced": lambda: ss.ray_traced(setup.scene, setup.light, gb, samples=samples),
+            "mitsuba ray_test": mitsuba(setup, *shadow_rays(gb, samples, eps)[:3])}
     for lut in (64, None):
-        t, (vis, stats) = best_of(
-            args.repeat, lambda: ss.alias_free(setup.scene, setup.light, gb, samples=samples, lut=lut, return_stats=True)
-        )
-        rows.append((f"alias_free lut={lut}", t, vis))
+        runs[f"alias_free lut={lut}"] = lambda lut=lut: ss.alias_free(setup.scene, setup.light, gb, samples=samples,
+                                                                      lut=lut, return_stats=True)
+    seconds, out = side_by_side(args.repeat, runs)
+    t_rt, t_mi, exact = seconds["ray_traced"], seconds["mitsuba ray_test"], out["ray_traced"]
+    rows = [("ray_traced", t_rt, exact), ("mitsuba ray_test", t_mi, None)]
+    rows += [(name, seconds[name], out[name][0]) for name in list(runs)[2:]]
+    stats = out["alias_free lut=None"][1]
     print(f"  lists: {stats['average_list_length']:.2f} average, {stats['max_list_length']:.0f} max, "
           f"{stats['occupied_texels_percent']:.1f}% of texels occupied; {stats['casters']:.0f} casters")
     print_rows(rows, exact, gb.mask, t_rt, t_mi)
