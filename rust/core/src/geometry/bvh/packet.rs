@@ -1359,6 +1359,33 @@ mod tests {
         check(&bvh, &scene, &[], target);
     }
 
+    /// Asserts that every target's converging lanes (`lanes[t]` of `origins`, past the first
+    /// [`LANES`] ignored) get the answers of single rays on every instruction set; returns the
+    /// blocked and lit lanes counted over all of them.
+    fn converging_lanes_against_single_rays(
+        bvh: &Bvh,
+        scene: &Scene,
+        origins: &[Vec3],
+        targets: &[Vec3],
+        lanes: &[u64],
+    ) -> (u32, u32) {
+        let (mut blocked, mut lit) = (0, 0);
+        for isa in isas() {
+            let mut out = vec![u64::MAX; targets.len()];
+            bvh.occluded_converging_lanes_with(isa, scene, origins, targets, lanes, &mut out);
+            for ((&y, &m), &got) in targets.iter().zip(lanes).zip(&out) {
+                let expected = (0..LANES)
+                    .filter(|&i| {
+                        m >> i & 1 != 0 && bvh.occluded(scene, origins[i], y - origins[i], 1.0)
+                    })
+                    .fold(0u64, |acc, i| acc | 1 << i);
+                assert_eq!(got, expected, "{isa:?} target {y} lanes {m:#x}");
+                (blocked, lit) = (blocked + got.count_ones(), lit + (m & !got).count_ones());
+            }
+        }
+        (blocked, lit)
+    }
+
     /// Many targets with their own lane masks per call: each target's answers are those of
     /// single rays for its lanes alone (and 0 for the others), on every instruction set.
     #[test]
@@ -1387,21 +1414,8 @@ mod tests {
         let lanes: Vec<u64> = (0..targets.len())
             .map(|_| rng.next_u64() | rng.next_u64())
             .collect();
-        let (mut blocked, mut lit) = (0, 0);
-        for isa in isas() {
-            let mut out = vec![u64::MAX; targets.len()];
-            bvh.occluded_converging_lanes_with(isa, &scene, &origins, &targets, &lanes, &mut out);
-            for ((&y, &m), &got) in targets.iter().zip(&lanes).zip(&out) {
-                // Origins past the first LANES are ignored.
-                let expected = (0..LANES)
-                    .filter(|&i| {
-                        m >> i & 1 != 0 && bvh.occluded(&scene, origins[i], y - origins[i], 1.0)
-                    })
-                    .fold(0u64, |acc, i| acc | 1 << i);
-                assert_eq!(got, expected, "{isa:?} target {y}");
-                (blocked, lit) = (blocked + got.count_ones(), lit + (m & !got).count_ones());
-            }
-        }
+        let (blocked, lit) =
+            converging_lanes_against_single_rays(&bvh, &scene, &origins, &targets, &lanes);
         assert!(blocked > 100 && lit > 100, "blocked {blocked}, lit {lit}");
     }
 
@@ -1437,20 +1451,8 @@ mod tests {
                 (0..count).fold(0u64, |m, _| m | 1 << rng.below(LANES))
             })
             .collect();
-        let (mut blocked, mut lit) = (0, 0);
-        for isa in isas() {
-            let mut out = vec![u64::MAX; targets.len()];
-            bvh.occluded_converging_lanes_with(isa, &scene, &origins, &targets, &lanes, &mut out);
-            for ((&y, &m), &got) in targets.iter().zip(&lanes).zip(&out) {
-                let expected = (0..LANES)
-                    .filter(|&i| {
-                        m >> i & 1 != 0 && bvh.occluded(&scene, origins[i], y - origins[i], 1.0)
-                    })
-                    .fold(0u64, |acc, i| acc | 1 << i);
-                assert_eq!(got, expected, "{isa:?} target {y} lanes {m:#x}");
-                (blocked, lit) = (blocked + got.count_ones(), lit + (m & !got).count_ones());
-            }
-        }
+        let (blocked, lit) =
+            converging_lanes_against_single_rays(&bvh, &scene, &origins, &targets, &lanes);
         assert!(blocked > 50 && lit > 50, "blocked {blocked}, lit {lit}");
     }
 
