@@ -444,7 +444,7 @@ impl Light {
     }
 
     /// Parameters `(s, t)` in [0,1]^2 of a point on a planar light (its emission-texture coordinates).
-    fn params(&self, y: Vec3) -> Vec2 {
+    pub(crate) fn params(&self, y: Vec3) -> Vec2 {
         match self.shape {
             Shape::Rect { center, u, v } => {
                 // Solve d = a u + b v through the Gram matrix: u and v need not be orthogonal. In

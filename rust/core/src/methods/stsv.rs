@@ -48,7 +48,7 @@ use crate::geometry::mesh::{AlphaTexture, Scene};
 use crate::geometry::polygon::clip_to_side;
 use crate::geometry::receivers::Receivers;
 use crate::influence::{check_hull_degree, LightBounds, ObjectOptions, Origins};
-use crate::light::lights::Light;
+use crate::light::lights::{Light, Shape};
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, object_work, Peak};
 use crate::methods::alias_free::{
@@ -61,7 +61,7 @@ use crate::methods::penumbra_wedge::{wedge_occlusion, wedge_occlusion_peak};
 use crate::methods::CasterFaces;
 use crate::raster::cube::by_light_face;
 use crate::stats::Stats;
-use glam::{DMat3, DVec2, DVec3, Vec3};
+use glam::{DMat2, DMat3, DVec2, DVec3, Vec3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -562,65 +562,152 @@ impl SampleBins {
     }
 
     /// Into `out`, the samples that may lie in the cone from `p` through the triangle `tri`
-    /// (both in plane coordinates): those binned in [`SampleBins::cone_box`], or every sample
-    /// where the box is unbounded.
+    /// (both in plane coordinates): those binned in its [`cone_box`], or every sample where the
+    /// box is unbounded.
     fn candidates(&self, p: DVec3, tri: &[DVec3; 3], out: &mut [u64]) {
-        let Some((lo, hi)) = self.cone_box(p, tri) else {
-            out.copy_from_slice(&self.all);
-            return;
-        };
+        match cone_box(p, tri, self.thickness) {
+            Some((lo, hi)) => {
+                out.fill(0);
+                self.add_box(lo, hi, out);
+            }
+            None => out.copy_from_slice(&self.all),
+        }
+    }
+
+    /// Adds to `out` the samples binned in the box `lo..=hi` (a superset of those in it).
+    fn add_box(&self, lo: [f64; 2], hi: [f64; 2], out: &mut [u64]) {
         if (0..2).any(|axis| hi[axis] < self.low[axis] || lo[axis] > self.high[axis]) {
-            out.fill(0);
             return;
         }
         let w = self.words;
         let [a0, b0] = [0, 1].map(|axis| self.bin(axis, lo[axis]) * w);
         let [a1, b1] = [0, 1].map(|axis| self.bin(axis, hi[axis]) * w);
         for (k, o) in out.iter_mut().enumerate() {
-            *o = self.from[0][a0 + k]
+            *o |= self.from[0][a0 + k]
                 & self.upto[0][a1 + k]
                 & self.from[1][b0 + k]
                 & self.upto[1][b1 + k];
         }
     }
+}
 
-    /// The bounding box `(low, high)` of the section of the cone from `p` through `tri` by the
-    /// plane, widened by the samples' distance from the plane times the cone's slope (a sample
-    /// off the plane is binned where the plane's normal through it meets the plane, its segment
-    /// from `p` meets the plane within that of it) and by a relative margin against round-off;
-    /// `None` when `p` lies within the samples' slab or a vertex is not strictly nearer the plane
-    /// than `p`.
-    fn cone_box(&self, p: DVec3, tri: &[DVec3; 3]) -> Option<([f64; 2], [f64; 2])> {
-        let height = p.z.abs();
-        if height <= self.thickness {
+/// The bounding box `(low, high)` of the section of the cone from `p` through `tri` by the
+/// plane `z = 0` (both in plane coordinates), widened by `thickness`, the samples' largest
+/// distance from the plane, times the cone's slope (a sample off the plane is binned where the
+/// plane's normal through it meets the plane, its segment from `p` meets the plane within that
+/// of it) and by a relative margin against round-off; `None` when `p` lies within the samples'
+/// slab or a vertex is not strictly nearer the plane than `p`.
+fn cone_box(p: DVec3, tri: &[DVec3; 3], thickness: f64) -> Option<([f64; 2], [f64; 2])> {
+    let height = p.z.abs();
+    if height <= thickness {
+        return None;
+    }
+    let toward = -p.z.signum();
+    let (mut lo, mut hi, mut slope) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2], [0.0; 2]);
+    for v in tri {
+        let dz = (v.z - p.z) * toward;
+        if dz <= 0.0 {
             return None;
         }
-        let toward = -p.z.signum();
-        let (mut lo, mut hi, mut slope) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2], [0.0; 2]);
-        for v in tri {
-            let dz = (v.z - p.z) * toward;
-            if dz <= 0.0 {
-                return None;
-            }
-            let per_height = 1.0 / dz;
-            for axis in 0..2 {
-                let d = v[axis] - p[axis];
-                let x = p[axis] + d * (height * per_height);
-                lo[axis] = f64::min(lo[axis], x);
-                hi[axis] = f64::max(hi[axis], x);
-                slope[axis] = f64::max(slope[axis], d.abs() * per_height);
-            }
-        }
+        let per_height = 1.0 / dz;
         for axis in 0..2 {
-            let size = height + p[axis].abs() + lo[axis].abs().max(hi[axis].abs());
-            let margin = self.thickness * slope[axis] + 1e-7 * size;
-            lo[axis] -= margin;
-            hi[axis] += margin;
+            let d = v[axis] - p[axis];
+            let x = p[axis] + d * (height * per_height);
+            lo[axis] = f64::min(lo[axis], x);
+            hi[axis] = f64::max(hi[axis], x);
+            slope[axis] = f64::max(slope[axis], d.abs() * per_height);
         }
-        lo.iter()
-            .chain(&hi)
-            .all(|x| x.is_finite())
-            .then_some((lo, hi))
+    }
+    for axis in 0..2 {
+        let size = height + p[axis].abs() + lo[axis].abs().max(hi[axis].abs());
+        let margin = thickness * slope[axis] + 1e-7 * size;
+        lo[axis] -= margin;
+        hi[axis] += margin;
+    }
+    lo.iter()
+        .chain(&hi)
+        .all(|x| x.is_finite())
+        .then_some((lo, hi))
+}
+
+/// A rectangle light's pattern binned by its samples' parameters `(s, t)`, for receivers whose
+/// samples are shifted by their own offset `r` and wrapped (`Light::rotate`: `st' = frac(st +
+/// r)`, the decorrelation of Forest et al. 2009, section 4.1): a rotated sample lies in a box of
+/// the plane where its parameters lie in the box's parameter box, and its pattern sample where
+/// they lie in that box shifted back by `r` and wrapped, which the pattern's bins look up. The
+/// samples found are those the shared pattern's bins would find among the rotated samples, so
+/// the bits are the same.
+struct ShiftedBins {
+    /// The pattern's samples, binned at `(s, t, 0)`.
+    bins: SampleBins,
+    /// A bound of the f32 round-off of a rotated sample's position (`Light::rotate`) and of its
+    /// distance from the plane: the cone boxes are widened by it.
+    slack: f64,
+    /// Plane coordinates `(a, b)` to parameters: `st = 0.5 + to_params (a, b)`.
+    to_params: DMat2,
+}
+
+impl ShiftedBins {
+    /// For a rectangle light of `center` and half-extent vectors `u`, `v` whose pattern (in the
+    /// world) is `pattern`, in the coordinates of `plane`; `None` for other lights.
+    fn new(light: &Light, pattern: &[Vec3], plane: &SamplePlane) -> Option<Self> {
+        let Shape::Rect { center, u, v } = light.shape else {
+            return None;
+        };
+        let params: Vec<DVec3> = pattern
+            .iter()
+            .map(|&y| light.params(y).as_dvec2().extend(0.0))
+            .collect();
+        // The Gram solve of `Light::params`, for the plane's two axes (rows of `to_plane`).
+        let (u, v) = (u.as_dvec3(), v.as_dvec3());
+        let (uu, uv, vv) = (u.dot(u), u.dot(v), v.dot(v));
+        let det = uu * vv - uv * uv;
+        let st = |d: DVec3| {
+            let (du, dv) = (d.dot(u), d.dot(v));
+            DVec2::new(du * vv - dv * uv, dv * uu - du * uv) * (0.5 / det)
+        };
+        let axes = plane.to_plane.transpose();
+        let scale = center.as_dvec3().length() + u.length() + v.length();
+        Some(Self {
+            bins: SampleBins::new(&params),
+            slack: 16.0 * f64::from(f32::EPSILON) * scale,
+            to_params: DMat2::from_cols(st(axes.x_axis), st(axes.y_axis)),
+        })
+    }
+
+    /// Into `out`, the samples of the pattern that, shifted by `r`, may lie in the cone from `p`
+    /// through the triangle `tri` (both in plane coordinates).
+    fn candidates(&self, p: DVec3, tri: &[DVec3; 3], r: [f32; 2], out: &mut [u64]) {
+        let Some((lo, hi)) = cone_box(p, tri, self.slack) else {
+            out.copy_from_slice(&self.bins.all);
+            return;
+        };
+        let (lo, hi) = (lo.map(|x| x - self.slack), hi.map(|x| x + self.slack));
+        let corners = [
+            [lo[0], lo[1]],
+            [hi[0], lo[1]],
+            [lo[0], hi[1]],
+            [hi[0], hi[1]],
+        ]
+        .map(|c| DVec2::splat(0.5) + self.to_params * DVec2::from(c));
+        let low = corners.into_iter().reduce(DVec2::min).unwrap_or_default();
+        let high = corners.into_iter().reduce(DVec2::max).unwrap_or_default();
+        // `st' = w - floor(w)` with `w = st + r` rounded to f32 (within 2^-23 of it, as w < 2),
+        // so `st = st' - r + floor(w)`, `floor(w)` in -1..=2 (a parameter may round just
+        // outside [0, 1]); the margin covers the rounding of `w` and of `to_params`.
+        let margin = 1e-6 + 1e-12 * low.abs().max(high.abs()).max_element();
+        let shifts = |axis: usize| {
+            (-1..=2).map(move |k| {
+                let back = f64::from(k) - f64::from(r[axis]);
+                (low[axis] + back - margin, high[axis] + back + margin)
+            })
+        };
+        out.fill(0);
+        for (a0, a1) in shifts(0) {
+            for (b0, b1) in shifts(1) {
+                self.bins.add_box([a0, b0], [a1, b1], out);
+            }
+        }
     }
 }
 
@@ -709,13 +796,17 @@ fn perforated_masks(
                 .collect()
         })
         .collect();
-    // Receivers that share a pattern (not rotated) find the samples worth projecting in its bins.
-    let bins: Option<Vec<SampleBins>> = (samples.rotation_for(0).is_none()).then(|| {
-        patterns
-            .iter()
-            .map(|pattern| SampleBins::new(pattern))
-            .collect()
-    });
+    // Receivers that share a pattern (not rotated) find the samples worth projecting in its bins;
+    // those of a rectangle light, rotated per receiver, in the bins of its parameters.
+    let rotated = samples.rotation_for(0).is_some();
+    let bins: Option<Vec<SampleBins>> =
+        (!rotated).then(|| patterns.iter().map(|p| SampleBins::new(p)).collect());
+    let shifted: Option<Vec<ShiftedBins>> = samples
+        .patterns()
+        .iter()
+        .map(|pattern| ShiftedBins::new(light, pattern, &plane))
+        .collect::<Option<_>>()
+        .filter(|_| rotated);
     let pattern_of = |k: usize| {
         let (x, y) = origins.receivers.pixel(origins.ids[k] as usize);
         samples.pattern_index(x, y)
@@ -761,31 +852,35 @@ fn perforated_masks(
                     continue;
                 }
                 let k = lists.entries[e] as usize;
-                counts[2] += match &bins {
-                    Some(bins) => {
-                        let pattern = if patterns.len() == 1 {
-                            0
-                        } else {
-                            pattern_of(k)
-                        };
-                        let mut candidates = [0u64; MAX_SAMPLES / 64];
-                        let candidates = &mut candidates[..words];
+                let pattern = if patterns.len() == 1 {
+                    0
+                } else {
+                    pattern_of(k)
+                };
+                let mut candidates = [0u64; MAX_SAMPLES / 64];
+                let candidates = &mut candidates[..words];
+                let rotation = samples.rotation_for(origins.ids[k] as usize);
+                counts[2] += match (&bins, rotation) {
+                    (Some(bins), _) => {
                         bins[pattern].candidates(p, &vertices, candidates);
                         let ys = &patterns[pattern];
                         volume.block(p, |s| ys[s], candidates, texture, done)
                     }
-                    None => {
+                    (None, rotation) => {
                         // Each sample rotated as the receiver's own (`SampleSet::fill`), and only
-                        // those projected.
-                        let (ys, rotation) = (
-                            &samples.patterns()[pattern_of(k)],
-                            samples.rotation_for(origins.ids[k] as usize),
-                        );
+                        // those that may lie in the cone projected.
+                        let ys = &samples.patterns()[pattern];
+                        match (&shifted, rotation) {
+                            (Some(shifted), Some(r)) => {
+                                shifted[pattern].candidates(p, &vertices, [r[0], r[1]], candidates)
+                            }
+                            _ => candidates.copy_from_slice(&every),
+                        }
                         let own = |s: usize| {
                             let y = rotation.map_or(ys[s], |r| light.rotate(ys[s], r));
                             plane.coordinates(y.as_dvec3())
                         };
-                        volume.block(p, own, &every, texture, done)
+                        volume.block(p, own, candidates, texture, done)
                     }
                 };
             }
