@@ -591,43 +591,42 @@ impl SampleBins {
     }
 }
 
-/// The bounding box `(low, high)` of the section of the cone from `p` through `tri` by the
-/// plane `z = 0` (both in plane coordinates), widened by `thickness`, the samples' largest
-/// distance from the plane, times the cone's slope (a sample off the plane is binned where the
-/// plane's normal through it meets the plane, its segment from `p` meets the plane within that
-/// of it) and by a relative margin against round-off; `None` when `p` lies within the samples'
-/// slab or a vertex is not strictly nearer the plane than `p`.
+/// The bounding box `(low, high)` of the [`cone_section`] of the cone from `p` through `tri`.
 fn cone_box(p: DVec3, tri: &[DVec3; 3], thickness: f64) -> Option<([f64; 2], [f64; 2])> {
+    let (corners, margin) = cone_section(p, tri, thickness)?;
+    let low = corners.into_iter().fold(DVec2::INFINITY, DVec2::min) - margin;
+    let high = corners.into_iter().fold(DVec2::NEG_INFINITY, DVec2::max) + margin;
+    Some((low.to_array(), high.to_array()))
+}
+
+/// The section of the cone from `p` through `tri` by the plane `z = 0` (both in plane
+/// coordinates): the triangle of the vertices' projections from `p`, and per axis the margin
+/// that widens it by `thickness`, the samples' largest distance from the plane, times the cone's
+/// slope (a sample off the plane is binned where the plane's normal through it meets the plane,
+/// its segment from `p` meets the plane within that of it) and against round-off; `None` when
+/// `p` lies within the samples' slab or a vertex is not strictly nearer the plane than `p`.
+fn cone_section(p: DVec3, tri: &[DVec3; 3], thickness: f64) -> Option<([DVec2; 3], DVec2)> {
     let height = p.z.abs();
     if height <= thickness {
         return None;
     }
     let toward = -p.z.signum();
-    let (mut lo, mut hi, mut slope) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2], [0.0; 2]);
-    for v in tri {
+    let mut slope = DVec2::ZERO;
+    let mut corners = [DVec2::ZERO; 3];
+    for (v, corner) in tri.iter().zip(&mut corners) {
         let dz = (v.z - p.z) * toward;
         if dz <= 0.0 {
             return None;
         }
         let per_height = 1.0 / dz;
-        for axis in 0..2 {
-            let d = v[axis] - p[axis];
-            let x = p[axis] + d * (height * per_height);
-            lo[axis] = f64::min(lo[axis], x);
-            hi[axis] = f64::max(hi[axis], x);
-            slope[axis] = f64::max(slope[axis], d.abs() * per_height);
-        }
+        let d = (*v - p).truncate();
+        *corner = p.truncate() + d * (height * per_height);
+        slope = slope.max(d.abs() * per_height);
     }
-    for axis in 0..2 {
-        let size = height + p[axis].abs() + lo[axis].abs().max(hi[axis].abs());
-        let margin = thickness * slope[axis] + 1e-7 * size;
-        lo[axis] -= margin;
-        hi[axis] += margin;
-    }
-    lo.iter()
-        .chain(&hi)
-        .all(|x| x.is_finite())
-        .then_some((lo, hi))
+    let reach = corners.into_iter().fold(DVec2::ZERO, |r, c| r.max(c.abs()));
+    let size = height + p.truncate().abs() + reach;
+    let margin = thickness * slope + 1e-7 * size;
+    (corners.iter().all(|c| c.is_finite()) && margin.is_finite()).then_some((corners, margin))
 }
 
 /// A rectangle light's pattern binned by its samples' parameters `(s, t)`, for receivers whose
@@ -678,31 +677,36 @@ impl ShiftedBins {
     /// Into `out`, the samples of the pattern that, shifted by `r`, may lie in the cone from `p`
     /// through the triangle `tri` (both in plane coordinates).
     fn candidates(&self, p: DVec3, tri: &[DVec3; 3], r: [f32; 2], out: &mut [u64]) {
-        let Some((lo, hi)) = cone_box(p, tri, self.slack) else {
+        let Some((corners, margin)) = cone_section(p, tri, self.slack) else {
             out.copy_from_slice(&self.bins.all);
             return;
         };
-        let (lo, hi) = (lo.map(|x| x - self.slack), hi.map(|x| x + self.slack));
-        let corners = [
-            [lo[0], lo[1]],
-            [hi[0], lo[1]],
-            [lo[0], hi[1]],
-            [hi[0], hi[1]],
-        ]
-        .map(|c| DVec2::splat(0.5) + self.to_params * DVec2::from(c));
-        let low = corners.into_iter().reduce(DVec2::min).unwrap_or_default();
-        let high = corners.into_iter().reduce(DVec2::max).unwrap_or_default();
+        // The section's triangle in parameters, widened by its margin and the rotated samples'
+        // round-off, mapped as well.
+        let margin = margin + self.slack;
+        let m = &self.to_params;
+        let spread = m.x_axis.abs() * margin.x + m.y_axis.abs() * margin.y;
+        let corners = corners.map(|c| DVec2::splat(0.5) + *m * c);
+        // A rotated sample's parameters lie in [0, 1] (`frac`): the box beyond has none, and
+        // shifted back it would wrap onto samples outside the cone.
+        let low = (corners.into_iter().fold(DVec2::INFINITY, DVec2::min) - spread).max(DVec2::ZERO);
+        let high =
+            (corners.into_iter().fold(DVec2::NEG_INFINITY, DVec2::max) + spread).min(DVec2::ONE);
+        out.fill(0);
+        if low.cmpgt(high).any() {
+            return;
+        }
         // `st' = w - floor(w)` with `w = st + r` rounded to f32 (within 2^-23 of it, as w < 2),
         // so `st = st' - r + floor(w)`, `floor(w)` in -1..=2 (a parameter may round just
-        // outside [0, 1]); the margin covers the rounding of `w` and of `to_params`.
-        let margin = 1e-6 + 1e-12 * low.abs().max(high.abs()).max_element();
+        // outside [0, 1]); the margin covers the rounding of `w` and of `to_params`, the box
+        // being within [0, 1].
+        let margin = 1e-6;
         let shifts = |axis: usize| {
             (-1..=2).map(move |k| {
                 let back = f64::from(k) - f64::from(r[axis]);
                 (low[axis] + back - margin, high[axis] + back + margin)
             })
         };
-        out.fill(0);
         for (a0, a1) in shifts(0) {
             for (b0, b1) in shifts(1) {
                 self.bins.add_box([a0, b0], [a1, b1], out);
