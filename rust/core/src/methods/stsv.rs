@@ -1100,3 +1100,63 @@ fn stsv_in_one_frustum(
     stats.add("opaque_seconds", start.elapsed().as_secs_f64());
     Ok((vis, stats))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::light::sampling::{light_samples, Pattern, Rng};
+
+    /// Whether `y` lies in the cone from `p` through `tri` beyond the triangle (`y - p` a
+    /// combination of the vertices' directions with non-negative weights summing to >= 1),
+    /// where a sample that the triangle hides lies.
+    fn beyond(p: DVec3, tri: &[DVec3; 3], y: DVec3) -> bool {
+        let m = DMat3::from_cols(tri[0] - p, tri[1] - p, tri[2] - p);
+        let w = m.inverse() * (y - p);
+        w.min_element() >= -1e-9 && w.element_sum() >= 1.0 - 1e-9
+    }
+
+    /// Every sample that a triangle may hide from a receiver, rotated as the receiver's own, is
+    /// among the shifted bins' candidates, including where its parameters wrap; and the bins
+    /// leave most samples out (what they are for).
+    #[test]
+    fn shifted_bins_find_every_rotated_sample_in_the_cone() {
+        let light = Light::rect(
+            Vec3::new(0.3, 4.0, -0.2),
+            Vec3::new(0.6, 0.0, 0.2),
+            Vec3::new(0.1, 0.0, -0.3),
+        )
+        .unwrap();
+        let pattern = light_samples(&light, 64, Pattern::Poisson, 7, 0);
+        let plane = SamplePlane::new(&light, Vec3::NEG_Y);
+        let bins = ShiftedBins::new(&light, &pattern, &plane).unwrap();
+        let mut rng = Rng::stream(3, 0);
+        let mut uniform = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
+        let (mut found, mut total) = (0, 0);
+        for trial in 0..2000 {
+            let p = Vec3::new(uniform(-2.0, 2.0), 0.0, uniform(-2.0, 2.0));
+            let c = Vec3::new(uniform(-1.5, 1.5), uniform(0.5, 3.5), uniform(-1.5, 1.5));
+            let tri = [0, 1, 2].map(|_| {
+                c + Vec3::new(uniform(-0.3, 0.3), uniform(-0.05, 0.05), uniform(-0.3, 0.3))
+            });
+            let r = match trial % 4 {
+                0 => [1.0 - f32::EPSILON, uniform(0.0, 1.0)],
+                _ => [uniform(0.0, 1.0), uniform(0.0, 1.0)],
+            };
+            let at = |x: Vec3| plane.coordinates(x.as_dvec3());
+            let (pp, tt) = (at(p), tri.map(at));
+            let mut candidates = [0u64; 1];
+            bins.candidates(pp, &tt, r, &mut candidates);
+            for (s, &y) in pattern.iter().enumerate() {
+                let y = at(light.rotate(y, [r[0], r[1], 0.0]));
+                let candidate = candidates[0] >> s & 1 == 1;
+                assert!(
+                    candidate || !beyond(pp, &tt, y),
+                    "trial {trial}, sample {s}"
+                );
+                found += u32::from(candidate);
+                total += 1;
+            }
+        }
+        assert!(found * 4 < total, "{found} candidates of {total}");
+    }
+}
