@@ -482,11 +482,7 @@ impl Light {
     pub fn rotate(&self, y: Vec3, r: RotationSeed) -> Vec3 {
         match self.shape {
             Shape::Point { position } => position,
-            Shape::Rect { center, u, v } => {
-                let st = self.params(y) + Vec2::new(r[0], r[1]);
-                let st = st - st.floor();
-                center + u * (2.0 * st.x - 1.0) + v * (2.0 * st.y - 1.0)
-            }
+            Shape::Rect { center, u, v } => rect_shifted(center, u, v, self.params(y), r),
             Shape::Disk { center, normal, .. } => {
                 center + glam::Quat::from_axis_angle(normal, 2.0 * PI * r[0]) * (y - center)
             }
@@ -533,6 +529,14 @@ fn ball(p: [f32; 3], radius: f32) -> Vec3 {
     let s = (1.0 - z * z).max(0.0).sqrt();
     let phi = 2.0 * PI * p[2];
     Vec3::new(s * phi.cos(), s * phi.sin(), z) * r
+}
+
+/// The point of the rectangle of `center` and half-extent vectors `u`, `v` at the parameters
+/// `st` shifted by `r` and wrapped ([`Light::rotate`]'s decorrelation of a rectangle).
+pub(crate) fn rect_shifted(center: Vec3, u: Vec3, v: Vec3, st: Vec2, r: RotationSeed) -> Vec3 {
+    let st = st + Vec2::new(r[0], r[1]);
+    let st = st - st.floor();
+    center + u * (2.0 * st.x - 1.0) + v * (2.0 * st.y - 1.0)
 }
 
 /// Arvo's uniformly distributed random rotation from three uniform numbers.

@@ -48,7 +48,7 @@ use crate::geometry::mesh::{AlphaTexture, Scene};
 use crate::geometry::polygon::clip_to_side;
 use crate::geometry::receivers::Receivers;
 use crate::influence::{check_hull_degree, LightBounds, ObjectOptions, Origins};
-use crate::light::lights::{Light, Shape};
+use crate::light::lights::{rect_shifted, Light, RotationSeed, Shape};
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, object_work, Peak};
 use crate::methods::alias_free::{
@@ -61,7 +61,7 @@ use crate::methods::penumbra_wedge::{wedge_occlusion, wedge_occlusion_peak};
 use crate::methods::CasterFaces;
 use crate::raster::cube::by_light_face;
 use crate::stats::Stats;
-use glam::{DMat2, DMat3, DVec2, DVec3, Vec3};
+use glam::{DMat2, DMat3, DVec2, DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -644,6 +644,9 @@ struct ShiftedBins {
     slack: f64,
     /// Plane coordinates `(a, b)` to parameters: `st = 0.5 + to_params (a, b)`.
     to_params: DMat2,
+    /// The rectangle's center and half-extent vectors, and the pattern's parameters.
+    rect: [Vec3; 3],
+    params: Vec<Vec2>,
 }
 
 impl ShiftedBins {
@@ -653,10 +656,8 @@ impl ShiftedBins {
         let Shape::Rect { center, u, v } = light.shape else {
             return None;
         };
-        let params: Vec<DVec3> = pattern
-            .iter()
-            .map(|&y| light.params(y).as_dvec2().extend(0.0))
-            .collect();
+        let params: Vec<Vec2> = pattern.iter().map(|&y| light.params(y)).collect();
+        let rect = [center, u, v];
         // The Gram solve of `Light::params`, for the plane's two axes (rows of `to_plane`).
         let (u, v) = (u.as_dvec3(), v.as_dvec3());
         let (uu, uv, vv) = (u.dot(u), u.dot(v), v.dot(v));
@@ -668,15 +669,29 @@ impl ShiftedBins {
         let axes = plane.to_plane.transpose();
         let scale = center.as_dvec3().length() + u.length() + v.length();
         Some(Self {
-            bins: SampleBins::new(&params),
+            bins: SampleBins::new(
+                &params
+                    .iter()
+                    .map(|st| st.as_dvec2().extend(0.0))
+                    .collect::<Vec<_>>(),
+            ),
             slack: 16.0 * f64::from(f32::EPSILON) * scale,
             to_params: DMat2::from_cols(st(axes.x_axis), st(axes.y_axis)),
+            rect,
+            params,
         })
+    }
+
+    /// Sample `s` of the pattern shifted by `r`: `Light::rotate` of the pattern's sample, its
+    /// parameters kept rather than solved for again.
+    fn sample(&self, s: usize, r: RotationSeed) -> Vec3 {
+        let [center, u, v] = self.rect;
+        rect_shifted(center, u, v, self.params[s], r)
     }
 
     /// Into `out`, the samples of the pattern that, shifted by `r`, may lie in the cone from `p`
     /// through the triangle `tri` (both in plane coordinates).
-    fn candidates(&self, p: DVec3, tri: &[DVec3; 3], r: [f32; 2], out: &mut [u64]) {
+    fn candidates(&self, p: DVec3, tri: &[DVec3; 3], r: RotationSeed, out: &mut [u64]) {
         let Some((corners, margin)) = cone_section(p, tri, self.slack) else {
             out.copy_from_slice(&self.bins.all);
             return;
@@ -864,27 +879,27 @@ fn perforated_masks(
                 let mut candidates = [0u64; MAX_SAMPLES / 64];
                 let candidates = &mut candidates[..words];
                 let rotation = samples.rotation_for(origins.ids[k] as usize);
-                counts[2] += match (&bins, rotation) {
-                    (Some(bins), _) => {
+                counts[2] += match (&bins, &shifted, rotation) {
+                    (Some(bins), _, _) => {
                         bins[pattern].candidates(p, &vertices, candidates);
                         let ys = &patterns[pattern];
                         volume.block(p, |s| ys[s], candidates, texture, done)
                     }
-                    (None, rotation) => {
-                        // Each sample rotated as the receiver's own (`SampleSet::fill`), and only
-                        // those that may lie in the cone projected.
+                    (None, Some(shifted), Some(r)) => {
+                        let shifted = &shifted[pattern];
+                        shifted.candidates(p, &vertices, r, candidates);
+                        let own = |s: usize| plane.coordinates(shifted.sample(s, r).as_dvec3());
+                        volume.block(p, own, candidates, texture, done)
+                    }
+                    (None, _, rotation) => {
+                        // Each sample rotated as the receiver's own (`SampleSet::fill`), and
+                        // every one projected.
                         let ys = &samples.patterns()[pattern];
-                        match (&shifted, rotation) {
-                            (Some(shifted), Some(r)) => {
-                                shifted[pattern].candidates(p, &vertices, [r[0], r[1]], candidates)
-                            }
-                            _ => candidates.copy_from_slice(&every),
-                        }
                         let own = |s: usize| {
                             let y = rotation.map_or(ys[s], |r| light.rotate(ys[s], r));
                             plane.coordinates(y.as_dvec3())
                         };
-                        volume.block(p, own, candidates, texture, done)
+                        volume.block(p, own, &every, texture, done)
                     }
                 };
             }
@@ -1115,8 +1130,8 @@ mod tests {
         w.min_element() >= -1e-9 && w.element_sum() >= 1.0 - 1e-9
     }
 
-    /// Every sample that a triangle may hide from a receiver, rotated as the receiver's own, is
-    /// among the shifted bins' candidates, including where its parameters wrap; and the bins
+    /// Every sample that a triangle may hide from a receiver, rotated as the receiver's own (the
+    /// same bits as `Light::rotate`), is among the shifted bins' candidates, including where its parameters wrap; and the bins
     /// leave most samples out (what they are for).
     #[test]
     fn shifted_bins_find_every_rotated_sample_in_the_cone() {
@@ -1145,9 +1160,11 @@ mod tests {
             let at = |x: Vec3| plane.coordinates(x.as_dvec3());
             let (pp, tt) = (at(p), tri.map(at));
             let mut candidates = [0u64; 1];
-            bins.candidates(pp, &tt, r, &mut candidates);
+            bins.candidates(pp, &tt, [r[0], r[1], 0.0], &mut candidates);
             for (s, &y) in pattern.iter().enumerate() {
-                let y = at(light.rotate(y, [r[0], r[1], 0.0]));
+                let y = light.rotate(y, [r[0], r[1], 0.0]);
+                assert_eq!(bins.sample(s, [r[0], r[1], 0.0]), y);
+                let y = at(y);
                 let candidate = candidates[0] >> s & 1 == 1;
                 assert!(
                     candidate || !beyond(pp, &tt, y),
