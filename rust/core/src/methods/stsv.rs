@@ -716,11 +716,14 @@ impl ShiftedBins {
         // outside [0, 1]); the margin covers the rounding of `w` and of `to_params`, the box
         // being within [0, 1].
         let margin = 1e-6;
+        // Only the shifts that meet the pattern's span are looked up (two at most per axis).
         let shifts = |axis: usize| {
-            (-1..=2).map(move |k| {
-                let back = f64::from(k) - f64::from(r[axis]);
-                (low[axis] + back - margin, high[axis] + back + margin)
-            })
+            (-1..=2)
+                .map(move |k| {
+                    let back = f64::from(k) - f64::from(r[axis]);
+                    (low[axis] + back - margin, high[axis] + back + margin)
+                })
+                .filter(move |&(lo, hi)| hi >= self.bins.low[axis] && lo <= self.bins.high[axis])
         };
         for (a0, a1) in shifts(0) {
             for (b0, b1) in shifts(1) {
