@@ -29,7 +29,9 @@
 //!    for the receiver (behind its tangent plane, of weight 0) or are blocked already are
 //!    skipped, and samples shared by the receivers (not rotated per receiver) are binned in the
 //!    light's plane ([`SampleBins`]), where only those in the bounding box of the triangle's
-//!    cone from the receiver are looked up. A triangle's two volumes are visited together.
+//!    cone from the receiver are looked up; a rectangle light's samples rotated per receiver
+//!    (section 4.1) are binned by their parameters, where the cone's box is shifted back by the
+//!    receiver's offset ([`ShiftedBins`]). A triangle's two volumes are visited together.
 //!
 //! A one-sided volume is built on the side of `t` that holds the light's center; with
 //! `two_sided`, a second one on the other side, for the part of the light behind `t`'s plane
