@@ -6,8 +6,9 @@ explicit mesh (``ray_traced`` and ``dcs`` on it), and ``ray_traced`` on the perf
 The grid fence also at the paper's scale: one perforated quad against its explicit mesh of
 233,288 triangles (the paper's 233,358), with Mitsuba's ``ray_test`` on the mesh's shadow rays.
 All at the same receivers and the same 64 Poisson samples, shared by every receiver
-(``rotate=None``, so that every output can be compared; ``stsv``'s default rotates them per
-receiver, Forest et al. 2009, section 4.1); the contenders run in turn, round after round, and it
+(``rotate=None``, so that every output can be compared), then ``stsv``'s default, which rotates
+them per receiver (Forest et al. 2009, section 4.1), against ``ray_traced`` on the same rotated
+samples on the leaves and the slats fence; the contenders run in turn, round after round, and it
 prints each one's fastest round in seconds, as a ratio to ``stsv``, and
 the share of pixels identical to the oracle.
 
@@ -90,6 +91,22 @@ def main() -> None:
     }
     perforated = sum(len(m.faces) for m in leaves.scene.meshes if m.perforated)
     table(f"leaves ({perforated} perforated triangles)", args.repeat, contenders, "ray_traced (alpha test)", gb.mask)
+    rotated(args, {"leaves": leaves, "fence (slats)": scenes.fence(width=args.size, height=args.size, pattern="slats")})
+
+
+def rotated(args, setups):
+    """``stsv``'s default, samples rotated per receiver (Forest et al. 2009, section 4.1), against
+    ``ray_traced`` on the same rotated samples, per scene (name -> setup)."""
+    for title, setup in setups.items():
+        gb = ss.gbuffer(setup.scene, setup.camera)
+        samples = setup.light.samples(args.samples, seed=1)
+        contenders = {
+            "stsv (default: rotate=per_receiver)": lambda: ss.stsv(setup.scene, setup.light, gb, samples=samples),
+            "ray_traced (rotate=per_receiver)": lambda: ss.ray_traced(setup.scene, setup.light, gb, samples=samples,
+                                                                      rotate="per_receiver"),
+        }
+        table(f"{title}, samples rotated per receiver", args.repeat, contenders, "ray_traced (rotate=per_receiver)",
+              gb.mask)
 
 
 if __name__ == "__main__":
