@@ -236,8 +236,8 @@ const TILE_ROWS: usize = 8;
 /// thread count) and each band into tiles traced by [`trace_tile`].
 ///
 /// All the bands go in one parallel pass, not in rounds: the cost of a band varies tenfold with
-/// the shadows it crosses, and rounds of one band per thread wait for their slowest (every
-/// round held one band per thread: one pass is 10-20% faster on two cores at 128x128). A tile is
+/// the shadows it crosses, and rounds of one band per thread wait for their slowest
+/// (`bench/shadow_rays.py` at 128x128 measured the one pass faster on two cores). A tile is
 /// the unit of interruption instead: the bands stop at their next tile once the call is asked
 /// to stop, and the check after the pass reports it.
 fn trace_shared(
