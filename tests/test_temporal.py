@@ -122,6 +122,7 @@ def test_a_history_pickles_and_resumes(columns):
         (lambda gb, h: ss.accumulate(np.zeros(gb.shape), gb, None), "history"),
         (lambda gb, h: ss.accumulate(np.zeros((3, 3)), gb, h), "visibility"),
         (lambda gb, h: ss.accumulate(np.full(gb.shape, 2.0), gb, h), "visibility"),
+        (lambda gb, h: ss.accumulate(np.full(gb.shape, np.nan), gb, h), "visibility"),
         (lambda gb, h: ss.accumulate(np.zeros(gb.shape), gb, h, alpha=0), "alpha"),
         (lambda gb, h: ss.accumulate(np.zeros(gb.shape), gb, h, depth_tolerance=-1), "depth_tolerance"),
         (lambda gb, h: ss.accumulate(np.zeros(gb.shape), gb, h, normal_tolerance=270), "normal_tolerance"),

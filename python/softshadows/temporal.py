@@ -153,8 +153,6 @@ def accumulate(visibility, gbuffer, history, *, alpha: float = 0.1, depth_tolera
     """
     receivers, previous = sequence_inputs(gbuffer, history)
     vis = v.array("visibility", visibility, np.float32, gbuffer.shape)
-    if vis.size and (vis.min() < 0 or vis.max() > 1):
-        raise ValueError(f"visibility: expected values in [0, 1], got [{vis.min()}, {vis.max()}]")
     out, length, stats = _core.accumulate(vis.reshape(-1), receivers, previous,
                                           *temporal_options(alpha, depth_tolerance, normal_tolerance))
     history.record(gbuffer, out, length)

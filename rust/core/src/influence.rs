@@ -158,7 +158,7 @@ impl<'a> Origins<'a> {
         ys: &'s mut Vec<Vec3>,
         ws: &'s mut Vec<f32>,
     ) -> (&'s [Vec3], &'s [f32]) {
-        if self.samples.rotation_for(0).is_some() {
+        if self.samples.rotates() {
             self.fill(k, ys, ws);
             return (ys, ws);
         }
@@ -197,8 +197,9 @@ impl ReceiverLists {
     /// The memory of the lists of `points` receivers at `resolution`: per receiver its texel,
     /// entry and depth; per texel two list starts (the starts and the fill cursors).
     pub fn peak(points: usize, resolution: usize) -> Peak {
+        // Per point: its texel while binning (an `Option<usize>`), its entry and its depth.
         Peak::default()
-            .buffer(&[points as u64, 8 + 4 + 8])
+            .buffer(&[points as u64, 16 + 4 + 8])
             .buffer(&[resolution as u64, resolution as u64, 2 * 8])
     }
 

@@ -26,7 +26,7 @@ use crate::error::{Error, Result};
 use crate::geometry::camera::Camera;
 use crate::geometry::receivers::Receivers;
 use crate::interrupt;
-use crate::limits::Work;
+use crate::limits::{Peak, Work};
 use crate::stats::Stats;
 use glam::{Vec2, Vec3};
 
@@ -172,10 +172,25 @@ pub fn accumulate(
             ),
         ));
     }
+    // A hit pixel's value enters the history (the blend ignores the others).
+    let outside = |i: usize| current.valid[i] && !(0.0..=1.0).contains(&visibility[i]);
+    if let Some(i) = (0..current.len()).find(|&i| outside(i)) {
+        return Err(Error::invalid(
+            "visibility",
+            format!(
+                "expected values in [0, 1] at the hit pixels, got {} at pixel {i}",
+                visibility[i]
+            ),
+        ));
+    }
     if let Some(prev) = previous {
         prev.validate()?;
     }
     let mut stats = Stats::declared(STATS);
+    // The blended visibility and history length of every receiver, collected from pairs.
+    Peak::default()
+        .buffer(&[current.len() as u64, 2 * 4 + 8])
+        .check("accumulate", &mut stats)?;
     Work::default()
         .loop_of(&[current.len() as u64, 4])
         .check("accumulate", &mut stats)?;
@@ -199,7 +214,7 @@ fn blend(
         if !current.valid[i] {
             return (0.0, 0.0);
         }
-        let v = visibility[i].clamp(0.0, 1.0);
+        let v = visibility[i];
         let found = previous.and_then(|prev| {
             reproject(
                 prev,
@@ -354,6 +369,12 @@ mod tests {
         }
         let opts = TemporalOptions::default();
         assert_eq!(arg(accumulate(&rx, &v[..3], None, &opts)), "visibility");
+        let hit = rx.valid.iter().position(|&ok| ok).unwrap();
+        for wrong in [f32::NAN, 1.5, -0.25] {
+            let mut bad = v.clone();
+            bad[hit] = wrong;
+            assert_eq!(arg(accumulate(&rx, &bad, None, &opts)), "visibility");
+        }
         let short = Previous {
             camera: &cam,
             receivers: &rx,

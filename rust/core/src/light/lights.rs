@@ -350,6 +350,11 @@ impl Light {
         self.emission.is_some()
     }
 
+    /// The texels of the emission texture (0 without one).
+    pub fn emission_texels(&self) -> usize {
+        self.emission.as_ref().map_or(0, |e| e.width * e.height)
+    }
+
     /// The importance sampler of the emission texture, for textured lights.
     pub fn emission_warp(&self) -> Option<EmissionWarp> {
         self.emission.as_ref().map(EmissionTexture::warp)

@@ -783,6 +783,11 @@ impl SampleSet {
         self.tile.k == 1
     }
 
+    /// Whether every receiver rotates its samples ([`SampleSet::rotation_for`] is `Some`).
+    pub fn rotates(&self) -> bool {
+        self.rotate.is_some()
+    }
+
     /// The rotation seed of receiver `index`, when samples are rotated per receiver.
     pub fn rotation_for(&self, index: usize) -> Option<RotationSeed> {
         self.rotate.map(|seed| rotation_seed(seed, index as u64))

@@ -213,9 +213,11 @@ pub fn denoised(
     let mut stats = Stats::declared(STATS);
     // Per receiver while the filter runs: its rays (16 bytes), world size, mean blocker and
     // standard deviation (12), the accumulation and its lengths (8), the filter's input pairs and
-    // two passes, each collected from (pair, taps) tuples (8 + 2 x 24), and the output (4).
+    // two passes, each collected from (pair, taps) tuples (8 + 2 x 24), and the output (4); a
+    // textured light's importance sampler, a cumulative sum (f64) per texel.
     Peak::default()
         .buffer(&[n, 96])
+        .buffer(&[light.emission_texels() as u64, 8])
         .check("denoised", &mut stats)?;
     let taps = 2 * (2 * (opts.search_radius + opts.max_radius) as u64 + 2);
     Work::default()

@@ -345,8 +345,9 @@ fn blocks_point(t: Caster, p: vec3<f64>, y: vec3<f64>) -> bool {
     return true;
 }
 
-// How many of the first n boundaries a predicate true on a prefix holds for, by binary search (the
-// count that alias_free/tables.rs's count_from finds from its guides): polar boundaries (kind 0) or azimuth boundaries (kind 1).
+// How many of the first n boundaries a predicate true on a prefix holds for, by binary search
+// (the count that tables.rs's Guide::count finds from its guides): polar boundaries (kind 0) or
+// azimuth boundaries (kind 1).
 fn leading_true(n: u32, kind: u32, u: vec3<f64>) -> u32 {
     var lo = 0u;
     var hi = n;

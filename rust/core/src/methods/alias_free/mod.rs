@@ -114,8 +114,9 @@ pub const MAX_SAMPLES: usize = 1024;
 /// the more the wider the light looks.)
 pub const TABLE_MAX_SPREAD: f64 = 0.4;
 
-/// The fewest view samples for which the exact tests build a [`BracketTable`] (a few
-/// milliseconds of work); fewer test every sample against every plane.
+/// The fewest view samples for which the exact tests build a [`BracketTable`]: its set-up, paid
+/// once per call, is worth it only over many view samples; fewer test every sample against
+/// every plane.
 const BRACKETS_MIN_VIEW_SAMPLES: usize = 1024;
 
 /// The memory a table sized from the sample count may take (64 MiB: the paper's 64^3 texels of
@@ -819,8 +820,10 @@ impl SampleMasks {
 /// The memory of [`sample_masks`] for `receivers` receivers and `samples` light samples: per
 /// receiver its bitmask, its list entry's and its view sample's (or the GPU's, read back), its
 /// view sample and point, and the lists; per caster its set-up, influence region and band bins;
-/// the lookup table and, on the CPU, the bracketing table; the penumbra flags and the silhouettes. (The row spans of the penumbra
-/// regions, transient, are left out.)
+/// the lookup table and, on the CPU, the bracketing table and each pass's copies of its list
+/// entries; with the penumbra restriction, the flags, the silhouettes and the second set of lists
+/// (its points' depths and texel ranges). (The row spans of the penumbra regions, transient, are
+/// left out.)
 pub(crate) fn masks_peak(
     scene: &Scene,
     receivers: usize,
@@ -840,12 +843,18 @@ pub(crate) fn masks_peak(
         Peak::default().buffer(&[bins as u64, bins as u64, bins as u64, words, 8])
     });
     let bracket_bins = BracketTable::bins_for(words as usize) as u64;
-    let brackets = match opts.backend {
-        Backend::Cpu => Peak::default().buffer(&[bracket_bins.pow(3), 2 * words, 8]),
+    let cpu_passes = match opts.backend {
+        Backend::Cpu => Peak::default()
+            .buffer(&[bracket_bins.pow(3), 2 * words, 8])
+            .buffer(&[n, std::mem::size_of::<Entry>() as u64]),
         Backend::Gpu => Peak::default(),
     };
     let penumbra = if opts.restrict_to_penumbra {
-        Peak::default().buffer(&[res, res]).and(edges_peak(scene))
+        Peak::default()
+            .buffer(&[res, res])
+            .and(edges_peak(scene))
+            .buffer(&[n, 8])
+            .buffer(&[res, res, 2 * 8])
     } else {
         Peak::default()
     };
@@ -855,7 +864,7 @@ pub(crate) fn masks_peak(
         .and(ReceiverLists::peak(receivers, opts.resolution))
         .buffer(&[scene.num_faces() as u64, per_caster])
         .and(lut)
-        .and(brackets)
+        .and(cpu_passes)
         .and(penumbra)
 }
 
@@ -1074,10 +1083,7 @@ impl TexelTests<'_> {
 
     /// `hull` (on `frustum`'s far plane) cut at caster `t`'s supporting plane, if the cut is on.
     fn cut(&self, hull: Vec<DVec2>, frustum: &LightFrustum, t: &Prepared) -> Vec<DVec2> {
-        match self.cut {
-            Some(cut) => cut_at_supporting_plane(hull, frustum, t, (self.center, self.radius), cut),
-            None => hull,
-        }
+        cut_at_supporting_plane(hull, frustum, t, (self.center, self.radius), self.cut)
     }
 }
 
@@ -1091,14 +1097,18 @@ impl TexelTests<'_> {
 /// ray from the center through texel point `s`, no deeper than the far plane, lies on a side of
 /// the plane that the center does not lie on only if the ray's far point does (the distance to
 /// the plane varies linearly along the ray): an affine condition on `s`, kept with a margin of a
-/// hundredth of a texel and of the f32 round-off of the receivers' projections.
+/// hundredth of a texel and of the f32 round-off of the receivers' projections. Without a `cut`
+/// (the option off), the region as it is.
 fn cut_at_supporting_plane(
     hull: Vec<DVec2>,
     frustum: &LightFrustum,
     t: &Prepared,
     (center, radius): (DVec3, f64),
-    cut: Cut,
+    cut: Option<Cut>,
 ) -> Vec<DVec2> {
+    let Some(cut) = cut else {
+        return hull;
+    };
     if hull.is_empty() {
         return hull;
     }
@@ -1194,7 +1204,7 @@ fn light_samples(light: &Light, samples: &SampleSet) -> Result<LightSamples> {
     if !samples.is_single_pattern() {
         return Err(Error::invalid("interleaved", "alias_free shares one sample pattern (one bitmask layout) across receivers: interleaving does not apply"));
     }
-    let rotated = samples.rotation_for(0).is_some();
+    let rotated = samples.rotates();
     if rotated && (light.rigid_rotation([0.0; 3]).is_none() || light.is_textured()) {
         return Err(Error::invalid(
             "rotate",
@@ -1408,11 +1418,8 @@ impl CasterSet {
             .par_iter()
             .zip(&prepared)
             .map(|(c, t)| {
-                influence_hull(frustum, bounds, &c.vertices, opts.hull_degree).map(|hull| match cut
-                {
-                    Some(cut) => cut_at_supporting_plane(hull, frustum, t, (center, radius), cut),
-                    None => hull,
-                })
+                influence_hull(frustum, bounds, &c.vertices, opts.hull_degree)
+                    .map(|hull| cut_at_supporting_plane(hull, frustum, t, (center, radius), cut))
             })
             .collect();
         CasterSet {

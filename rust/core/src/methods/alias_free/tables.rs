@@ -313,7 +313,7 @@ impl Lut {
 /// ([`BracketTable::lookup`] refuses a plane whose round-off could exceed a quarter of it).
 const SURE_MARGIN: f64 = 1e-6;
 
-/// The bits per bin of the [`BracketTable`] may take: 32 MiB (64 bins at 256 samples, 48 at 1024).
+/// The memory the [`BracketTable`] may take: 32 MiB (64 bins at 256 samples, 48 at 1024).
 const BRACKET_BUDGET_BYTES: u64 = 32 << 20;
 
 /// For each bin of planes, the samples behind every plane of the bin (`sure`) and the samples
