@@ -822,7 +822,7 @@ fn perforated_masks(
         .collect();
     // Receivers that share a pattern (not rotated) find the samples worth projecting in its bins;
     // those of a rectangle light, rotated per receiver, in the bins of its parameters.
-    let rotated = samples.rotation_for(0).is_some();
+    let rotated = samples.rotates();
     let bins: Option<Vec<SampleBins>> =
         (!rotated).then(|| patterns.iter().map(|p| SampleBins::new(p)).collect());
     let shifted: Option<Vec<ShiftedBins>> = samples
