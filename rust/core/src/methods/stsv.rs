@@ -635,9 +635,8 @@ fn cone_section(p: DVec3, tri: &[DVec3; 3], thickness: f64) -> Option<([DVec2; 3
 /// samples are shifted by their own offset `r` and wrapped (`Light::rotate`: `st' = frac(st +
 /// r)`, the decorrelation of Forest et al. 2009, section 4.1): a rotated sample lies in a box of
 /// the plane where its parameters lie in the box's parameter box, and its pattern sample where
-/// they lie in that box shifted back by `r` and wrapped, which the pattern's bins look up. The
-/// samples found are those the shared pattern's bins would find among the rotated samples, so
-/// the bits are the same.
+/// they lie in that box shifted back by `r` and wrapped, which the pattern's bins look up. Every
+/// rotated sample in the cone is among those found, so the bits are the same.
 struct ShiftedBins {
     /// The pattern's samples, binned at `(s, t, 0)`.
     bins: SampleBins,
@@ -652,8 +651,8 @@ struct ShiftedBins {
 }
 
 impl ShiftedBins {
-    /// For a rectangle light of `center` and half-extent vectors `u`, `v` whose pattern (in the
-    /// world) is `pattern`, in the coordinates of `plane`; `None` for other lights.
+    /// The bins of `pattern` (in the world), a pattern of `light`, with the cone boxes in the
+    /// coordinates of `plane`; `None` unless `light` is a rectangle.
     fn new(light: &Light, pattern: &[Vec3], plane: &SamplePlane) -> Option<Self> {
         let Shape::Rect { center, u, v } = light.shape else {
             return None;
@@ -825,12 +824,15 @@ fn perforated_masks(
     let rotated = samples.rotates();
     let bins: Option<Vec<SampleBins>> =
         (!rotated).then(|| patterns.iter().map(|p| SampleBins::new(p)).collect());
-    let shifted: Option<Vec<ShiftedBins>> = samples
-        .patterns()
-        .iter()
-        .map(|pattern| ShiftedBins::new(light, pattern, &plane))
-        .collect::<Option<_>>()
-        .filter(|_| rotated);
+    let shifted: Option<Vec<ShiftedBins>> = rotated
+        .then(|| {
+            samples
+                .patterns()
+                .iter()
+                .map(|pattern| ShiftedBins::new(light, pattern, &plane))
+                .collect()
+        })
+        .flatten();
     let pattern_of = |k: usize| {
         let (x, y) = origins.receivers.pixel(origins.ids[k] as usize);
         samples.pattern_index(x, y)
