@@ -1137,15 +1137,16 @@ mod tests {
         w.min_element() >= -1e-9 && w.element_sum() >= 1.0 - 1e-9
     }
 
-    /// Every sample that a triangle may hide from a receiver, rotated as the receiver's own (the
-    /// same bits as `Light::rotate`), is among the shifted bins' candidates, including where its parameters wrap; and the bins
-    /// leave most samples out (what they are for).
+    /// On a rectangle whose sides are not orthogonal, every sample that a triangle may hide from
+    /// a receiver, rotated as the receiver's own (the same bits as `Light::rotate`), is among the
+    /// shifted bins' candidates, also where its parameters wrap; and the bins leave most samples
+    /// out (what they are for).
     #[test]
     fn shifted_bins_find_every_rotated_sample_in_the_cone() {
         let light = Light::rect(
             Vec3::new(0.3, 4.0, -0.2),
             Vec3::new(0.6, 0.0, 0.2),
-            Vec3::new(0.1, 0.0, -0.3),
+            Vec3::new(0.2, 0.0, -0.3),
         )
         .unwrap();
         let pattern = light_samples(&light, 64, Pattern::Poisson, 7, 0);
