@@ -516,10 +516,20 @@ struct SampleBins {
 }
 
 impl SampleBins {
+    /// The bins per axis of `count` samples.
+    fn bins_for(count: usize) -> usize {
+        count.clamp(8, 256)
+    }
+
+    /// The bytes of the bins of `count` samples: two tables per axis and the whole set.
+    fn bytes(count: usize) -> u64 {
+        (4 * Self::bins_for(count) as u64 + 1) * count.div_ceil(64) as u64 * 8
+    }
+
     /// Bins `at`, samples in the coordinates of the [`SamplePlane`].
     fn new(at: &[DVec3]) -> Self {
         let words = at.len().div_ceil(64);
-        let bins = at.len().clamp(8, 256);
+        let bins = Self::bins_for(at.len());
         let mut out = Self {
             thickness: at.iter().map(|c| c.z.abs()).fold(0.0, f64::max),
             low: [f64::INFINITY; 2],
@@ -1024,7 +1034,9 @@ fn stsv_in_one_frustum(
     };
     let n = receivers.len();
     // The visibility, the origins, the perforated bitmasks and volumes (per perforated triangle,
-    // one per side of it), then the opaque part's.
+    // one per side of it), per pattern its samples in the light's plane (f64) and parameters
+    // (f32) and its bins (two tables per axis and the whole set, `words` per bin), then the
+    // opaque part's.
     let perforated_faces: u64 = scene
         .meshes
         .iter()
@@ -1043,7 +1055,11 @@ fn stsv_in_one_frustum(
         .buffer(&[n as u64, words as u64, 8])
         .buffer(&[
             perforated_faces,
-            sides * std::mem::size_of::<Volume>() as u64 + 16 * 8,
+            sides * std::mem::size_of::<Volume>() as u64,
+        ])
+        .buffer(&[
+            samples.patterns().len() as u64,
+            s as u64 * (24 + 8) + SampleBins::bytes(s),
         ])
         .and(opaque_peak)
         .check("stsv", &mut stats)?;
