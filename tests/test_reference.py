@@ -500,7 +500,9 @@ def test_rays_past_the_alpha_step_limit_count_as_blocked_with_a_warning(monkeypa
 def vectorized_tracer(scene):
     tracer = reference._tracer(scene)
     if tracer.dr is None:
-        pytest.skip("needs the vectorized llvm_ad_rgb variant (install libllvm19)")
+        pytest.skip("only Mitsuba's vectorized llvm_ad_rgb variant builds the rays in Dr.Jit; without libllvm19 "
+                    "it falls back to scalar_rgb, whose rays are built in numpy instead: install libllvm19 "
+                    "(scripts/test.sh and CI do) to run this test")
     return tracer
 
 
