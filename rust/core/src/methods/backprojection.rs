@@ -283,6 +283,18 @@ impl Levels {
         }
         Levels { levels }
     }
+
+    /// The level-0 texel corners `(columns, rows)` that the levels' texels reach: level `i`'s
+    /// texel is `2^i` level-0 texels wide, so a coarse level overhangs a map whose side is not a
+    /// multiple of `2^i`.
+    fn corners(&self) -> (usize, usize) {
+        self.levels
+            .iter()
+            .enumerate()
+            .fold((0, 0), |(c, r), (i, l)| {
+                (c.max(l.width << i), r.max(l.height << i))
+            })
+    }
 }
 
 /// The construction of microrects (section 5.2, Figures 5 and 6). Level `i + 1` keeps the
@@ -1357,7 +1369,10 @@ fn backprojection_view(
             .sum::<usize>() as f64,
     );
     let ctx = Context {
-        rays: GridRays::new(&frustum),
+        rays: {
+            let (columns, rows) = levels.corners();
+            GridRays::new(&frustum, columns, rows)
+        },
         frustum,
         accel: &accel,
         levels: &levels,

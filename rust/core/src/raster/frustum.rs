@@ -409,9 +409,10 @@ impl LightFrustum {
     }
 }
 
-/// The rays through the corners of a map's texel grid (integer texel coordinates `0..=width` by
-/// `0..=height`), computed once for code that unprojects many texel corners: a part per column
-/// corner and one per row corner, which [`GridRays::unproject`] adds in
+/// The rays through the corners of a map's texel grid (integer texel coordinates `0..=columns` by
+/// `0..=rows`, which may reach past the map: a coarse pyramid level's last texel overhangs a map
+/// whose side is not a multiple of its size), computed once for code that unprojects many texel
+/// corners: a part per column corner and one per row corner, which [`GridRays::unproject`] adds in
 /// [`LightFrustum::texel_ray`]'s order, so that it gives the same bits as
 /// [`LightFrustum::unproject`] with no division.
 #[derive(Debug, Clone)]
@@ -424,13 +425,14 @@ pub struct GridRays {
 }
 
 impl GridRays {
-    pub fn new(f: &LightFrustum) -> Self {
+    /// The rays through the corners `0..=columns` by `0..=rows` of `f`'s texel grid.
+    pub fn new(f: &LightFrustum, columns: usize, rows: usize) -> Self {
         Self {
             eye: f.eye,
-            columns: (0..=f.width)
+            columns: (0..=columns)
                 .map(|x| f.forward + f.right * f.ray_x(x as f32))
                 .collect(),
-            rows: (0..=f.height).map(|y| f.up * f.ray_y(y as f32)).collect(),
+            rows: (0..=rows).map(|y| f.up * f.ray_y(y as f32)).collect(),
         }
     }
 
