@@ -47,6 +47,7 @@ use crate::geometry::polygon::{ClipBuffers, ConvexWindow};
 use crate::geometry::receivers::Receivers;
 use crate::influence::light_polytope;
 use crate::interrupt;
+use crate::light::bins::BoxBins;
 use crate::light::lights::{concentric_disk, tangent_frame, Light, Shape};
 use crate::light::sampling::Rng;
 use crate::limits::Peak;
@@ -393,6 +394,8 @@ struct LightPlane {
     outline: ConvexWindow,
     outline_area: f64,
     samples: Vec<DVec2>,
+    /// The samples binned, so that a micro-occluder's bounding box finds those it may cover.
+    bins: BoxBins,
     /// The samples in world space.
     world: Vec<DVec3>,
 }
@@ -437,6 +440,7 @@ impl LightPlane {
                     to_light,
                     outline: ConvexWindow::new(&outline),
                     outline_area: 4.0,
+                    bins: BoxBins::new(&samples.iter().map(|s| s.to_array()).collect::<Vec<_>>()),
                     samples,
                     world,
                 })
@@ -472,6 +476,7 @@ impl LightPlane {
                     to_light: [t.as_dvec3() / r, b.as_dvec3() / r],
                     outline: ConvexWindow::new(&outline),
                     outline_area: std::f64::consts::PI,
+                    bins: BoxBins::new(&samples.iter().map(|s| s.to_array()).collect::<Vec<_>>()),
                     samples,
                     world,
                 })
@@ -567,10 +572,12 @@ enum Occlusion<'a> {
         front: f64,
         buffers: Box<ClipBuffers>,
     },
-    /// The occlusion bitmap, the samples behind the receiver set from the start.
+    /// The occlusion bitmap, the samples behind the receiver set from the start, and the
+    /// samples a micro-occluder's bounding box holds.
     Bitmask {
-        samples: &'a [DVec2],
+        light: &'a LightPlane,
         bits: Vec<u64>,
+        candidates: Vec<u64>,
     },
 }
 
@@ -583,10 +590,14 @@ impl<'a> Occlusion<'a> {
                 front: light.front(receiver),
                 buffers: Box::default(),
             },
-            Accumulation::Bitmask { .. } => Occlusion::Bitmask {
-                samples: &light.samples,
-                bits: light.behind(receiver),
-            },
+            Accumulation::Bitmask { .. } => {
+                let bits = light.behind(receiver);
+                Occlusion::Bitmask {
+                    light,
+                    candidates: vec![0; bits.len()],
+                    bits,
+                }
+            }
         }
     }
 
@@ -599,10 +610,24 @@ impl<'a> Occlusion<'a> {
                 buffers,
                 ..
             } => *covered += light.outline.clipped_area(q, buffers) / light.outline_area,
-            Occlusion::Bitmask { samples, bits } => {
-                for (k, sample) in samples.iter().enumerate() {
-                    if in_quad(q, *sample) {
-                        bits[k / 64] |= 1 << (k % 64);
+            Occlusion::Bitmask {
+                light,
+                bits,
+                candidates,
+            } => {
+                // Only the samples in the quad's bounding box not already occluded are tested.
+                let lo = q.iter().fold(DVec2::INFINITY, |a, &c| a.min(c));
+                let hi = q.iter().fold(DVec2::NEG_INFINITY, |a, &c| a.max(c));
+                candidates.fill(0);
+                light.bins.add_box(lo.to_array(), hi.to_array(), candidates);
+                for (w, (&found, word)) in candidates.iter().zip(bits.iter_mut()).enumerate() {
+                    let mut open = found & !*word;
+                    while open != 0 {
+                        let bit = open.trailing_zeros();
+                        open &= open - 1;
+                        if in_quad(q, light.samples[w * 64 + bit as usize]) {
+                            *word |= 1 << bit;
+                        }
                     }
                 }
             }
@@ -613,8 +638,9 @@ impl<'a> Occlusion<'a> {
     fn visible(&self) -> f64 {
         match self {
             Occlusion::Area { covered, front, .. } => front * (1.0 - covered.min(1.0)),
-            Occlusion::Bitmask { samples, bits } => {
-                1.0 - bits.iter().map(|b| b.count_ones()).sum::<u32>() as f64 / samples.len() as f64
+            Occlusion::Bitmask { light, bits, .. } => {
+                1.0 - bits.iter().map(|b| b.count_ones()).sum::<u32>() as f64
+                    / light.samples.len() as f64
             }
         }
     }
