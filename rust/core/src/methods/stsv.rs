@@ -65,6 +65,7 @@ use crate::raster::cube::by_light_face;
 use crate::stats::Stats;
 use glam::{DMat2, DMat3, DVec2, DVec3, Vec2, Vec3};
 use rayon::prelude::*;
+use std::ops::Range;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// How the opaque meshes cast (Forest et al. 2009, section 3 and Algorithm 2).
@@ -303,6 +304,7 @@ impl Volume {
     }
 
     /// Whether `p` lies inside (section 2.3), within the planes' slack.
+    #[inline(always)]
     fn contains(&self, p: DVec3) -> bool {
         // Every plane, without a branch per plane: receivers fall on either side at random.
         self.planes
@@ -312,6 +314,7 @@ impl Volume {
 
     /// The receiver `p`, the projective center of equations 1 and 3, in triangle space
     /// (`M' (p − v0)`, see [`Volume::hides`]); `None` when `p` lies in the triangle's plane.
+    #[inline(always)]
     fn center(&self, p: DVec3) -> Option<DVec3> {
         let q = self.to_triangle * (p - self.v0);
         (q.z != 0.0).then_some(q)
@@ -325,7 +328,7 @@ impl Volume {
     /// are, times `γ_p`, `(γ_p α_y − α_p γ_y, γ_p β_y − β_p γ_y, γ_p − γ_y)`: the same tests
     /// (`s_h` inside the triangle, and `y` across the plane from `p`), without building `J` per
     /// receiver. Then the texture coordinates `S s_h / s_h.z` (equations 4 and 5) are looked up.
-    #[inline]
+    #[inline(always)]
     fn hides(&self, c: DVec3, y: DVec3, texture: &AlphaTexture) -> bool {
         let q = self.to_triangle * (y - self.v0);
         // Both sides of the plane alike: every γ times the sign of γ_p.
@@ -343,6 +346,7 @@ impl Volume {
     /// Sets in `blocked` the samples of `candidates` (sample `k` at `sample(k)`) that the
     /// triangle's opaque texels hide from `p` (equations 1–5); returns how many it projected:
     /// the candidates not blocked yet, since a sample blocked once stays blocked.
+    #[inline(always)]
     fn block(
         &self,
         p: DVec3,
@@ -487,6 +491,7 @@ impl SamplePlane {
         }
     }
 
+    #[inline(always)]
     fn coordinates(&self, x: DVec3) -> DVec3 {
         self.to_plane * (x - self.origin)
     }
@@ -567,6 +572,7 @@ impl SampleBins {
     }
 
     /// The bin of coordinate `x` along `axis` (monotone in `x`, clamped to the bins).
+    #[inline(always)]
     fn bin(&self, axis: usize, x: f64) -> usize {
         // Clamped in f64 (NaN to 0 too), then one conversion instruction.
         let bin = ((x - self.low[axis]) * self.scale[axis]).clamp(0.0, (self.bins - 1) as f64);
@@ -576,34 +582,50 @@ impl SampleBins {
     /// Into `out`, the samples that may lie in the cone from `p` through the triangle `tri`
     /// (both in plane coordinates): those binned in its [`cone_box`], or every sample where the
     /// box is unbounded.
+    #[inline(always)]
     fn candidates(&self, p: DVec3, tri: &[DVec3; 3], out: &mut [u64]) {
         match cone_box(p, tri, self.thickness) {
-            Some((lo, hi)) => {
-                out.fill(0);
-                self.add_box(lo, hi, out);
-            }
+            Some((lo, hi)) => self.merge_box(lo, hi, out, |o, binned| *o = binned),
             None => out.copy_from_slice(&self.all),
         }
     }
 
-    /// Adds to `out` the samples binned in the box `lo..=hi` (a superset of those in it).
-    fn add_box(&self, lo: [f64; 2], hi: [f64; 2], out: &mut [u64]) {
+    /// Merges into `out`, word by word (`merge(word, binned)`), the samples binned in the box
+    /// `lo..=hi` (a superset of those in it).
+    #[inline(always)]
+    fn merge_box(
+        &self,
+        lo: [f64; 2],
+        hi: [f64; 2],
+        out: &mut [u64],
+        merge: impl Fn(&mut u64, u64),
+    ) {
         if (0..2).any(|axis| hi[axis] < self.low[axis] || lo[axis] > self.high[axis]) {
+            out.iter_mut().for_each(|o| merge(o, 0));
             return;
         }
         let w = self.words;
-        let [a0, b0] = [0, 1].map(|axis| self.bin(axis, lo[axis]) * w);
-        let [a1, b1] = [0, 1].map(|axis| self.bin(axis, hi[axis]) * w);
-        for (k, o) in out.iter_mut().enumerate() {
-            *o |= self.from[0][a0 + k]
-                & self.upto[0][a1 + k]
-                & self.from[1][b0 + k]
-                & self.upto[1][b1 + k];
+        fn run(table: &[u64], bin: usize, w: usize) -> &[u64] {
+            &table[bin * w..bin * w + w]
+        }
+        let x = run(&self.from[0], self.bin(0, lo[0]), w).iter().zip(run(
+            &self.upto[0],
+            self.bin(0, hi[0]),
+            w,
+        ));
+        let y = run(&self.from[1], self.bin(1, lo[1]), w).iter().zip(run(
+            &self.upto[1],
+            self.bin(1, hi[1]),
+            w,
+        ));
+        for ((o, (a0, a1)), (b0, b1)) in out.iter_mut().zip(x).zip(y) {
+            merge(o, a0 & a1 & b0 & b1);
         }
     }
 }
 
 /// The bounding box `(low, high)` of the [`cone_section`] of the cone from `p` through `tri`.
+#[inline(always)]
 fn cone_box(p: DVec3, tri: &[DVec3; 3], thickness: f64) -> Option<([f64; 2], [f64; 2])> {
     let (corners, margin) = cone_section(p, tri, thickness)?;
     let low = corners.into_iter().fold(DVec2::INFINITY, DVec2::min) - margin;
@@ -617,6 +639,7 @@ fn cone_box(p: DVec3, tri: &[DVec3; 3], thickness: f64) -> Option<([f64; 2], [f6
 /// slope (a sample off the plane is binned where the plane's normal through it meets the plane,
 /// its segment from `p` meets the plane within that of it) and against round-off; `None` when
 /// `p` lies within the samples' slab or a vertex is not strictly nearer the plane than `p`.
+#[inline(always)]
 fn cone_section(p: DVec3, tri: &[DVec3; 3], thickness: f64) -> Option<([DVec2; 3], DVec2)> {
     let height = p.z.abs();
     if height <= thickness {
@@ -695,6 +718,7 @@ impl ShiftedBins {
 
     /// Sample `s` of the pattern shifted by `r`: `Light::rotate` of the pattern's sample, its
     /// parameters kept rather than solved for again.
+    #[inline(always)]
     fn sample(&self, s: usize, r: RotationSeed) -> Vec3 {
         let [center, u, v] = self.rect;
         rect_shifted(center, u, v, self.params[s], r)
@@ -702,6 +726,7 @@ impl ShiftedBins {
 
     /// Into `out`, the samples of the pattern that, shifted by `r`, may lie in the cone from `p`
     /// through the triangle `tri` (both in plane coordinates).
+    #[inline(always)]
     fn candidates(&self, p: DVec3, tri: &[DVec3; 3], r: RotationSeed, out: &mut [u64]) {
         let Some((corners, margin)) = cone_section(p, tri, self.slack) else {
             out.copy_from_slice(&self.bins.all);
@@ -738,7 +763,8 @@ impl ShiftedBins {
         };
         for (a0, a1) in shifts(0) {
             for (b0, b1) in shifts(1) {
-                self.bins.add_box([a0, b0], [a1, b1], out);
+                self.bins
+                    .merge_box([a0, b0], [a1, b1], out, |o, binned| *o |= binned);
             }
         }
     }
@@ -803,7 +829,6 @@ fn perforated_masks(
     // Receivers and samples are tested in the light plane's coordinates, where the samples are
     // binned; a receiver's are computed where it is tested (three dot products), not stored.
     let plane = SamplePlane::new(origins.light, lists.frustum.forward);
-    let at = |e: usize| plane.coordinates(origins.origins[lists.entries[e] as usize].as_dvec3());
     let reach = origins
         .origins
         .iter()
@@ -818,7 +843,6 @@ fn perforated_masks(
     );
     stats.set("volumes", volumes.len() as f64);
     let samples = origins.samples;
-    let light = origins.light;
     let patterns: Vec<Vec<DVec3>> = samples
         .patterns()
         .iter()
@@ -839,15 +863,19 @@ fn perforated_masks(
             samples
                 .patterns()
                 .iter()
-                .map(|pattern| ShiftedBins::new(light, pattern, &plane))
+                .map(|pattern| ShiftedBins::new(origins.light, pattern, &plane))
                 .collect()
         })
         .flatten();
-    let pattern_of = |k: usize| {
-        let (x, y) = origins.receivers.pixel(origins.ids[k] as usize);
-        samples.pattern_index(x, y)
+    let pass = Pass {
+        scene,
+        origins,
+        plane: &plane,
+        patterns: &patterns,
+        bins: bins.as_deref(),
+        shifted: shifted.as_deref(),
+        every: every_sample(samples.count()),
     };
-    let every = every_sample(samples.count());
     // Each entry's one mask holds the samples blocked or that do not count: neither needs
     // projecting, and a receiver whose mask is full is done.
     let mut masks = vec![0u64; lists.entries.len() * words];
@@ -868,58 +896,7 @@ fn perforated_masks(
         &mut masks,
         words,
         |sides, entries, part| {
-            let volume = &sides[0];
-            let Some(texture) = &scene.meshes[volume.mesh].alpha else {
-                return;
-            };
-            // The cone boxes' triangle in the plane's coordinates, as the volume's planes.
-            let vertices = volume.triangle.map(|x| plane.coordinates(x.as_dvec3()));
-            let mut counts = [0u64; 3];
-            for (e, done) in entries.zip(part.chunks_mut(words)) {
-                // Every sample is blocked or does not count: the volume cannot change the bits.
-                if every.iter().zip(&*done).all(|(a, d)| a & !d == 0) {
-                    continue;
-                }
-                let p = at(e);
-                let inside = sides.iter().filter(|v| v.contains(p)).count();
-                counts[0] += sides.len() as u64;
-                counts[1] += inside as u64;
-                if inside == 0 {
-                    continue;
-                }
-                let k = lists.entries[e] as usize;
-                let pattern = if patterns.len() == 1 {
-                    0
-                } else {
-                    pattern_of(k)
-                };
-                let mut candidates = [0u64; MAX_SAMPLES / 64];
-                let candidates = &mut candidates[..words];
-                let rotation = samples.rotation_for(origins.ids[k] as usize);
-                counts[2] += match (&bins, &shifted, rotation) {
-                    (Some(bins), _, _) => {
-                        bins[pattern].candidates(p, &vertices, candidates);
-                        let ys = &patterns[pattern];
-                        volume.block(p, |s| ys[s], candidates, texture, done)
-                    }
-                    (None, Some(shifted), Some(r)) => {
-                        let shifted = &shifted[pattern];
-                        shifted.candidates(p, &vertices, r, candidates);
-                        let own = |s: usize| plane.coordinates(shifted.sample(s, r).as_dvec3());
-                        volume.block(p, own, candidates, texture, done)
-                    }
-                    (None, _, rotation) => {
-                        // Each sample rotated as the receiver's own (`SampleSet::fill`), and
-                        // every one projected.
-                        let ys = &samples.patterns()[pattern];
-                        let own = |s: usize| {
-                            let y = rotation.map_or(ys[s], |r| light.rotate(ys[s], r));
-                            plane.coordinates(y.as_dvec3())
-                        };
-                        volume.block(p, own, &every, texture, done)
-                    }
-                };
-            }
+            let counts = pass.span_on_this_cpu(sides, entries, part);
             for (total, count) in tally.iter().zip(counts) {
                 total.fetch_add(count, Ordering::Relaxed);
             }
@@ -930,6 +907,129 @@ fn perforated_masks(
         stats.set(key, total.load(Ordering::Relaxed) as f64);
     }
     Ok(masks)
+}
+
+/// What the perforated pass reads for every span of receivers: the receivers, the samples in the
+/// [`SamplePlane`]'s coordinates and their bins.
+struct Pass<'a> {
+    scene: &'a Scene,
+    origins: &'a Origins<'a>,
+    plane: &'a SamplePlane,
+    /// Per pattern, its samples in the plane's coordinates.
+    patterns: &'a [Vec<DVec3>],
+    /// Per pattern, its bins where the receivers share it; its [`ShiftedBins`] where a
+    /// rectangle light's samples are rotated per receiver.
+    bins: Option<&'a [SampleBins]>,
+    shifted: Option<&'a [ShiftedBins]>,
+    /// Every sample's bit.
+    every: Vec<u64>,
+}
+
+impl Pass<'_> {
+    /// [`Pass::span`] compiled for AVX2 where the CPU has it: the alpha lookups' floors and the
+    /// bit counts become one instruction each, and without FMA (not enabled) the arithmetic
+    /// rounds as the baseline's, so the bits are the same.
+    fn span_on_this_cpu(
+        &self,
+        sides: &[Volume],
+        entries: Range<usize>,
+        part: &mut [u64],
+    ) -> [u64; 3] {
+        #[cfg(target_arch = "x86_64")]
+        {
+            #[target_feature(enable = "avx2,popcnt")]
+            fn avx2(
+                pass: &Pass<'_>,
+                sides: &[Volume],
+                entries: Range<usize>,
+                part: &mut [u64],
+            ) -> [u64; 3] {
+                pass.span(sides, entries, part)
+            }
+            if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("popcnt") {
+                // SAFETY: the CPU has AVX2 and POPCNT (checked just above).
+                return unsafe { avx2(self, sides, entries, part) };
+            }
+        }
+        self.span(sides, entries, part)
+    }
+
+    /// The receiver of list entry `e` in the plane's coordinates.
+    #[inline(always)]
+    fn at(&self, e: usize) -> DVec3 {
+        let k = self.origins.lists.entries[e] as usize;
+        self.plane.coordinates(self.origins.origins[k].as_dvec3())
+    }
+
+    /// Sets in `part` (the masks of list entries `entries`) the samples that the triangle of
+    /// `sides` (its volumes) hides; returns the stats `receivers_tested`, `receivers_inside` and
+    /// `sample_projections` of the span.
+    #[inline(always)]
+    fn span(&self, sides: &[Volume], entries: Range<usize>, part: &mut [u64]) -> [u64; 3] {
+        let mut counts = [0u64; 3];
+        let volume = &sides[0];
+        let Some(texture) = &self.scene.meshes[volume.mesh].alpha else {
+            return counts;
+        };
+        let (origins, samples, every) = (self.origins, self.origins.samples, &self.every[..]);
+        let words = every.len();
+        // The cone boxes' triangle in the plane's coordinates, as the volume's planes.
+        let vertices = volume
+            .triangle
+            .map(|x| self.plane.coordinates(x.as_dvec3()));
+        // Filled by each receiver's lookup before it is read.
+        let mut candidates = [0u64; MAX_SAMPLES / 64];
+        let candidates = &mut candidates[..words];
+        for (e, done) in entries.zip(part.chunks_mut(words)) {
+            // Every sample is blocked or does not count: the volume cannot change the bits.
+            if every.iter().zip(&*done).all(|(a, d)| a & !d == 0) {
+                continue;
+            }
+            let p = self.at(e);
+            let inside = sides.iter().filter(|v| v.contains(p)).count();
+            counts[0] += sides.len() as u64;
+            counts[1] += inside as u64;
+            if inside == 0 {
+                continue;
+            }
+            let k = origins.lists.entries[e] as usize;
+            let pattern = if self.patterns.len() == 1 {
+                0
+            } else {
+                let (x, y) = origins.receivers.pixel(origins.ids[k] as usize);
+                samples.pattern_index(x, y)
+            };
+            // Shared samples have no rotation: the receiver's id is not looked up for them.
+            let rotation = match self.bins {
+                Some(_) => None,
+                None => samples.rotation_for(origins.ids[k] as usize),
+            };
+            counts[2] += match (self.bins, self.shifted, rotation) {
+                (Some(bins), _, _) => {
+                    bins[pattern].candidates(p, &vertices, candidates);
+                    let ys = &self.patterns[pattern];
+                    volume.block(p, |s| ys[s], candidates, texture, done)
+                }
+                (None, Some(shifted), Some(r)) => {
+                    let shifted = &shifted[pattern];
+                    shifted.candidates(p, &vertices, r, candidates);
+                    let own = |s: usize| self.plane.coordinates(shifted.sample(s, r).as_dvec3());
+                    volume.block(p, own, candidates, texture, done)
+                }
+                (None, _, rotation) => {
+                    // Each sample rotated as the receiver's own (`SampleSet::fill`), and
+                    // every one projected.
+                    let ys = &samples.patterns()[pattern];
+                    let own = |s: usize| {
+                        let y = rotation.map_or(ys[s], |r| origins.light.rotate(ys[s], r));
+                        self.plane.coordinates(y.as_dvec3())
+                    };
+                    volume.block(p, own, every, texture, done)
+                }
+            };
+        }
+        counts
+    }
 }
 
 /// Whether some opaque triangle of `scene` may cut a segment from an origin of `origins` to a
