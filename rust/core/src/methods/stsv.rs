@@ -103,7 +103,7 @@ struct Volume {
     ///
     /// Inside: on the inner side of the front cap and the three outer planes (a plane is left out,
     /// [`Bound::EVERYWHERE`], where the light reaches past it: conservative).
-    planes: [Bound; 4],
+    planes: Planes,
     /// `M'` of equation 2 and the triangle's first vertex.
     to_triangle: DMat3,
     v0: DVec3,
@@ -139,6 +139,34 @@ impl Bound {
             m,
             k: self.k - self.m.dot(plane.origin),
             slack: 1e-9 * self.m.length() * (1.0 + reach + plane.origin.abs().max_element()),
+        }
+    }
+}
+
+/// The four [`Bound`]s of a volume, one lane per plane, so that [`Volume::contains`] tests them
+/// together.
+#[derive(Clone, Copy)]
+struct Planes {
+    /// Per axis, the planes' `m`.
+    m: [[f64; 4]; 3],
+    k: [f64; 4],
+    slack: [f64; 4],
+}
+
+impl Planes {
+    fn new(bounds: [Bound; 4]) -> Self {
+        Self {
+            m: [0, 1, 2].map(|axis| bounds.map(|b| b.m[axis])),
+            k: bounds.map(|b| b.k),
+            slack: bounds.map(|b| b.slack),
+        }
+    }
+
+    fn bound(&self, i: usize) -> Bound {
+        Bound {
+            m: DVec3::new(self.m[0][i], self.m[1][i], self.m[2][i]),
+            k: self.k[i],
+            slack: self.slack[i],
         }
     }
 }
@@ -283,7 +311,7 @@ impl Volume {
             face,
             mesh,
             triangle: tri,
-            planes: bounds,
+            planes: Planes::new(bounds),
             to_texture,
             to_triangle,
             v0: v[0],
@@ -295,7 +323,9 @@ impl Volume {
     /// receivers whose world coordinates are at most `reach` in magnitude.
     fn in_plane(&self, plane: &SamplePlane, reach: f64) -> Self {
         Self {
-            planes: self.planes.map(|b| b.in_plane(plane, reach)),
+            planes: Planes::new(std::array::from_fn(|i| {
+                self.planes.bound(i).in_plane(plane, reach)
+            })),
             // M' (x − v0) = M' R^T (u − R (v0 − o)) for x = R^T u + o.
             to_triangle: self.to_triangle * plane.to_plane.transpose(),
             v0: plane.coordinates(self.v0),
@@ -306,10 +336,13 @@ impl Volume {
     /// Whether `p` lies inside (section 2.3), within the planes' slack.
     #[inline(always)]
     fn contains(&self, p: DVec3) -> bool {
-        // Every plane, without a branch per plane: receivers fall on either side at random.
-        self.planes
-            .iter()
-            .fold(true, |inside, b| inside & (b.m.dot(p) - b.k >= -b.slack))
+        // Every plane, without a branch per plane: receivers fall on either side at random. The
+        // lanes round as `m.dot(p)` does.
+        let Planes { m, k, slack } = &self.planes;
+        (0..4).fold(true, |inside, i| {
+            let dot = m[0][i] * p.x + m[1][i] * p.y + m[2][i] * p.z;
+            inside & (dot - k[i] >= -slack[i])
+        })
     }
 
     /// The receiver `p`, the projective center of equations 1 and 3, in triangle space
