@@ -353,8 +353,14 @@ impl Volume {
         (q.z != 0.0).then_some(q)
     }
 
-    /// Whether an opaque texel of the triangle hides sample `y` from the receiver of
-    /// [`Volume::center`] `c` (equations 1–5).
+    /// A point `y` in triangle space, `M' (y − v0)` (see [`Volume::hides`]).
+    #[inline(always)]
+    fn in_triangle(&self, y: DVec3) -> DVec3 {
+        self.to_triangle * (y - self.v0)
+    }
+
+    /// Whether an opaque texel of the triangle hides sample `y`, at `q` in triangle space
+    /// ([`Volume::in_triangle`]), from the receiver of [`Volume::center`] `c` (equations 1–5).
     ///
     /// With `(α, β, γ) = M' (x − v0)` the triangle-space coordinates of a point `x` (γ its
     /// distance across the plane), the homogeneous barycentrics `s_h = J (y − p)` of equation 1
@@ -362,8 +368,7 @@ impl Volume {
     /// (`s_h` inside the triangle, and `y` across the plane from `p`), without building `J` per
     /// receiver. Then the texture coordinates `S s_h / s_h.z` (equations 4 and 5) are looked up.
     #[inline(always)]
-    fn hides(&self, c: DVec3, y: DVec3, texture: &AlphaTexture) -> bool {
-        let q = self.to_triangle * (y - self.v0);
+    fn hides(&self, c: DVec3, q: DVec3, texture: &AlphaTexture) -> bool {
         // Both sides of the plane alike: every γ times the sign of γ_p.
         let side = c.z.signum();
         let (g, qz) = (c.z * side, q.z * side);
@@ -376,14 +381,14 @@ impl Volume {
         texture.is_opaque(glam::Vec2::new(st.x as f32, st.y as f32))
     }
 
-    /// Sets in `blocked` the samples of `candidates` (sample `k` at `sample(k)`) that the
-    /// triangle's opaque texels hide from `p` (equations 1–5); returns how many it projected:
-    /// the candidates not blocked yet, since a sample blocked once stays blocked.
+    /// Sets in `blocked` the samples of `candidates` (sample `k` at `in_triangle(k)` in triangle
+    /// space) that the triangle's opaque texels hide from `p` (equations 1–5); returns how many it
+    /// projected: the candidates not blocked yet, since a sample blocked once stays blocked.
     #[inline(always)]
     fn block(
         &self,
         p: DVec3,
-        sample: impl Fn(usize) -> DVec3,
+        in_triangle: impl Fn(usize) -> DVec3,
         candidates: &[u64],
         texture: &AlphaTexture,
         blocked: &mut [u64],
@@ -400,7 +405,7 @@ impl Volume {
             projected += u64::from(bits.count_ones());
             while bits != 0 {
                 let bit = bits.trailing_zeros();
-                if self.hides(center, sample(word * 64 + bit as usize), texture) {
+                if self.hides(center, in_triangle(word * 64 + bit as usize), texture) {
                     *b |= 1 << bit;
                 }
                 bits &= bits - 1;
@@ -928,8 +933,9 @@ fn perforated_masks(
         |sides| &sides[0].triangle,
         &mut masks,
         words,
-        |sides, entries, part| {
-            let counts = pass.span_on_this_cpu(sides, entries, part);
+        Projected::default,
+        |sides, entries, part, projected| {
+            let counts = pass.span_on_this_cpu(sides, entries, part, projected);
             for (total, count) in tally.iter().zip(counts) {
                 total.fetch_add(count, Ordering::Relaxed);
             }
@@ -940,6 +946,31 @@ fn perforated_masks(
         stats.set(key, total.load(Ordering::Relaxed) as f64);
     }
     Ok(masks)
+}
+
+/// A band's shared samples of one pattern in the triangle space of the triangle that projected
+/// them last ([`Volume::in_triangle`]): a triangle's spans in a band project the same samples,
+/// each once for the band rather than once per receiver. A worker's scratch: one point per
+/// sample, whatever the receivers and the triangles.
+#[derive(Default)]
+struct Projected {
+    /// The triangle's face and the pattern.
+    of: Option<(u32, usize)>,
+    samples: Vec<DVec3>,
+}
+
+impl Projected {
+    /// The samples `ys` of pattern `pattern` in the triangle space of `volume`.
+    #[inline(always)]
+    fn of(&mut self, volume: &Volume, pattern: usize, ys: &[DVec3]) -> &[DVec3] {
+        if self.of != Some((volume.face, pattern)) {
+            self.samples.clear();
+            self.samples
+                .extend(ys.iter().map(|&y| volume.in_triangle(y)));
+            self.of = Some((volume.face, pattern));
+        }
+        &self.samples
+    }
 }
 
 /// What the perforated pass reads for every span of receivers: the receivers, the samples in the
@@ -967,6 +998,7 @@ impl Pass<'_> {
         sides: &[Volume],
         entries: Range<usize>,
         part: &mut [u64],
+        projected: &mut Projected,
     ) -> [u64; 3] {
         #[cfg(target_arch = "x86_64")]
         {
@@ -976,15 +1008,16 @@ impl Pass<'_> {
                 sides: &[Volume],
                 entries: Range<usize>,
                 part: &mut [u64],
+                projected: &mut Projected,
             ) -> [u64; 3] {
-                pass.span(sides, entries, part)
+                pass.span(sides, entries, part, projected)
             }
             if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("popcnt") {
                 // SAFETY: the CPU has AVX2 and POPCNT (checked just above).
-                return unsafe { avx2(self, sides, entries, part) };
+                return unsafe { avx2(self, sides, entries, part, projected) };
             }
         }
-        self.span(sides, entries, part)
+        self.span(sides, entries, part, projected)
     }
 
     /// The receiver of list entry `e` in the plane's coordinates.
@@ -998,7 +1031,13 @@ impl Pass<'_> {
     /// `sides` (its volumes) hides; returns the stats `receivers_tested`, `receivers_inside` and
     /// `sample_projections` of the span.
     #[inline(always)]
-    fn span(&self, sides: &[Volume], entries: Range<usize>, part: &mut [u64]) -> [u64; 3] {
+    fn span(
+        &self,
+        sides: &[Volume],
+        entries: Range<usize>,
+        part: &mut [u64],
+        projected: &mut Projected,
+    ) -> [u64; 3] {
         let mut counts = [0u64; 3];
         let volume = &sides[0];
         let Some(texture) = &self.scene.meshes[volume.mesh].alpha else {
@@ -1040,13 +1079,18 @@ impl Pass<'_> {
             counts[2] += match (self.bins, self.shifted, rotation) {
                 (Some(bins), _, _) => {
                     bins[pattern].candidates(p, &vertices, candidates);
-                    let ys = &self.patterns[pattern];
+                    if candidates.iter().zip(&*done).all(|(c, d)| c & !d == 0) {
+                        continue;
+                    }
+                    let ys = projected.of(volume, pattern, &self.patterns[pattern]);
                     volume.block(p, |s| ys[s], candidates, texture, done)
                 }
                 (None, Some(shifted), Some(r)) => {
                     let shifted = &shifted[pattern];
                     shifted.candidates(p, &vertices, r, candidates);
-                    let own = |s: usize| self.plane.coordinates(shifted.sample(s, r).as_dvec3());
+                    let own = |s: usize| {
+                        volume.in_triangle(self.plane.coordinates(shifted.sample(s, r).as_dvec3()))
+                    };
                     volume.block(p, own, candidates, texture, done)
                 }
                 (None, _, rotation) => {
@@ -1055,7 +1099,7 @@ impl Pass<'_> {
                     let ys = &samples.patterns()[pattern];
                     let own = |s: usize| {
                         let y = rotation.map_or(ys[s], |r| origins.light.rotate(ys[s], r));
-                        self.plane.coordinates(y.as_dvec3())
+                        volume.in_triangle(self.plane.coordinates(y.as_dvec3()))
                     };
                     volume.block(p, own, every, texture, done)
                 }
