@@ -32,6 +32,9 @@
 //!    cone from the receiver are looked up; a rectangle light's samples rotated per receiver
 //!    (section 4.1) are binned by their parameters, where the cone's box is shifted back by the
 //!    receiver's offset ([`ShiftedBins`]). A triangle's two volumes are visited together.
+//!    Shared samples are moved into a triangle's space (`M' (y − v0)`) once per band of light-map
+//!    rows, for all the band's receivers ([`Projected`]); the pass is compiled for AVX2 where
+//!    the CPU has it, without FMA, so it rounds as the baseline and the bits are the same.
 //!
 //! A one-sided volume is built on the side of `t` that holds the light's center; with
 //! `two_sided`, a second one on the other side, for the part of the light behind `t`'s plane
