@@ -9,8 +9,8 @@ All at the same receivers and the same 64 Poisson samples, shared by every recei
 (``rotate=None``, so that every output can be compared), then ``stsv``'s default, which rotates
 them per receiver (Forest et al. 2009, section 4.1), against ``ray_traced`` on the same rotated
 samples on the leaves and the slats fence; the contenders run in turn, round after round, and it
-prints each one's fastest round in seconds, as a ratio to ``stsv``, and
-the share of pixels identical to the oracle.
+prints each one's fastest round in seconds (wall, and CPU: every thread of the process), as
+ratios to ``stsv``, and the share of pixels identical to the oracle.
 
 Usage: ``python bench/stsv.py [--size 512] [--samples 64] [--repeat 3] [--no-paper-scale]``
 """
@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -35,16 +36,27 @@ PAPER_REPEATS = (483, 241)
 
 
 def table(title, repeat, contenders, oracle, mask, images=True):
-    """Runs the contenders (name -> function) side by side and prints their seconds as ratios to
-    the first, and the share of pixels identical to the contender named ``oracle`` for those whose
+    """Runs the contenders (name -> function) side by side and prints their seconds (wall and CPU)
+    as ratios to the first, and the share of pixels identical to the contender named ``oracle`` for those whose
     ``images`` flag (name -> bool, or True for all) is set."""
-    seconds, results = side_by_side(repeat, contenders)
-    base = next(iter(seconds.values()))
-    print(f"\n{title}\n{'method':<34} {'seconds':>8} {'x stsv':>7} {'identical':>9}")
+    cpu = {name: float("inf") for name in contenders}
+
+    def with_cpu(name, fn):
+        def run():
+            start = time.process_time()
+            out = fn()
+            cpu[name] = min(cpu[name], time.process_time() - start)
+            return out
+        return run
+
+    seconds, results = side_by_side(repeat, {name: with_cpu(name, fn) for name, fn in contenders.items()})
+    base, base_cpu = next(iter(seconds.values())), next(iter(cpu.values()))
+    print(f"\n{title}\n{'method':<34} {'seconds':>8} {'x stsv':>7} {'cpu s':>7} {'x stsv':>7} {'identical':>9}")
     for name in contenders:
         image = images is True or images.get(name, True)
         same = f"{np.mean((results[name] == results[oracle])[mask]):.2%}" if image else ""
-        print(f"{name:<34} {seconds[name]:8.3f} {seconds[name] / base:7.2f} {same:>9}")
+        print(f"{name:<34} {seconds[name]:8.3f} {seconds[name] / base:7.2f} {cpu[name]:7.3f} "
+              f"{cpu[name] / base_cpu:7.2f} {same:>9}")
 
 
 def main() -> None:

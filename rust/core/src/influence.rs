@@ -390,7 +390,8 @@ impl ReceiverLists {
             vertices,
             data,
             per_entry,
-            |item, entries, values| {
+            || (),
+            |item, entries, values, _| {
                 for (e, values) in entries.zip(values.chunks_mut(per_entry)) {
                     visit(item, self.entries[e] as usize, values);
                 }
@@ -399,11 +400,12 @@ impl ReceiverLists {
     }
 
     /// [`ReceiverLists::visit_regions`] a span of texels at a time: calls `visit(item, entries,
-    /// values)` for the list entries `entries` of each span of texels (one row) that the item's
-    /// region covers, with their values of `data` (`per_entry` per entry, in list order), so that
-    /// a visit can test the span's points together.
+    /// values, scratch)` for the list entries `entries` of each span of texels (one row) that the
+    /// item's region covers, with their values of `data` (`per_entry` per entry, in list order), so
+    /// that a visit can test the span's points together, and the band's own `scratch()` (kept
+    /// from one item's spans to the next).
     #[allow(clippy::too_many_arguments)]
-    pub fn visit_region_spans<I: Sync, T: Send>(
+    pub fn visit_region_spans<I: Sync, T: Send, S>(
         &self,
         bounds: &LightBounds<'_>,
         degree: usize,
@@ -411,7 +413,8 @@ impl ReceiverLists {
         vertices: impl Fn(&I) -> &[Vec3] + Sync,
         data: &mut [T],
         per_entry: usize,
-        visit: impl Fn(&I, Range<usize>, &mut [T]) + Sync,
+        scratch: impl Fn() -> S + Sync,
+        visit: impl Fn(&I, Range<usize>, &mut [T], &mut S) + Sync,
     ) -> Result<()> {
         let hulls: Vec<Option<Vec<DVec2>>> = items
             .par_iter()
@@ -427,6 +430,7 @@ impl ReceiverLists {
                 let Some(band_frustum) = self.band_frustum(&rows) else {
                     return;
                 };
+                let mut scratch = scratch();
                 for &k in bins[b].iter().take_while(|_| !watch.requested()) {
                     let item = &items[k as usize];
                     let region = match &hulls[k as usize] {
@@ -437,7 +441,7 @@ impl ReceiverLists {
                         let entries = self.span_entries(span);
                         let values = &mut part
                             [(entries.start - base) * per_entry..(entries.end - base) * per_entry];
-                        visit(item, entries, values);
+                        visit(item, entries, values, &mut scratch);
                     }
                 }
             });

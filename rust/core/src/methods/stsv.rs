@@ -32,6 +32,9 @@
 //!    cone from the receiver are looked up; a rectangle light's samples rotated per receiver
 //!    (section 4.1) are binned by their parameters, where the cone's box is shifted back by the
 //!    receiver's offset ([`ShiftedBins`]). A triangle's two volumes are visited together.
+//!    Shared samples are moved into a triangle's space (`M' (y − v0)`) once per band of light-map
+//!    rows, for all the band's receivers ([`Projected`]); the pass is compiled for AVX2 where
+//!    the CPU has it, without FMA, so it rounds as the baseline and the bits are the same.
 //!
 //! A one-sided volume is built on the side of `t` that holds the light's center; with
 //! `two_sided`, a second one on the other side, for the part of the light behind `t`'s plane
@@ -65,6 +68,7 @@ use crate::raster::cube::by_light_face;
 use crate::stats::Stats;
 use glam::{DMat2, DMat3, DVec2, DVec3, Vec2, Vec3};
 use rayon::prelude::*;
+use std::ops::Range;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// How the opaque meshes cast (Forest et al. 2009, section 3 and Algorithm 2).
@@ -102,7 +106,7 @@ struct Volume {
     ///
     /// Inside: on the inner side of the front cap and the three outer planes (a plane is left out,
     /// [`Bound::EVERYWHERE`], where the light reaches past it: conservative).
-    planes: [Bound; 4],
+    planes: Planes,
     /// `M'` of equation 2 and the triangle's first vertex.
     to_triangle: DMat3,
     v0: DVec3,
@@ -138,6 +142,34 @@ impl Bound {
             m,
             k: self.k - self.m.dot(plane.origin),
             slack: 1e-9 * self.m.length() * (1.0 + reach + plane.origin.abs().max_element()),
+        }
+    }
+}
+
+/// The four [`Bound`]s of a volume, one lane per plane, so that [`Volume::contains`] tests them
+/// together.
+#[derive(Clone, Copy)]
+struct Planes {
+    /// Per axis, the planes' `m`.
+    m: [[f64; 4]; 3],
+    k: [f64; 4],
+    slack: [f64; 4],
+}
+
+impl Planes {
+    fn new(bounds: [Bound; 4]) -> Self {
+        Self {
+            m: [0, 1, 2].map(|axis| bounds.map(|b| b.m[axis])),
+            k: bounds.map(|b| b.k),
+            slack: bounds.map(|b| b.slack),
+        }
+    }
+
+    fn bound(&self, i: usize) -> Bound {
+        Bound {
+            m: DVec3::new(self.m[0][i], self.m[1][i], self.m[2][i]),
+            k: self.k[i],
+            slack: self.slack[i],
         }
     }
 }
@@ -282,7 +314,7 @@ impl Volume {
             face,
             mesh,
             triangle: tri,
-            planes: bounds,
+            planes: Planes::new(bounds),
             to_texture,
             to_triangle,
             v0: v[0],
@@ -294,7 +326,9 @@ impl Volume {
     /// receivers whose world coordinates are at most `reach` in magnitude.
     fn in_plane(&self, plane: &SamplePlane, reach: f64) -> Self {
         Self {
-            planes: self.planes.map(|b| b.in_plane(plane, reach)),
+            planes: Planes::new(std::array::from_fn(|i| {
+                self.planes.bound(i).in_plane(plane, reach)
+            })),
             // M' (x − v0) = M' R^T (u − R (v0 − o)) for x = R^T u + o.
             to_triangle: self.to_triangle * plane.to_plane.transpose(),
             v0: plane.coordinates(self.v0),
@@ -303,31 +337,41 @@ impl Volume {
     }
 
     /// Whether `p` lies inside (section 2.3), within the planes' slack.
+    #[inline(always)]
     fn contains(&self, p: DVec3) -> bool {
-        // Every plane, without a branch per plane: receivers fall on either side at random.
-        self.planes
-            .iter()
-            .fold(true, |inside, b| inside & (b.m.dot(p) - b.k >= -b.slack))
+        // Every plane, without a branch per plane: receivers fall on either side at random. The
+        // lanes round as `m.dot(p)` does.
+        let Planes { m, k, slack } = &self.planes;
+        (0..4).fold(true, |inside, i| {
+            let dot = m[0][i] * p.x + m[1][i] * p.y + m[2][i] * p.z;
+            inside & (dot - k[i] >= -slack[i])
+        })
     }
 
     /// The receiver `p`, the projective center of equations 1 and 3, in triangle space
     /// (`M' (p − v0)`, see [`Volume::hides`]); `None` when `p` lies in the triangle's plane.
+    #[inline(always)]
     fn center(&self, p: DVec3) -> Option<DVec3> {
         let q = self.to_triangle * (p - self.v0);
         (q.z != 0.0).then_some(q)
     }
 
-    /// Whether an opaque texel of the triangle hides sample `y` from the receiver of
-    /// [`Volume::center`] `c` (equations 1–5).
+    /// A point `y` in triangle space, `M' (y − v0)` (see [`Volume::hides`]).
+    #[inline(always)]
+    fn in_triangle(&self, y: DVec3) -> DVec3 {
+        self.to_triangle * (y - self.v0)
+    }
+
+    /// Whether an opaque texel of the triangle hides sample `y`, at `q` in triangle space
+    /// ([`Volume::in_triangle`]), from the receiver of [`Volume::center`] `c` (equations 1–5).
     ///
     /// With `(α, β, γ) = M' (x − v0)` the triangle-space coordinates of a point `x` (γ its
     /// distance across the plane), the homogeneous barycentrics `s_h = J (y − p)` of equation 1
     /// are, times `γ_p`, `(γ_p α_y − α_p γ_y, γ_p β_y − β_p γ_y, γ_p − γ_y)`: the same tests
     /// (`s_h` inside the triangle, and `y` across the plane from `p`), without building `J` per
     /// receiver. Then the texture coordinates `S s_h / s_h.z` (equations 4 and 5) are looked up.
-    #[inline]
-    fn hides(&self, c: DVec3, y: DVec3, texture: &AlphaTexture) -> bool {
-        let q = self.to_triangle * (y - self.v0);
+    #[inline(always)]
+    fn hides(&self, c: DVec3, q: DVec3, texture: &AlphaTexture) -> bool {
         // Both sides of the plane alike: every γ times the sign of γ_p.
         let side = c.z.signum();
         let (g, qz) = (c.z * side, q.z * side);
@@ -340,13 +384,14 @@ impl Volume {
         texture.is_opaque(glam::Vec2::new(st.x as f32, st.y as f32))
     }
 
-    /// Sets in `blocked` the samples of `candidates` (sample `k` at `sample(k)`) that the
-    /// triangle's opaque texels hide from `p` (equations 1–5); returns how many it projected:
-    /// the candidates not blocked yet, since a sample blocked once stays blocked.
+    /// Sets in `blocked` the samples of `candidates` (sample `k` at `in_triangle(k)` in triangle
+    /// space) that the triangle's opaque texels hide from `p` (equations 1–5); returns how many it
+    /// projected: the candidates not blocked yet, since a sample blocked once stays blocked.
+    #[inline(always)]
     fn block(
         &self,
         p: DVec3,
-        sample: impl Fn(usize) -> DVec3,
+        in_triangle: impl Fn(usize) -> DVec3,
         candidates: &[u64],
         texture: &AlphaTexture,
         blocked: &mut [u64],
@@ -363,7 +408,7 @@ impl Volume {
             projected += u64::from(bits.count_ones());
             while bits != 0 {
                 let bit = bits.trailing_zeros();
-                if self.hides(center, sample(word * 64 + bit as usize), texture) {
+                if self.hides(center, in_triangle(word * 64 + bit as usize), texture) {
                     *b |= 1 << bit;
                 }
                 bits &= bits - 1;
@@ -487,6 +532,7 @@ impl SamplePlane {
         }
     }
 
+    #[inline(always)]
     fn coordinates(&self, x: DVec3) -> DVec3 {
         self.to_plane * (x - self.origin)
     }
@@ -567,6 +613,7 @@ impl SampleBins {
     }
 
     /// The bin of coordinate `x` along `axis` (monotone in `x`, clamped to the bins).
+    #[inline(always)]
     fn bin(&self, axis: usize, x: f64) -> usize {
         // Clamped in f64 (NaN to 0 too), then one conversion instruction.
         let bin = ((x - self.low[axis]) * self.scale[axis]).clamp(0.0, (self.bins - 1) as f64);
@@ -576,34 +623,50 @@ impl SampleBins {
     /// Into `out`, the samples that may lie in the cone from `p` through the triangle `tri`
     /// (both in plane coordinates): those binned in its [`cone_box`], or every sample where the
     /// box is unbounded.
+    #[inline(always)]
     fn candidates(&self, p: DVec3, tri: &[DVec3; 3], out: &mut [u64]) {
         match cone_box(p, tri, self.thickness) {
-            Some((lo, hi)) => {
-                out.fill(0);
-                self.add_box(lo, hi, out);
-            }
+            Some((lo, hi)) => self.merge_box(lo, hi, out, |o, binned| *o = binned),
             None => out.copy_from_slice(&self.all),
         }
     }
 
-    /// Adds to `out` the samples binned in the box `lo..=hi` (a superset of those in it).
-    fn add_box(&self, lo: [f64; 2], hi: [f64; 2], out: &mut [u64]) {
+    /// Merges into `out`, word by word (`merge(word, binned)`), the samples binned in the box
+    /// `lo..=hi` (a superset of those in it).
+    #[inline(always)]
+    fn merge_box(
+        &self,
+        lo: [f64; 2],
+        hi: [f64; 2],
+        out: &mut [u64],
+        merge: impl Fn(&mut u64, u64),
+    ) {
         if (0..2).any(|axis| hi[axis] < self.low[axis] || lo[axis] > self.high[axis]) {
+            out.iter_mut().for_each(|o| merge(o, 0));
             return;
         }
         let w = self.words;
-        let [a0, b0] = [0, 1].map(|axis| self.bin(axis, lo[axis]) * w);
-        let [a1, b1] = [0, 1].map(|axis| self.bin(axis, hi[axis]) * w);
-        for (k, o) in out.iter_mut().enumerate() {
-            *o |= self.from[0][a0 + k]
-                & self.upto[0][a1 + k]
-                & self.from[1][b0 + k]
-                & self.upto[1][b1 + k];
+        fn run(table: &[u64], bin: usize, w: usize) -> &[u64] {
+            &table[bin * w..bin * w + w]
+        }
+        let x = run(&self.from[0], self.bin(0, lo[0]), w).iter().zip(run(
+            &self.upto[0],
+            self.bin(0, hi[0]),
+            w,
+        ));
+        let y = run(&self.from[1], self.bin(1, lo[1]), w).iter().zip(run(
+            &self.upto[1],
+            self.bin(1, hi[1]),
+            w,
+        ));
+        for ((o, (a0, a1)), (b0, b1)) in out.iter_mut().zip(x).zip(y) {
+            merge(o, a0 & a1 & b0 & b1);
         }
     }
 }
 
 /// The bounding box `(low, high)` of the [`cone_section`] of the cone from `p` through `tri`.
+#[inline(always)]
 fn cone_box(p: DVec3, tri: &[DVec3; 3], thickness: f64) -> Option<([f64; 2], [f64; 2])> {
     let (corners, margin) = cone_section(p, tri, thickness)?;
     let low = corners.into_iter().fold(DVec2::INFINITY, DVec2::min) - margin;
@@ -617,6 +680,7 @@ fn cone_box(p: DVec3, tri: &[DVec3; 3], thickness: f64) -> Option<([f64; 2], [f6
 /// slope (a sample off the plane is binned where the plane's normal through it meets the plane,
 /// its segment from `p` meets the plane within that of it) and against round-off; `None` when
 /// `p` lies within the samples' slab or a vertex is not strictly nearer the plane than `p`.
+#[inline(always)]
 fn cone_section(p: DVec3, tri: &[DVec3; 3], thickness: f64) -> Option<([DVec2; 3], DVec2)> {
     let height = p.z.abs();
     if height <= thickness {
@@ -695,6 +759,7 @@ impl ShiftedBins {
 
     /// Sample `s` of the pattern shifted by `r`: `Light::rotate` of the pattern's sample, its
     /// parameters kept rather than solved for again.
+    #[inline(always)]
     fn sample(&self, s: usize, r: RotationSeed) -> Vec3 {
         let [center, u, v] = self.rect;
         rect_shifted(center, u, v, self.params[s], r)
@@ -702,6 +767,7 @@ impl ShiftedBins {
 
     /// Into `out`, the samples of the pattern that, shifted by `r`, may lie in the cone from `p`
     /// through the triangle `tri` (both in plane coordinates).
+    #[inline(always)]
     fn candidates(&self, p: DVec3, tri: &[DVec3; 3], r: RotationSeed, out: &mut [u64]) {
         let Some((corners, margin)) = cone_section(p, tri, self.slack) else {
             out.copy_from_slice(&self.bins.all);
@@ -738,7 +804,8 @@ impl ShiftedBins {
         };
         for (a0, a1) in shifts(0) {
             for (b0, b1) in shifts(1) {
-                self.bins.add_box([a0, b0], [a1, b1], out);
+                self.bins
+                    .merge_box([a0, b0], [a1, b1], out, |o, binned| *o |= binned);
             }
         }
     }
@@ -803,7 +870,6 @@ fn perforated_masks(
     // Receivers and samples are tested in the light plane's coordinates, where the samples are
     // binned; a receiver's are computed where it is tested (three dot products), not stored.
     let plane = SamplePlane::new(origins.light, lists.frustum.forward);
-    let at = |e: usize| plane.coordinates(origins.origins[lists.entries[e] as usize].as_dvec3());
     let reach = origins
         .origins
         .iter()
@@ -818,7 +884,6 @@ fn perforated_masks(
     );
     stats.set("volumes", volumes.len() as f64);
     let samples = origins.samples;
-    let light = origins.light;
     let patterns: Vec<Vec<DVec3>> = samples
         .patterns()
         .iter()
@@ -839,15 +904,19 @@ fn perforated_masks(
             samples
                 .patterns()
                 .iter()
-                .map(|pattern| ShiftedBins::new(light, pattern, &plane))
+                .map(|pattern| ShiftedBins::new(origins.light, pattern, &plane))
                 .collect()
         })
         .flatten();
-    let pattern_of = |k: usize| {
-        let (x, y) = origins.receivers.pixel(origins.ids[k] as usize);
-        samples.pattern_index(x, y)
+    let pass = Pass {
+        scene,
+        origins,
+        plane: &plane,
+        patterns: &patterns,
+        bins: bins.as_deref(),
+        shifted: shifted.as_deref(),
+        every: every_sample(samples.count()),
     };
-    let every = every_sample(samples.count());
     // Each entry's one mask holds the samples blocked or that do not count: neither needs
     // projecting, and a receiver whose mask is full is done.
     let mut masks = vec![0u64; lists.entries.len() * words];
@@ -867,59 +936,9 @@ fn perforated_masks(
         |sides| &sides[0].triangle,
         &mut masks,
         words,
-        |sides, entries, part| {
-            let volume = &sides[0];
-            let Some(texture) = &scene.meshes[volume.mesh].alpha else {
-                return;
-            };
-            // The cone boxes' triangle in the plane's coordinates, as the volume's planes.
-            let vertices = volume.triangle.map(|x| plane.coordinates(x.as_dvec3()));
-            let mut counts = [0u64; 3];
-            for (e, done) in entries.zip(part.chunks_mut(words)) {
-                // Every sample is blocked or does not count: the volume cannot change the bits.
-                if every.iter().zip(&*done).all(|(a, d)| a & !d == 0) {
-                    continue;
-                }
-                let p = at(e);
-                let inside = sides.iter().filter(|v| v.contains(p)).count();
-                counts[0] += sides.len() as u64;
-                counts[1] += inside as u64;
-                if inside == 0 {
-                    continue;
-                }
-                let k = lists.entries[e] as usize;
-                let pattern = if patterns.len() == 1 {
-                    0
-                } else {
-                    pattern_of(k)
-                };
-                let mut candidates = [0u64; MAX_SAMPLES / 64];
-                let candidates = &mut candidates[..words];
-                let rotation = samples.rotation_for(origins.ids[k] as usize);
-                counts[2] += match (&bins, &shifted, rotation) {
-                    (Some(bins), _, _) => {
-                        bins[pattern].candidates(p, &vertices, candidates);
-                        let ys = &patterns[pattern];
-                        volume.block(p, |s| ys[s], candidates, texture, done)
-                    }
-                    (None, Some(shifted), Some(r)) => {
-                        let shifted = &shifted[pattern];
-                        shifted.candidates(p, &vertices, r, candidates);
-                        let own = |s: usize| plane.coordinates(shifted.sample(s, r).as_dvec3());
-                        volume.block(p, own, candidates, texture, done)
-                    }
-                    (None, _, rotation) => {
-                        // Each sample rotated as the receiver's own (`SampleSet::fill`), and
-                        // every one projected.
-                        let ys = &samples.patterns()[pattern];
-                        let own = |s: usize| {
-                            let y = rotation.map_or(ys[s], |r| light.rotate(ys[s], r));
-                            plane.coordinates(y.as_dvec3())
-                        };
-                        volume.block(p, own, &every, texture, done)
-                    }
-                };
-            }
+        Projected::default,
+        |sides, entries, part, projected| {
+            let counts = pass.span_on_this_cpu(sides, entries, part, projected);
             for (total, count) in tally.iter().zip(counts) {
                 total.fetch_add(count, Ordering::Relaxed);
             }
@@ -930,6 +949,167 @@ fn perforated_masks(
         stats.set(key, total.load(Ordering::Relaxed) as f64);
     }
     Ok(masks)
+}
+
+/// A band's shared samples of one pattern in the triangle space of the triangle that projected
+/// them last ([`Volume::in_triangle`]): a triangle's spans in a band project the same samples,
+/// each once for the band rather than once per receiver. A worker's scratch: one point per
+/// sample, whatever the receivers and the triangles.
+#[derive(Default)]
+struct Projected {
+    /// The triangle's face and the pattern.
+    of: Option<(u32, usize)>,
+    samples: Vec<DVec3>,
+}
+
+impl Projected {
+    /// The samples `ys` of pattern `pattern` in the triangle space of `volume`.
+    #[inline(always)]
+    fn of(&mut self, volume: &Volume, pattern: usize, ys: &[DVec3]) -> &[DVec3] {
+        if self.of != Some((volume.face, pattern)) {
+            self.samples.clear();
+            self.samples
+                .extend(ys.iter().map(|&y| volume.in_triangle(y)));
+            self.of = Some((volume.face, pattern));
+        }
+        &self.samples
+    }
+}
+
+/// What the perforated pass reads for every span of receivers: the receivers, the samples in the
+/// [`SamplePlane`]'s coordinates and their bins.
+struct Pass<'a> {
+    scene: &'a Scene,
+    origins: &'a Origins<'a>,
+    plane: &'a SamplePlane,
+    /// Per pattern, its samples in the plane's coordinates.
+    patterns: &'a [Vec<DVec3>],
+    /// Per pattern, its bins where the receivers share it; its [`ShiftedBins`] where a
+    /// rectangle light's samples are rotated per receiver.
+    bins: Option<&'a [SampleBins]>,
+    shifted: Option<&'a [ShiftedBins]>,
+    /// Every sample's bit.
+    every: Vec<u64>,
+}
+
+impl Pass<'_> {
+    /// [`Pass::span`] compiled for AVX2 where the CPU has it: the alpha lookups' floors and the
+    /// bit counts become one instruction each, and without FMA (not enabled) the arithmetic
+    /// rounds as the baseline's, so the bits are the same.
+    fn span_on_this_cpu(
+        &self,
+        sides: &[Volume],
+        entries: Range<usize>,
+        part: &mut [u64],
+        projected: &mut Projected,
+    ) -> [u64; 3] {
+        #[cfg(target_arch = "x86_64")]
+        {
+            #[target_feature(enable = "avx2,popcnt")]
+            fn avx2(
+                pass: &Pass<'_>,
+                sides: &[Volume],
+                entries: Range<usize>,
+                part: &mut [u64],
+                projected: &mut Projected,
+            ) -> [u64; 3] {
+                pass.span(sides, entries, part, projected)
+            }
+            if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("popcnt") {
+                // SAFETY: the CPU has AVX2 and POPCNT (checked just above).
+                return unsafe { avx2(self, sides, entries, part, projected) };
+            }
+        }
+        self.span(sides, entries, part, projected)
+    }
+
+    /// The receiver of list entry `e` in the plane's coordinates.
+    #[inline(always)]
+    fn at(&self, e: usize) -> DVec3 {
+        let k = self.origins.lists.entries[e] as usize;
+        self.plane.coordinates(self.origins.origins[k].as_dvec3())
+    }
+
+    /// Sets in `part` (the masks of list entries `entries`) the samples that the triangle of
+    /// `sides` (its volumes) hides; returns the stats `receivers_tested`, `receivers_inside` and
+    /// `sample_projections` of the span.
+    #[inline(always)]
+    fn span(
+        &self,
+        sides: &[Volume],
+        entries: Range<usize>,
+        part: &mut [u64],
+        projected: &mut Projected,
+    ) -> [u64; 3] {
+        let mut counts = [0u64; 3];
+        let volume = &sides[0];
+        let Some(texture) = &self.scene.meshes[volume.mesh].alpha else {
+            return counts;
+        };
+        let (origins, samples, every) = (self.origins, self.origins.samples, &self.every[..]);
+        let words = every.len();
+        // The cone boxes' triangle in the plane's coordinates, as the volume's planes.
+        let vertices = volume
+            .triangle
+            .map(|x| self.plane.coordinates(x.as_dvec3()));
+        // Filled by each receiver's lookup before it is read.
+        let mut candidates = [0u64; MAX_SAMPLES / 64];
+        let candidates = &mut candidates[..words];
+        for (e, done) in entries.zip(part.chunks_mut(words)) {
+            // Every sample is blocked or does not count: the volume cannot change the bits.
+            if every.iter().zip(&*done).all(|(a, d)| a & !d == 0) {
+                continue;
+            }
+            let p = self.at(e);
+            let inside = sides.iter().filter(|v| v.contains(p)).count();
+            counts[0] += sides.len() as u64;
+            counts[1] += inside as u64;
+            if inside == 0 {
+                continue;
+            }
+            let k = origins.lists.entries[e] as usize;
+            let pattern = if self.patterns.len() == 1 {
+                0
+            } else {
+                let (x, y) = origins.receivers.pixel(origins.ids[k] as usize);
+                samples.pattern_index(x, y)
+            };
+            // Shared samples have no rotation: the receiver's id is not looked up for them.
+            let rotation = match self.bins {
+                Some(_) => None,
+                None => samples.rotation_for(origins.ids[k] as usize),
+            };
+            counts[2] += match (self.bins, self.shifted, rotation) {
+                (Some(bins), _, _) => {
+                    bins[pattern].candidates(p, &vertices, candidates);
+                    if candidates.iter().zip(&*done).all(|(c, d)| c & !d == 0) {
+                        continue;
+                    }
+                    let ys = projected.of(volume, pattern, &self.patterns[pattern]);
+                    volume.block(p, |s| ys[s], candidates, texture, done)
+                }
+                (None, Some(shifted), Some(r)) => {
+                    let shifted = &shifted[pattern];
+                    shifted.candidates(p, &vertices, r, candidates);
+                    let own = |s: usize| {
+                        volume.in_triangle(self.plane.coordinates(shifted.sample(s, r).as_dvec3()))
+                    };
+                    volume.block(p, own, candidates, texture, done)
+                }
+                (None, _, rotation) => {
+                    // Each sample rotated as the receiver's own (`SampleSet::fill`), and
+                    // every one projected.
+                    let ys = &samples.patterns()[pattern];
+                    let own = |s: usize| {
+                        let y = rotation.map_or(ys[s], |r| origins.light.rotate(ys[s], r));
+                        volume.in_triangle(self.plane.coordinates(y.as_dvec3()))
+                    };
+                    volume.block(p, own, every, texture, done)
+                }
+            };
+        }
+        counts
+    }
 }
 
 /// Whether some opaque triangle of `scene` may cut a segment from an origin of `origins` to a
