@@ -71,26 +71,50 @@ impl BoxBins {
     }
 
     /// The bin of coordinate `x` along `axis` (monotone in `x`, clamped to the bins).
+    #[inline(always)]
     fn bin(&self, axis: usize, x: f64) -> usize {
         // Clamped in f64 (NaN to 0 too), then one conversion instruction.
         let bin = ((x - self.low[axis]) * self.scale[axis]).clamp(0.0, (self.bins - 1) as f64);
         bin as u32 as usize
     }
 
-    /// Adds to `out` (`words` words) the points binned in the box `lo..=hi` (a superset of those
-    /// in it; none when the box misses every point's coordinates).
-    pub fn add_box(&self, lo: [f64; 2], hi: [f64; 2], out: &mut [u64]) {
-        if (0..2).any(|axis| hi[axis] < self.low[axis] || lo[axis] > self.high[axis]) {
+    /// Whether the span `lo..=hi` along `axis` meets the points' coordinates.
+    #[inline(always)]
+    pub fn overlaps(&self, axis: usize, lo: f64, hi: f64) -> bool {
+        hi >= self.low[axis] && lo <= self.high[axis]
+    }
+
+    /// Merges into `out` (`words` words), word by word (`merge(word, binned)`), the points binned
+    /// in the box `lo..=hi` (a superset of those in it; none when the box misses every point's
+    /// coordinates).
+    #[inline(always)]
+    pub fn merge_box(
+        &self,
+        lo: [f64; 2],
+        hi: [f64; 2],
+        out: &mut [u64],
+        merge: impl Fn(&mut u64, u64),
+    ) {
+        if (0..2).any(|axis| !self.overlaps(axis, lo[axis], hi[axis])) {
+            out.iter_mut().for_each(|o| merge(o, 0));
             return;
         }
         let w = self.words;
-        let [a0, b0] = [0, 1].map(|axis| self.bin(axis, lo[axis]) * w);
-        let [a1, b1] = [0, 1].map(|axis| self.bin(axis, hi[axis]) * w);
-        for (k, o) in out.iter_mut().enumerate() {
-            *o |= self.from[0][a0 + k]
-                & self.upto[0][a1 + k]
-                & self.from[1][b0 + k]
-                & self.upto[1][b1 + k];
+        fn run(table: &[u64], bin: usize, w: usize) -> &[u64] {
+            &table[bin * w..bin * w + w]
+        }
+        let x = run(&self.from[0], self.bin(0, lo[0]), w).iter().zip(run(
+            &self.upto[0],
+            self.bin(0, hi[0]),
+            w,
+        ));
+        let y = run(&self.from[1], self.bin(1, lo[1]), w).iter().zip(run(
+            &self.upto[1],
+            self.bin(1, hi[1]),
+            w,
+        ));
+        for ((o, (a0, a1)), (b0, b1)) in out.iter_mut().zip(x).zip(y) {
+            merge(o, a0 & a1 & b0 & b1);
         }
     }
 }
@@ -114,7 +138,7 @@ mod tests {
                     [a[0].max(b[0]), a[1].max(b[1])],
                 );
                 let mut found = vec![0u64; count.div_ceil(64)];
-                bins.add_box(lo, hi, &mut found);
+                bins.merge_box(lo, hi, &mut found, |o, binned| *o = binned);
                 for (k, c) in at.iter().enumerate() {
                     let inside = (0..2).all(|i| lo[i] <= c[i] && c[i] <= hi[i]);
                     let bit = found[k / 64] >> (k % 64) & 1 == 1;

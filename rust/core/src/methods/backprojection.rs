@@ -618,8 +618,11 @@ impl<'a> Occlusion<'a> {
                 // Only the samples in the quad's bounding box not already occluded are tested.
                 let lo = q.iter().fold(DVec2::INFINITY, |a, &c| a.min(c));
                 let hi = q.iter().fold(DVec2::NEG_INFINITY, |a, &c| a.max(c));
-                candidates.fill(0);
-                light.bins.add_box(lo.to_array(), hi.to_array(), candidates);
+                light
+                    .bins
+                    .merge_box(lo.to_array(), hi.to_array(), candidates, |o, binned| {
+                        *o = binned
+                    });
                 for (w, (&found, word)) in candidates.iter().zip(bits.iter_mut()).enumerate() {
                     let mut open = found & !*word;
                     while open != 0 {

@@ -53,6 +53,7 @@ use crate::geometry::mesh::{AlphaTexture, Scene};
 use crate::geometry::polygon::clip_to_side;
 use crate::geometry::receivers::Receivers;
 use crate::influence::{check_hull_degree, LightBounds, ObjectOptions, Origins};
+use crate::light::bins::BoxBins;
 use crate::light::lights::{rect_shifted, Light, RotationSeed, Shape};
 use crate::light::sampling::SampleSet;
 use crate::limits::{self, object_work, Peak};
@@ -548,76 +549,25 @@ impl SamplePlane {
 struct SampleBins {
     /// The largest distance of a sample from the plane.
     thickness: f64,
-    /// Per axis, the samples' lowest and highest coordinates and the bins per unit between.
-    low: [f64; 2],
-    high: [f64; 2],
-    scale: [f64; 2],
-    bins: usize,
-    words: usize,
-    /// Per axis, `words` per bin `j`: the samples in bins `>= j`, and in bins `<= j`.
-    from: [Vec<u64>; 2],
-    upto: [Vec<u64>; 2],
+    /// The samples binned at their plane coordinates `(a, b)`.
+    boxes: BoxBins,
     /// Every sample.
     all: Vec<u64>,
 }
 
 impl SampleBins {
-    /// The bins per axis of `count` samples.
-    fn bins_for(count: usize) -> usize {
-        count.clamp(8, 256)
-    }
-
-    /// The bytes of the bins of `count` samples: two tables per axis and the whole set.
+    /// The bytes of the bins of `count` samples: their tables and the whole set.
     fn bytes(count: usize) -> u64 {
-        (4 * Self::bins_for(count) as u64 + 1) * count.div_ceil(64) as u64 * 8
+        BoxBins::bytes(count) + count.div_ceil(64) as u64 * 8
     }
 
     /// Bins `at`, samples in the coordinates of the [`SamplePlane`].
     fn new(at: &[DVec3]) -> Self {
-        let words = at.len().div_ceil(64);
-        let bins = Self::bins_for(at.len());
-        let mut out = Self {
+        Self {
             thickness: at.iter().map(|c| c.z.abs()).fold(0.0, f64::max),
-            low: [f64::INFINITY; 2],
-            high: [f64::NEG_INFINITY; 2],
-            scale: [0.0; 2],
-            bins,
-            words,
-            from: [vec![0; bins * words], vec![0; bins * words]],
-            upto: [vec![0; bins * words], vec![0; bins * words]],
+            boxes: BoxBins::new(&at.iter().map(|c| [c.x, c.y]).collect::<Vec<_>>()),
             all: every_sample(at.len()),
-        };
-        for axis in 0..2 {
-            for c in at {
-                out.low[axis] = out.low[axis].min(c[axis]);
-                out.high[axis] = out.high[axis].max(c[axis]);
-            }
-            let span = out.high[axis] - out.low[axis];
-            out.scale[axis] = if span > 0.0 { bins as f64 / span } else { 0.0 };
-            let mut per_bin = vec![0u64; bins * words];
-            for (k, c) in at.iter().enumerate() {
-                per_bin[out.bin(axis, c[axis]) * words + k / 64] |= 1 << (k % 64);
-            }
-            let (from, upto) = (&mut out.from[axis], &mut out.upto[axis]);
-            for j in 0..bins {
-                for w in 0..words {
-                    let below = if j > 0 { upto[(j - 1) * words + w] } else { 0 };
-                    upto[j * words + w] = below | per_bin[j * words + w];
-                    let i = bins - 1 - j;
-                    let above = if j > 0 { from[(i + 1) * words + w] } else { 0 };
-                    from[i * words + w] = above | per_bin[i * words + w];
-                }
-            }
         }
-        out
-    }
-
-    /// The bin of coordinate `x` along `axis` (monotone in `x`, clamped to the bins).
-    #[inline(always)]
-    fn bin(&self, axis: usize, x: f64) -> usize {
-        // Clamped in f64 (NaN to 0 too), then one conversion instruction.
-        let bin = ((x - self.low[axis]) * self.scale[axis]).clamp(0.0, (self.bins - 1) as f64);
-        bin as u32 as usize
     }
 
     /// Into `out`, the samples that may lie in the cone from `p` through the triangle `tri`
@@ -626,41 +576,8 @@ impl SampleBins {
     #[inline(always)]
     fn candidates(&self, p: DVec3, tri: &[DVec3; 3], out: &mut [u64]) {
         match cone_box(p, tri, self.thickness) {
-            Some((lo, hi)) => self.merge_box(lo, hi, out, |o, binned| *o = binned),
+            Some((lo, hi)) => self.boxes.merge_box(lo, hi, out, |o, binned| *o = binned),
             None => out.copy_from_slice(&self.all),
-        }
-    }
-
-    /// Merges into `out`, word by word (`merge(word, binned)`), the samples binned in the box
-    /// `lo..=hi` (a superset of those in it).
-    #[inline(always)]
-    fn merge_box(
-        &self,
-        lo: [f64; 2],
-        hi: [f64; 2],
-        out: &mut [u64],
-        merge: impl Fn(&mut u64, u64),
-    ) {
-        if (0..2).any(|axis| hi[axis] < self.low[axis] || lo[axis] > self.high[axis]) {
-            out.iter_mut().for_each(|o| merge(o, 0));
-            return;
-        }
-        let w = self.words;
-        fn run(table: &[u64], bin: usize, w: usize) -> &[u64] {
-            &table[bin * w..bin * w + w]
-        }
-        let x = run(&self.from[0], self.bin(0, lo[0]), w).iter().zip(run(
-            &self.upto[0],
-            self.bin(0, hi[0]),
-            w,
-        ));
-        let y = run(&self.from[1], self.bin(1, lo[1]), w).iter().zip(run(
-            &self.upto[1],
-            self.bin(1, hi[1]),
-            w,
-        ));
-        for ((o, (a0, a1)), (b0, b1)) in out.iter_mut().zip(x).zip(y) {
-            merge(o, a0 & a1 & b0 & b1);
         }
     }
 }
@@ -800,11 +717,12 @@ impl ShiftedBins {
                     let back = f64::from(k) - f64::from(r[axis]);
                     (low[axis] + back - margin, high[axis] + back + margin)
                 })
-                .filter(move |&(lo, hi)| hi >= self.bins.low[axis] && lo <= self.bins.high[axis])
+                .filter(move |&(lo, hi)| self.bins.boxes.overlaps(axis, lo, hi))
         };
         for (a0, a1) in shifts(0) {
             for (b0, b1) in shifts(1) {
                 self.bins
+                    .boxes
                     .merge_box([a0, b0], [a1, b1], out, |o, binned| *o |= binned);
             }
         }
