@@ -14,8 +14,9 @@ cd "$(dirname "$0")/.."
 secs="${1:-10}"
 fuzz_dir=rust/fuzz
 
-# No sanitizer: softshadows-core's only unsafe code is the SIMD dispatch of its packet tracer (each
-# call checked for its CPU features), and ASan would halve the executions.
+# No sanitizer: the only unsafe code on the fuzzed paths is the SIMD dispatch of the packet tracer
+# and of stsv's perforated pass (each call checked for its CPU features), and ASan would halve the
+# executions.
 # Debug assertions (overflow checks included) are on, as cargo-fuzz builds by default.
 cargo +nightly fuzz build --fuzz-dir "$fuzz_dir" --sanitizer none
 host="$(rustc +nightly -vV | sed -n 's/^host: //p')"
