@@ -31,7 +31,9 @@
 //!    light's plane ([`SampleBins`]), where only those in the bounding box of the triangle's
 //!    cone from the receiver are looked up; a rectangle light's samples rotated per receiver
 //!    (section 4.1) are binned by their parameters, where the cone's box is shifted back by the
-//!    receiver's offset ([`ShiftedBins`]). A triangle's two volumes are visited together.
+//!    receiver's offset ([`ShiftedBins`]), and a disk's or a sphere's, rotated rigidly about the
+//!    light's center, are found in the pattern's bins by the cone rotated back
+//!    ([`RotatedBack`]). A triangle's two volumes are visited together.
 //!    Shared samples are moved into a triangle's space (`M' (y − v0)`) once per band of light-map
 //!    rows, for all the band's receivers ([`Projected`]); the pass is compiled for AVX2 where
 //!    the CPU has it, without FMA, so it rounds as the baseline and the bits are the same.
@@ -570,13 +572,18 @@ impl SampleBins {
         }
     }
 
-    /// Into `out`, the samples that may lie in the cone from `p` through the triangle `tri`
-    /// (both in plane coordinates): those binned in its [`cone_box`], or every sample where the
-    /// box is unbounded.
+    /// Into `out`, the samples that may lie within `slack` of the cone from `p` through the
+    /// triangle `tri` (both in plane coordinates): those binned in its [`cone_box`] widened by
+    /// `slack`, or every sample where the box is unbounded. `slack` is 0 for shared samples.
     #[inline(always)]
-    fn candidates(&self, p: DVec3, tri: &[DVec3; 3], out: &mut [u64]) {
-        match cone_box(p, tri, self.thickness) {
-            Some((lo, hi)) => self.boxes.merge_box(lo, hi, out, |o, binned| *o = binned),
+    fn candidates(&self, p: DVec3, tri: &[DVec3; 3], slack: f64, out: &mut [u64]) {
+        match cone_box(p, tri, self.thickness + slack) {
+            Some((lo, hi)) => self.boxes.merge_box(
+                lo.map(|x| x - slack),
+                hi.map(|x| x + slack),
+                out,
+                |o, binned| *o = binned,
+            ),
             None => out.copy_from_slice(&self.all),
         }
     }
@@ -620,6 +627,42 @@ fn cone_section(p: DVec3, tri: &[DVec3; 3], thickness: f64) -> Option<([DVec2; 3
     let size = height + p.truncate().abs() + reach;
     let margin = thickness * slope + 1e-7 * size;
     (corners.iter().all(|c| c.is_finite()) && margin.is_finite()).then_some((corners, margin))
+}
+
+/// The rigid rotation of a disk's or a sphere's samples about the light's center for one
+/// receiver (`Light::rotate`, the decorrelation of Forest et al. 2009, section 4.1), undone in
+/// the [`SamplePlane`]'s coordinates: a rotated sample lies in the cone from `p` through a
+/// triangle where its pattern sample lies in the cone rotated back, which the pattern's
+/// [`SampleBins`] look up, the cone widened by the f32 round-off of the rotated samples
+/// ([`RotatedBack::slack`]). Every rotated sample in the cone is among those found, so the bits
+/// are the same.
+struct RotatedBack {
+    /// Plane coordinates to plane coordinates: the inverse of the receiver's rotation.
+    back: DMat3,
+}
+
+impl RotatedBack {
+    /// The rotation undone for seed `r`; `None` unless `light` rotates its samples rigidly.
+    fn new(light: &Light, plane: &SamplePlane, r: RotationSeed) -> Option<Self> {
+        let rotation = light.rigid_rotation(r)?.as_dmat3();
+        Some(Self {
+            back: plane.to_plane * rotation.transpose() * plane.to_plane.transpose(),
+        })
+    }
+
+    /// A bound of the distance between a sample rotated by `Light::rotate` (in f32, about the
+    /// light's center) and its pattern sample rotated exactly, for the pattern `at` (plane
+    /// coordinates, about the center): a few f32 roundings of the center and of the sample's
+    /// offset, and the f32 rotation's departure from orthonormal, generously.
+    fn slack(light: &Light, at: &[DVec3]) -> f64 {
+        let reach = at.iter().map(|y| y.length()).fold(0.0, f64::max);
+        64.0 * f64::from(f32::EPSILON) * (light.center().as_dvec3().length() + reach)
+    }
+
+    /// `p` and the triangle `tri` (plane coordinates) rotated back.
+    fn cone(&self, p: DVec3, tri: &[DVec3; 3]) -> (DVec3, [DVec3; 3]) {
+        (self.back * p, tri.map(|v| self.back * v))
+    }
 }
 
 /// A rectangle light's pattern binned by its samples' parameters `(s, t)`, for receivers whose
@@ -815,8 +858,9 @@ fn perforated_masks(
     // Receivers that share a pattern (not rotated) find the samples worth projecting in its bins;
     // those of a rectangle light, rotated per receiver, in the bins of its parameters.
     let rotated = samples.rotates();
+    let rigid = origins.light.rigid_rotation([0.0; 3]).is_some();
     let bins: Option<Vec<SampleBins>> =
-        (!rotated).then(|| patterns.iter().map(|p| SampleBins::new(p)).collect());
+        (!rotated || rigid).then(|| patterns.iter().map(|p| SampleBins::new(p)).collect());
     let shifted: Option<Vec<ShiftedBins>> = rotated
         .then(|| {
             samples
@@ -831,8 +875,10 @@ fn perforated_masks(
         origins,
         plane: &plane,
         patterns: &patterns,
+        rotates: rotated,
         bins: bins.as_deref(),
         shifted: shifted.as_deref(),
+        slack: RotatedBack::slack(origins.light, &patterns.concat()),
         every: every_sample(samples.count()),
     };
     // Each entry's one mask holds the samples blocked or that do not count: neither needs
@@ -902,10 +948,14 @@ struct Pass<'a> {
     plane: &'a SamplePlane,
     /// Per pattern, its samples in the plane's coordinates.
     patterns: &'a [Vec<DVec3>],
-    /// Per pattern, its bins where the receivers share it; its [`ShiftedBins`] where a
-    /// rectangle light's samples are rotated per receiver.
+    /// Whether each receiver rotates the samples (`SampleSet::rotation_for`).
+    rotates: bool,
+    /// Per pattern, its bins where the receivers share it or rotate it rigidly (disk, sphere);
+    /// its [`ShiftedBins`] where a rectangle light's samples are rotated per receiver.
     bins: Option<&'a [SampleBins]>,
     shifted: Option<&'a [ShiftedBins]>,
+    /// [`RotatedBack::slack`] of the patterns.
+    slack: f64,
     /// Every sample's bit.
     every: Vec<u64>,
 }
@@ -993,20 +1043,36 @@ impl Pass<'_> {
                 samples.pattern_index(x, y)
             };
             // Shared samples have no rotation: the receiver's id is not looked up for them.
-            let rotation = match self.bins {
-                Some(_) => None,
-                None => samples.rotation_for(origins.ids[k] as usize),
+            let rotation = if self.rotates {
+                samples.rotation_for(origins.ids[k] as usize)
+            } else {
+                None
             };
-            counts[2] += match (self.bins, self.shifted, rotation) {
-                (Some(bins), _, _) => {
-                    bins[pattern].candidates(p, &vertices, candidates);
+            let light = origins.light;
+            let rotated_back = rotation.and_then(|r| RotatedBack::new(light, self.plane, r));
+            counts[2] += match (rotation, rotated_back, self.bins, self.shifted) {
+                (None, _, Some(bins), _) => {
+                    bins[pattern].candidates(p, &vertices, 0.0, candidates);
                     if candidates.iter().zip(&*done).all(|(c, d)| c & !d == 0) {
                         continue;
                     }
                     let ys = projected.of(volume, pattern, &self.patterns[pattern]);
                     volume.block(p, |s| ys[s], candidates, texture, done)
                 }
-                (None, Some(shifted), Some(r)) => {
+                (Some(r), Some(back), Some(bins), _) => {
+                    let (back_p, back_tri) = back.cone(p, &vertices);
+                    bins[pattern].candidates(back_p, &back_tri, self.slack, candidates);
+                    if candidates.iter().zip(&*done).all(|(c, d)| c & !d == 0) {
+                        continue;
+                    }
+                    let ys = &samples.patterns()[pattern];
+                    let own = |s: usize| {
+                        volume
+                            .in_triangle(self.plane.coordinates(light.rotate(ys[s], r).as_dvec3()))
+                    };
+                    volume.block(p, own, candidates, texture, done)
+                }
+                (Some(r), None, _, Some(shifted)) => {
                     let shifted = &shifted[pattern];
                     shifted.candidates(p, &vertices, r, candidates);
                     let own = |s: usize| {
@@ -1014,12 +1080,12 @@ impl Pass<'_> {
                     };
                     volume.block(p, own, candidates, texture, done)
                 }
-                (None, _, rotation) => {
+                (rotation, ..) => {
                     // Each sample rotated as the receiver's own (`SampleSet::fill`), and
                     // every one projected.
                     let ys = &samples.patterns()[pattern];
                     let own = |s: usize| {
-                        let y = rotation.map_or(ys[s], |r| origins.light.rotate(ys[s], r));
+                        let y = rotation.map_or(ys[s], |r| light.rotate(ys[s], r));
                         volume.in_triangle(self.plane.coordinates(y.as_dvec3()))
                     };
                     volume.block(p, own, every, texture, done)
@@ -1249,6 +1315,54 @@ mod tests {
         let m = DMat3::from_cols(tri[0] - p, tri[1] - p, tri[2] - p);
         let w = m.inverse() * (y - p);
         w.min_element() >= -1e-9 && w.element_sum() >= 1.0 - 1e-9
+    }
+
+    /// For a disk and a sphere rotating their samples per receiver, every rotated sample (the
+    /// same bits as `Light::rotate`) that a triangle may hide from a receiver is among the
+    /// pattern's bin candidates for the cone rotated back; and the bins leave most samples out.
+    #[test]
+    fn rotated_back_bins_find_every_rigidly_rotated_sample_in_the_cone() {
+        let center = Vec3::new(0.3, 4.0, -0.2);
+        // A ball's samples are binned in one plane, and its cone rotated back comes from any
+        // direction, its box widened by the ball's thickness times the cone's slope: the bins
+        // leave fewer out than a disk's.
+        for (light, most) in [
+            (Light::disk(center, Vec3::new(0.2, -1.0, 0.1), 0.7).unwrap(), 4),
+            (Light::sphere(center, 0.5).unwrap(), 2),
+        ] {
+            let pattern = light_samples(&light, 128, Pattern::Poisson, 7, 0);
+            let plane = SamplePlane::new(&light, Vec3::NEG_Y);
+            let at = |x: Vec3| plane.coordinates(x.as_dvec3());
+            let in_plane: Vec<DVec3> = pattern.iter().map(|&y| at(y)).collect();
+            let bins = SampleBins::new(&in_plane);
+            let slack = RotatedBack::slack(&light, &in_plane);
+            let mut rng = Rng::stream(5, 0);
+            let mut uniform = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
+            let (mut found, mut total) = (0, 0);
+            for trial in 0..2000 {
+                let p = Vec3::new(uniform(-2.0, 2.0), 0.0, uniform(-2.0, 2.0));
+                let c = Vec3::new(uniform(-1.5, 1.5), uniform(0.5, 3.0), uniform(-1.5, 1.5));
+                let tri = [0, 1, 2].map(|_| {
+                    c + Vec3::new(uniform(-0.2, 0.2), uniform(-0.05, 0.05), uniform(-0.2, 0.2))
+                });
+                let r = [uniform(0.0, 1.0), uniform(0.0, 1.0), uniform(0.0, 1.0)];
+                let back = RotatedBack::new(&light, &plane, r).unwrap();
+                let (pp, tt) = (at(p), tri.map(at));
+                let (back_p, back_tri) = back.cone(pp, &tt);
+                let mut candidates = [0u64; 2];
+                bins.candidates(back_p, &back_tri, slack, &mut candidates);
+                for (s, &y) in pattern.iter().enumerate() {
+                    let candidate = candidates[s / 64] >> (s % 64) & 1 == 1;
+                    assert!(
+                        candidate || !beyond(pp, &tt, at(light.rotate(y, r))),
+                        "trial {trial}, sample {s}"
+                    );
+                    found += u32::from(candidate);
+                    total += 1;
+                }
+            }
+            assert!(found * most < total, "{light:?}: {found} candidates of {total}");
+        }
     }
 
     /// On a rectangle whose sides are not orthogonal, every sample that a triangle may hide from
