@@ -5,9 +5,9 @@ All of them trace the very same rays in one run, side by side: every hit pixel o
 at 512x512 receivers times 64 shared Poisson light samples (the rays of docs/design.md section 3:
 origin p + eps n, ending just short of the sample; samples behind the tangent plane are not
 traced). Each round runs every contender once, in turn, so that the machine's noise hits them
-alike; each one's fastest round counts. ``ray_test`` and embreex get the rays prebuilt, the other
-two build them from the receivers and samples. It prints rays per second of each and the ratios,
-plus how often the answers agree.
+alike; each one's fastest round counts, in wall and in CPU time. ``ray_test`` and embreex get the
+rays prebuilt, the other two build them from the receivers and samples. It prints rays per second
+of each and the ratios, plus how often the answers agree.
 
 Usage: ``python bench/shadow_rays.py [--size 512] [--samples 64] [--repeat 3]``
 """
@@ -36,15 +36,20 @@ def shadow_rays(gb, samples, eps):
     return o.astype(np.float32), (d / length[:, None]).astype(np.float32), (length * (1 - 1e-6)).astype(np.float32), front
 
 
-def side_by_side(repeat, contenders):
+def side_by_side(repeat, contenders, cpu=None):
     """Runs every contender (name -> function) once per round for ``repeat`` rounds, in turn;
-    returns each one's fastest round (seconds) and its last result."""
+    returns each one's fastest round (seconds) and its last result. A dict ``cpu`` gets each
+    one's fastest CPU time of the process (seconds, all threads: steadier than wall time on a
+    shared machine)."""
     seconds, results = {name: float("inf") for name in contenders}, {}
+    cpu = {} if cpu is None else cpu
+    cpu.update({name: float("inf") for name in contenders})
     for _ in range(repeat):
         for name, fn in contenders.items():
-            start = time.perf_counter()
+            start, start_cpu = time.perf_counter(), time.process_time()
             results[name] = fn()
             seconds[name] = min(seconds[name], time.perf_counter() - start)
+            cpu[name] = min(cpu[name], time.process_time() - start_cpu)
     return seconds, results
 
 
@@ -110,12 +115,13 @@ def main(argv=None):
     print(f"{args.scene}: {setup.scene.num_faces} triangles, {int(gb.mask.sum())} hit pixels x {args.samples} samples "
           f"= {rays} shadow rays; {os.cpu_count()} cores; Mitsuba variant {reference.variant()}")
 
+    cpu = {}
     seconds, results = side_by_side(args.repeat, {
         "ray_traced": ours(setup, gb, samples, eps),
         "mitsuba ray_test": mitsuba(setup, o, d, maxt),
         "mitsuba_visibility": reference_visibility(setup, gb, samples, eps),
         "embreex (1 thread)": embree(setup, o, d, maxt),
-    })
+    }, cpu=cpu)
 
     def visibility(hits):
         blocked = np.zeros(front.shape, dtype=bool)
@@ -123,9 +129,10 @@ def main(argv=None):
         return ((~blocked) & front).mean(axis=1)
 
     for name, t in seconds.items():
-        print(f"  {name:<20} {rays / t / 1e6:8.2f} Mrays/s  ({t:.3f} s)")
+        print(f"  {name:<20} {rays / t / 1e6:8.2f} Mrays/s  ({t:.3f} s, {cpu[name]:.3f} s CPU)")
     t_mi = seconds["mitsuba ray_test"]
-    print(f"  ratio ray_traced / mitsuba ray_test:         {t_mi / seconds['ray_traced']:.2f}x")
+    print(f"  ratio ray_traced / mitsuba ray_test:         {t_mi / seconds['ray_traced']:.2f}x "
+          f"(CPU time {cpu['mitsuba ray_test'] / cpu['ray_traced']:.2f}x)")
     print(f"  ratio ray_traced / embreex:                  {seconds['embreex (1 thread)'] / seconds['ray_traced']:.2f}x")
     print(f"  ratio mitsuba_visibility / mitsuba ray_test: {t_mi / seconds['mitsuba_visibility']:.2f}x")
     ours_hit = results["ray_traced"][gb.mask]

@@ -21,6 +21,9 @@ use crate::limits;
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 
+/// Bins per axis. The bunny's 128x128 shadow rays of bench/shadow_rays.py (one thread, trees of
+/// each count in interleaved rounds of one process, same bits) took 0.98-1.00x the CPU time
+/// with 8, 64 or 128 bins, and 1.18x with 32.
 const BINS: usize = 16;
 const LEAF_SIZE: usize = 4;
 /// Depth after which splits are object medians (bounds the tree depth).

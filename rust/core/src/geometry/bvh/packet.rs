@@ -74,6 +74,8 @@ const CHUNK_MASK: u64 = (1 << W) - 1;
 /// One lane's `hit4` (four triangles) costs about one triangle's test of a whole chunk in
 /// AVX-512, and a leaf holds 3.5 triangles on average: the break-even is near 3 lanes. In
 /// the bunny's packets 57% of the chunks that reach a leaf bring at most 3 lanes (28% one).
+/// At 128x128 receivers (measured as [`SINGLE_RAY_LANES`]), 2 and 5 lanes took 1.00-1.01x the
+/// CPU time of 3.
 const SPARSE_LANES: u32 = 3;
 
 /// Most active lanes at a node for which the packet hands each lane its own single-ray
@@ -82,6 +84,18 @@ const SPARSE_LANES: u32 = 3;
 /// the CPU time of no hand-off at 128x128 receivers, 0.94-0.96x at 256x256 and 0.95-0.98x at
 /// 512x512, with the same answers bit for bit. At 128x128, 2 lanes took 1.06-1.07x the CPU time
 /// of 4, and 8 the same as 4 within the noise (three alternating runs each).
+///
+/// At 128x128, 44% of the packets' live lanes are handed off, each about three times per
+/// sample, and a hand-off tests 1.4 nodes and 0.7 leaves on average: its cost is the latency of
+/// a few dependent node tests, with nothing left to skip. What did not make it cheaper (one
+/// thread, each variant against this code in interleaved rounds of one process, fastest CPU
+/// time, same bits): testing first the block that last blocked the lane, an occluder cache per
+/// receiver after Haines and Greenberg, "The light buffer: a shadow-testing accelerator" (1986),
+/// found the segment blocked for 0.9% of the hand-offs with a remembered block (1.3% at
+/// 256x256) and took 1.05x the CPU time (1.03x), since a receiver's Poisson samples spread over
+/// the light and its consecutive rays rarely meet the same block; tracing a node's handed-off
+/// lanes together on one stack, each node slab-tested for all of them, took 1.58x; 3 lanes
+/// took 1.03x and 6 lanes 0.99x the time of 4.
 const SINGLE_RAY_LANES: u32 = 4;
 
 /// The instruction sets the packet traversal is compiled for; [`Isa::detect`] picks the
