@@ -96,14 +96,9 @@ pub fn ray_traced(
     let per_thread = limits::bytes(&[samples.count() as u64, 40 + TILE as u64]);
     let threads = rayon::current_num_threads() as u64;
     let mut stats = Stats::declared(STATS);
-    // With shared samples, each thread's copy of a band (`TILE_ROWS` rows) and the work items'
-    // row segments (16 bytes each, at most `MIN_ITEMS` per row).
-    let (width, height) = (receivers.width as u64, receivers.height as u64);
     Peak::default()
         .buffer(&[n as u64, 4])
         .buffer(&[per_thread, threads])
-        .buffer(&[TILE_ROWS as u64, width, 4, threads])
-        .buffer(&[height, width.min(MIN_ITEMS as u64), 16])
         .check("ray_traced", &mut stats)?;
     Work::default()
         .loop_of(&[n as u64, samples.count() as u64, Work::RAY])
@@ -244,15 +239,13 @@ const _: () = assert!(TILE <= Bvh::PACKET_LANES);
 const TILE_ROWS: usize = 8;
 
 /// [`trace_all`] for samples `ys` shared by every receiver, all of weight 1: the grid is cut
-/// into bands of tile rows, the bands into runs of tiles (the parallel work items, at least
-/// [`MIN_ITEMS`] of them, cut from the grid alone, so the output does not depend on the thread
-/// count) and each run into tiles traced by [`trace_tile`], into a per-thread copy of the band
-/// that the run's receivers are copied out of.
+/// into bands of tile rows (the parallel work items, so the output does not depend on the
+/// thread count) and each band into tiles traced by [`trace_tile`].
 ///
-/// All the items go in one parallel pass, not in rounds: the cost of a band varies tenfold with
+/// All the bands go in one parallel pass, not in rounds: the cost of a band varies tenfold with
 /// the shadows it crosses, and rounds of one band per thread wait for their slowest
 /// (`bench/shadow_rays.py` at 128x128 measured the one pass faster on two cores). A tile is
-/// the unit of interruption instead: the items stop at their next tile once the call is asked
+/// the unit of interruption instead: the bands stop at their next tile once the call is asked
 /// to stop, and the check after the pass reports it.
 fn trace_shared(
     scene: &Scene,
@@ -267,99 +260,39 @@ fn trace_shared(
     let cols = TILE / rows;
     let shared = SharedSamples::new(ys);
     let band_len = rows * width;
-    let group = cols * tiles_per_item(out.len().div_ceil(band_len), width.div_ceil(cols));
-    let items = work_items(out, band_len, width, group);
     interrupt::check()?;
     let watch = interrupt::watch();
-    let rays = items
-        .into_par_iter()
-        .map_init(
-            || (TileBuffers::default(), Vec::new()),
-            |(buf, band), item| {
-                let (first, len) = (item.band * band_len, item.band_len);
-                buf.to_packets.clear();
-                buf.to_packets.resize(len, false);
-                band.resize(band_len, 0f32);
-                // Receivers the tiles skip (invalid ones) read 0, not an earlier item's value.
-                for (r, seg) in item.rows.iter().enumerate() {
-                    band[r * width + item.x0..][..seg.len()].fill(0.0);
-                }
-                let x_end = (item.x0 + group).min(width);
-                let rays = (item.x0..x_end)
-                    .step_by(cols)
-                    .take_while(|_| !watch.requested())
-                    .map(|x0| {
-                        let tile = (0..rows)
-                            .flat_map(|r| (x0..(x0 + cols).min(x_end)).map(move |x| r * width + x))
-                            .filter(move |&k| k < len);
-                        trace_tile(
-                            scene,
-                            bvh,
-                            receivers,
-                            &shared,
-                            epsilon,
-                            (first, width),
-                            tile,
-                            band,
-                            buf,
-                        )
-                    })
-                    .sum::<u64>();
-                for (r, seg) in item.rows.into_iter().enumerate() {
-                    seg.copy_from_slice(&band[r * width + item.x0..][..seg.len()]);
-                }
-                rays
-            },
-        )
+    let rays = out
+        .par_chunks_mut(band_len)
+        .enumerate()
+        .map_init(TileBuffers::default, |buf, (b, band)| {
+            let (first, len) = (b * band_len, band.len());
+            buf.to_packets.clear();
+            buf.to_packets.resize(len, false);
+            (0..width)
+                .step_by(cols)
+                .take_while(|_| !watch.requested())
+                .map(|x0| {
+                    let tile = (0..rows)
+                        .flat_map(|r| (x0..(x0 + cols).min(width)).map(move |x| r * width + x))
+                        .filter(move |&k| k < len);
+                    trace_tile(
+                        scene,
+                        bvh,
+                        receivers,
+                        &shared,
+                        epsilon,
+                        (first, width),
+                        tile,
+                        band,
+                        buf,
+                    )
+                })
+                .sum::<u64>()
+        })
         .sum::<u64>();
     interrupt::check()?;
     Ok(rays)
-}
-
-/// Fewest parallel work items of [`trace_shared`]: bands are cut into runs of tiles until
-/// there are as many. A band's cost varies tenfold with the shadows it crosses: at 128x128
-/// (16 bands) the costliest band of the bunny took 24% of the call's CPU time, so two threads
-/// waited on it; its runs of 4 tiles take at most 8%.
-const MIN_ITEMS: usize = 64;
-
-/// Tiles per work item for `bands` bands of `tiles` tiles each: whole bands when there are at
-/// least [`MIN_ITEMS`] of them, else each band in as many equal runs as make up that count.
-fn tiles_per_item(bands: usize, tiles: usize) -> usize {
-    let runs = MIN_ITEMS.div_ceil(bands.max(1)).min(tiles.max(1));
-    tiles.max(1).div_ceil(runs)
-}
-
-/// One parallel work item of [`trace_shared`]: the columns from `x0` of band `band` (of
-/// `band_len` receivers), as the segments of its rows in the output.
-struct WorkItem<'a> {
-    band: usize,
-    band_len: usize,
-    x0: usize,
-    rows: Vec<&'a mut [f32]>,
-}
-
-/// Cuts `out` (rows of `width` receivers) into bands of `band_len` receivers and each band
-/// into runs of `group` columns, in order.
-fn work_items(out: &mut [f32], band_len: usize, width: usize, group: usize) -> Vec<WorkItem<'_>> {
-    let mut items = Vec::new();
-    for (b, band) in out.chunks_mut(band_len).enumerate() {
-        let first = items.len();
-        let len = band.len();
-        for row in band.chunks_mut(width) {
-            for (g, seg) in row.chunks_mut(group).enumerate() {
-                if items.len() == first + g {
-                    items.push(WorkItem {
-                        band: b,
-                        band_len: len,
-                        x0: g * group,
-                        rows: Vec::new(),
-                    });
-                }
-                items[first + g].rows.push(seg);
-            }
-        }
-    }
-    items
 }
 
 /// The samples every receiver shares: as points, per axis (for [`SharedSamples::front`]) and
@@ -441,8 +374,8 @@ struct TileBuffers {
 /// listing their samples). A receiver whose left and upper neighbours in the band both
 /// went to the packets skips that pass and goes there too: shadow regions are contiguous, so
 /// the pass would almost surely fail after meeting too many leaves, and either path gives the
-/// same answers (the left neighbour may lie in the previous tile of the work item, so
-/// `b.to_packets` must be reset per item). The rays of the others go by sample: those of all
+/// same answers (the left neighbour may lie in the previous tile of the band, so
+/// `b.to_packets` must be reset per band). The rays of the others go by sample: those of all
 /// remaining receivers of the tile to sample `y_s` converge at `y_s` and are traced as one
 /// coherent packet (Benthin and Wald 2009, see `bvh/packet.rs`). Both give the answers of
 /// single rays, so V is the same as [`receiver_visibility`] computes.
@@ -745,35 +678,6 @@ mod tests {
                 receiver_visibility(scene, bvh, origins, n, &ys, &ws, &mut traced).0
             })
             .collect()
-    }
-
-    /// Whole bands from 64 bands on (512x512 receivers); 4 runs of 4 tiles at 128x128, 2 runs
-    /// of 16 at 256x256; one tile per item for grids of few tiles.
-    #[test]
-    fn work_items_cut_bands_into_runs_until_there_are_enough() {
-        assert_eq!(tiles_per_item(64, 64), 64);
-        assert_eq!(tiles_per_item(16, 16), 4);
-        assert_eq!(tiles_per_item(32, 32), 16);
-        assert_eq!(tiles_per_item(3, 5), 1);
-        assert_eq!(tiles_per_item(0, 0), 1);
-        let mut out = vec![0f32; 37 * 21];
-        let items = work_items(&mut out, 8 * 37, 37, 16);
-        let shape: Vec<_> = items
-            .iter()
-            .map(|it| (it.band, it.x0, it.rows.len(), it.rows[0].len()))
-            .collect();
-        assert_eq!(
-            shape,
-            [0, 1, 2]
-                .into_iter()
-                .flat_map(|b| [(0, 16), (16, 16), (32, 5)].map(|(x0, w)| (
-                    b,
-                    x0,
-                    if b == 2 { 5 } else { 8 },
-                    w
-                )))
-                .collect::<Vec<_>>()
-        );
     }
 
     fn bits(v: &[f32]) -> Vec<u32> {
