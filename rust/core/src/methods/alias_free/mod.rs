@@ -497,6 +497,13 @@ impl<'a> Supporting<'a> {
 /// A plane `m · y < k` and `1 / |m|`.
 type Plane = (DVec3, f64, f64);
 
+/// Whether `mask` equals `full`, word by word (inlined, where a slice comparison calls `memcmp`
+/// once per pair).
+#[inline]
+fn is_full(mask: &[u64], full: &[u64]) -> bool {
+    mask.iter().zip(full).all(|(a, b)| a == b)
+}
+
 /// `a &= b`, word by word.
 fn and_into(a: &mut [u64], b: &[u64]) {
     a.iter_mut().zip(b).for_each(|(a, b)| *a &= b);
@@ -1621,7 +1628,8 @@ impl<'a> Tester<'a> {
                     let m = &mut band_masks[(e - base) * words..(e - base + 1) * words];
                     let s = &entries[e];
                     // Wholly beyond both the receiver and the light: it cannot cut their segment.
-                    if (t.culled && !s.inside) || t.near_depth > s.reach + slack || m == full {
+                    if (t.culled && !s.inside) || t.near_depth > s.reach + slack || is_full(m, full)
+                    {
                         continue;
                     }
                     let from_inside;
