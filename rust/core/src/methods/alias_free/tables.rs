@@ -2,9 +2,9 @@
 //! its unit normal and its signed distance from the light's center, and a table holds, per bin,
 //! a bitmask over the light samples (Sintorn et al. 2008, Sample Based Visibility for Soft
 //! Shadows using Alias-free Shadow Maps, sections 4.2 and 4.3, after Eisemann and Décoret 2007).
-//! The paper's two coordinates are the normal's two angles; these are its
-//! hemi-octahedral coordinates and sign ([`PlaneBins`]), whose bin is found by arithmetic
-//! where the angles' bins took a search (or trigonometry).
+//! The paper's two coordinates are the normal's two angles; these are its hemi-octahedral
+//! coordinates and sign ([`PlaneBins`]), whose bin is found by arithmetic where the angles'
+//! bins took a search (or trigonometry).
 //!
 //! - [`Lut`], the paper's table: the samples behind the plane at the bin's center. It
 //!   approximates: a plane is moved to its bin's center, so a sample near the plane may land on
@@ -41,11 +41,10 @@ use super::LightSamples;
 /// in the cell of `u` with the other sign, whose center is the negated center: a plane and its
 /// complement (the two sides of an edge shared by two triangles) are binned to complementary
 /// planes (up to round-off at a distance bin's boundary), so the table leaves no sample between
-/// two triangles that share an edge, as the angles' symmetric bins did not either (the umbra
-/// stays whole: an octahedral map of the whole sphere, not symmetric, left samples of
-/// umbra view samples lit). `cells` is `bins / √2` rounded
-/// down: the `2 cells²` normal bins are at most the paper's `bins²` (the table no larger than
-/// `bins³` entries), within 4% from 64 bins on; the distance takes `bins`.
+/// two triangles that share an edge, as the angles' symmetric bins did not (an octahedral map of
+/// the whole sphere, not symmetric, left samples lit in the umbra). `cells` is `bins / √2`
+/// rounded down: the `2 cells²` normal bins are at most the paper's `bins²` (the table no larger
+/// than `bins³` entries), within 4% from 64 bins on; the distance takes `bins`.
 pub(crate) struct PlaneBins {
     pub bins: usize,
     /// Cells per side of the square of each sign.
@@ -153,11 +152,8 @@ impl PlaneBins {
         for b in [b0, b1] {
             corners.extend([b, -b].into_iter().filter(|&a| in_a(a)).map(|a| (a, b)));
         }
-        let center = from_hemi_octahedral(
-            0,
-            self.boundary(i as f64 + 0.5),
-            self.boundary(j as f64 + 0.5),
-        );
+        // The center of the bin's cell with sign `+`.
+        let center = self.normal(n % (self.cells * self.cells));
         let far = corners
             .into_iter()
             .map(|(a, b)| (from_hemi_octahedral(0, a, b) - center).length())
