@@ -343,26 +343,21 @@ impl<'a> Planes<'a> {
         };
         out.copy_from_slice(full);
         if self.lut.is_some() {
-            // The paper's table: each plane's mask is read, the planes' masks AND-ed. Every
-            // entry is found before any is read, so that the reads (far apart in a table of
-            // megabytes) overlap.
-            let mut entries: [&[u64]; 4] = [&[]; 4];
-            let mut found = 0;
+            // The paper's table: each plane's mask is read and AND-ed, until none is left.
             for i in 0..planes.len() {
                 *ops += 1;
                 match read(i) {
                     Read::Lut(table) => {
-                        entries[found] = table;
-                        found += 1;
+                        and_into(out, table);
+                        if out.iter().all(|w| *w == 0) {
+                            return false;
+                        }
                     }
                     Read::Nothing => return false,
                     _ => {}
                 }
             }
-            entries[..found]
-                .iter()
-                .for_each(|table| and_into(out, table));
-            return out.iter().any(|w| *w != 0);
+            return true;
         }
         // Exact: `out` gathers the samples some planes may put below all of them, `sure` those
         // every plane does; the rest of `out` is tested against every plane, sample by sample.
