@@ -1118,16 +1118,17 @@ def alias_free(
     the same ``caster_faces``: ``ray_traced(..., caster_faces="backfacing")`` for the default.
 
     On the CPU the time goes to the (view sample, triangle) pairs: the bunny at 512x512 with 256
-    samples tests 41 million pairs (217 per view sample) and reads 2.1 plane masks per pair, in
-    4.7-5.0x ``ray_traced``'s CPU time with ``lut=64``, 5.6-5.7x with ``lut="auto"`` (128 bins)
-    and 7.6-8.0x exact (release build, one loaded machine; before the table's bins were found by
-    arithmetic, 6.0-6.5x, 6.1-6.9x and 8.2-8.5x in the same session). A triangle's own plane, its
-    sphere test and its table entry (for unrotated samples) are set up once per band of the
-    light's map; the three planes through the receiver and the triangle's edges are built,
-    normalized (a square root and a division each) and located in the table per pair (12% of the
-    time), and the pair loop with its reads far into a table of megabytes (40%) bounds what is
-    left. Most of those pairs block nothing: 25 million have three or four planes across the
-    light's bounding sphere, 3.7 million block a sample, and their masks must be read to know.
+    samples tests 41 million pairs (217 per view sample) and reads 2.0 plane masks per pair (2.1
+    exact), in 4.4-4.8x ``ray_traced``'s CPU time with ``lut=64``, 4.7-5.2x with ``lut="auto"``
+    (128 bins) and 6.7-6.9x exact (release build, one loaded machine; in the same session,
+    before the table's bins were found by arithmetic and its masks read only until their AND is
+    empty: 5.3-5.7x, 5.8-6.4x and 6.7-7.6x). A triangle's own plane, its sphere test and its
+    table entry (for unrotated samples) are set up once per band of the light's map; the three
+    planes through the receiver and the triangle's edges are built, normalized (a square root
+    and a division each) and located in the table per pair (about 12% of the time), and the pair
+    loop with its reads far into a table of megabytes (about 40%) bounds what is left. Most of
+    those pairs block nothing: 25 million have three or four planes across the light's bounding
+    sphere, 3.7 million block a sample, and their masks must be read to know.
 
     Parameters
     ----------
