@@ -1118,12 +1118,17 @@ def alias_free(
     the same ``caster_faces``: ``ray_traced(..., caster_faces="backfacing")`` for the default.
 
     On the CPU the time goes to the (view sample, triangle) pairs: the bunny at 512x512 with 256
-    samples tests 41 million pairs (217 per view sample) and reads 2.1 plane masks per pair (exact),
-    in about 5.6x ``ray_traced``'s CPU time with ``lut=64``, 6.2x with ``lut="auto"`` (128 bins) and
-    7.4-7.9x exact (``bench/alias_free.py``, one loaded machine). A triangle's own plane, its sphere
-    test and its table entry (for unrotated samples) are set up once per band of the light's map;
-    the three planes through the receiver and the triangle's edges are built, normalized and located
-    in the table per pair, and a read far into a table of megabytes bounds what is left.
+    samples tests 41 million pairs (217 per view sample) and reads 2.0 plane masks per pair (2.1
+    exact), in 4.4-4.8x ``ray_traced``'s CPU time with ``lut=64``, 4.7-5.2x with ``lut="auto"``
+    (128 bins) and 6.7-6.9x exact (release build, one loaded machine; in the same session,
+    before the table's bins were found by arithmetic and its masks read only until their AND is
+    empty: 5.3-5.7x, 5.8-6.4x and 6.7-7.6x). A triangle's own plane, its sphere test and its
+    table entry (for unrotated samples) are set up once per band of the light's map; the three
+    planes through the receiver and the triangle's edges are built, normalized (a square root
+    and a division each) and located in the table per pair (about 12% of the time), and the pair
+    loop with its reads far into a table of megabytes (about 40%) bounds what is left. Most of
+    those pairs block nothing: 25 million have three or four planes across the light's bounding
+    sphere, 3.7 million block a sample, and their masks must be read to know.
 
     Parameters
     ----------
@@ -1160,8 +1165,13 @@ def alias_free(
         meshes, or every triangle with ``caster_faces="all"``); default ``scene.epsilon``, as
         ``ray_traced``.
     lut : "auto", int or None
-        The plane-to-bitmask table's bins per parameter (two angles and a distance), or ``None``
-        to test every light sample against every plane exactly. ``"auto"`` (the default) sizes
+        The plane-to-bitmask table's bins per parameter, or ``None`` to test every light sample
+        against every plane exactly. A plane is binned by its distance from the light's center
+        (``lut`` bins) and its unit normal: the paper's two angles (``lut``² bins) are here the
+        normal's hemi-octahedral coordinates and its sign (2 floor(``lut``/√2)² bins, at most
+        ``lut``²), whose bin is found by arithmetic, no search, and where a plane and its
+        opposite fall in opposite bins, so that two triangles sharing an edge leave no sample
+        between them. ``"auto"`` (the default) sizes
         it from the sample count as Sintorn et al. 2008 (section 4.3) do: 8 sqrt(S) bins rounded
         up to a multiple of 8, from the paper's typical 64 to 128, within 64 MiB (16, 64, 128,
         256, 512 and 1024 samples: 64, 64, 96, 128, 96 and 80 bins; stat ``lut_bins``), so that a
@@ -1172,7 +1182,11 @@ def alias_free(
         (128 bins) 0.26-0.65, at 1024 (80 bins) 0.56-1.15, where a fixed 64^3 table gave
         0.75-1.33; its penumbrae come out darker by 0.001-0.003 on average at 256 and 1024
         samples (0.002-0.004 with 64 bins, 0.005-0.010 with 32), and its cost at 1024
-        samples is about 1.5x that of 64 bins. The table approximates, and darkens: its bins
+        samples is about 1.5x that of 64 bins (those figures with the paper's two angles; the
+        hemi-octahedral bins err 1.0-1.1x as much: on the ledger's torus knot at 64x64, 0.57x the
+        sampling error sized from the samples against 0.55x, 0.79x against 0.71x with 64 bins; on
+        the bunny at 512x512 with 256 samples, a mean error of 0.0039 against 0.0035 with 64
+        bins). The table approximates, and darkens: its bins
         are relative to the light, so a binned plane misplaces a fixed part of the light, which
         looks the wider the nearer the light, and the binned planes of a triangle smaller than a
         bin in light space bound a triangle of about a bin's size, empty half the time and larger

@@ -6,7 +6,7 @@
 // the row's span of texels and tests their view samples against the caster, OR-ing blocked
 // samples into their masks by atomics. The tests repeat the CPU's f64 arithmetic operation for
 // operation (glam's orders, no fused multiply-adds written), and the lookup table's bins are
-// found by the same binary searches, so the masks are the CPU's bits. Mesa's llvmpipe silently
+// found by the same arithmetic, so the masks are the CPU's bits. Mesa's llvmpipe silently
 // stops a loop once an invocation has run 65535 iterations of all its loops together: each
 // invocation tests at most `per_slot` entries of each of its texels' lists (sized by the host for
 // the loops of one entry test), and dispatches go over the slots of the longest list.
@@ -34,14 +34,14 @@ struct Params {
     penumbra: u32,     // 1: the penumbra flags apply
     slot: u32,         // cover: which `per_slot` entries of each texel's list this dispatch tests
     per_slot: u32,
-    _pad0: u32,
+    cells: u32,        // cells per side of the table's normal squares (tables.rs PlaneBins)
     _pad1: u32,
     _pad2: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
 // The light's center (0..3), the samples' radius (3), the light's extent (4), then from 8 on the
-// samples (3 per sample), the table's polar boundaries (bins - 1) and azimuth boundaries (2 each).
+// samples (3 per sample).
 @group(0) @binding(1) var<storage, read> light: array<f64>;
 // The table's masks, `words` u32 per entry.
 @group(0) @binding(2) var<storage, read> lut: array<u32>;
@@ -345,42 +345,25 @@ fn blocks_point(t: Caster, p: vec3<f64>, y: vec3<f64>) -> bool {
     return true;
 }
 
-// How many of the first n boundaries a predicate true on a prefix holds for, by binary search
-// (the count that tables.rs's Guide::count finds from its guides): polar boundaries (kind 0) or
-// azimuth boundaries (kind 1).
-fn leading_true(n: u32, kind: u32, u: vec3<f64>) -> u32 {
-    var lo = 0u;
-    var hi = n;
-    while (lo < hi) {
-        let mid = (lo + hi) / 2u;
-        var holds: bool;
-        if (kind == 0u) {
-            holds = u.z <= light[theta_at() + mid];
-        } else {
-            holds = phi_reached(mid, u);
-        }
-        if (holds) {
-            lo = mid + 1u;
-        } else {
-            hi = mid;
-        }
+// tables.rs PlaneBins::normal_bin: the normal bin of the unit normal u (hemi_octahedral).
+fn normal_bin(u: vec3<f64>) -> u32 {
+    let upper = u.z > 0.0lf || (u.z == 0.0lf && (u.y > 0.0lf || (u.y == 0.0lf && u.x > 0.0lf)));
+    var r = u;
+    var sign = 0u;
+    if (!upper) {
+        r = -u;
+        sign = 1u;
     }
-    return lo;
+    let l1 = (abs(r.x) + abs(r.y)) + abs(r.z);
+    let x = r.x / l1;
+    let y = r.y / l1;
+    let n = params.cells;
+    return (sign * n + bin_of(x + y, n)) * n + bin_of(x - y, n);
 }
 
-fn theta_at() -> u32 {
-    return SAMPLES_AT + 3u * params.samples;
-}
-
-// PlaneBins::phi_bin's predicate for boundary k.
-fn phi_reached(k: u32, u: vec3<f64>) -> bool {
-    let upper = u.y > 0.0lf || (u.y == 0.0lf && u.x > 0.0lf);
-    let bound_upper = 2u * (k + 1u) < params.bins;
-    if (bound_upper != upper) {
-        return bound_upper;
-    }
-    let at = theta_at() + (params.bins - 1u) + 2u * k;
-    return light[at] * u.y - light[at + 1u] * u.x >= 0.0lf;
+// tables.rs PlaneBins::bin: the bin of t in [-1, 1] among n.
+fn bin_of(t: f64, n: u32) -> u32 {
+    return min(u32(((t + 1.0lf) * 0.5lf) * f64(n)), n - 1u);
 }
 
 // Planes::below_all, one plane: ANDs into `mask` the (rotated) samples with m · y < k.
@@ -418,10 +401,7 @@ fn and_below(v: u32, m_in: vec3<f64>, k_in: f64, mask: ptr<function, array<u32, 
         return;
     }
     let b = params.bins;
-    let i = leading_true(b - 1u, 0u, u);
-    let j = leading_true(b - 1u, 1u, u);
-    let kk = min(u32(((d + 1.0lf) * 0.5lf) * f64(b)), b - 1u);
-    let at = ((i * b + j) * b + kk) * params.words;
+    let at = (normal_bin(u) * b + bin_of(d, b)) * params.words;
     for (var w = 0u; w < params.words; w++) {
         (*mask)[w] &= lut[at + w];
     }

@@ -122,12 +122,12 @@ const COVER_LOOPS: usize = 1_000;
 /// How many entries of each texel's list one `cover` invocation may test, so that its loops stay
 /// within [`LOOP_BUDGET`]: [`TEXELS_PER_THREAD`] texels times that many entries times the loop
 /// iterations of one entry test at most (`test_entry` in `alias_free.wgsl`: per straddling plane
-/// the exact tests' sample loop or the table's two binary searches, and the word loops; the
-/// alpha test's sample loop; the mask's word loops).
+/// the exact tests' sample loop or none for the table (its bin is arithmetic), and the word
+/// loops; the alpha test's sample loop; the mask's word loops).
 fn entries_per_slot(setup: &TexelTests<'_>, words: usize) -> u32 {
     let table_only = setup.lut.is_some() && setup.view.iter().all(|v| !v.exact_planes);
     let per_plane = if table_only {
-        2 * 8 + 2 * words
+        2 * words
     } else {
         32 * words + 2 * words
     };
@@ -149,17 +149,13 @@ fn fits<T>(values: Vec<T>, binding: u64, what: &str) -> Result<Vec<T>> {
     Ok(values)
 }
 
-/// The `light` buffer of `alias_free.wgsl`: center, radius, extent, samples, table boundaries.
+/// The `light` buffer of `alias_free.wgsl`: center, radius, extent, samples.
 fn light_values(setup: &TexelTests<'_>) -> Vec<f64> {
     let c = setup.center;
     let extent = setup.lut.map_or(0.0, |t| t.grid.extent);
     let mut values = vec![0.0; SAMPLES_AT];
     values[..5].copy_from_slice(&[c.x, c.y, c.z, setup.radius, extent]);
     values.extend(setup.samples.points.iter().flat_map(|y| y.to_array()));
-    if let Some(t) = setup.lut {
-        values.extend(&t.grid.theta_bounds);
-        values.extend(t.grid.phi_bounds.iter().flatten());
-    }
     values
 }
 
@@ -815,8 +811,8 @@ impl Run<'_> {
             u32::from(s.penumbra.is_some()),
             q.slot,
             self.per_slot,
+            s.lut.map_or(0, |t| t.grid.cells as u32),
             // Padding to the struct's 16-byte size.
-            0,
             0,
             0,
         ]);

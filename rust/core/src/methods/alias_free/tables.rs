@@ -1,7 +1,10 @@
-//! Plane-to-bitmask tables of `alias_free`: a plane `m · y < k` is binned by its unit normal's
-//! two angles and its signed distance from the light's center, and a table holds, per bin, a
-//! bitmask over the light samples (Sintorn et al. 2008, Sample Based Visibility for Soft Shadows
-//! using Alias-free Shadow Maps, sections 4.2 and 4.3, after Eisemann and Décoret 2007).
+//! Plane-to-bitmask tables of `alias_free`: a plane `m · y < k` is binned by two coordinates of
+//! its unit normal and its signed distance from the light's center, and a table holds, per bin,
+//! a bitmask over the light samples (Sintorn et al. 2008, Sample Based Visibility for Soft
+//! Shadows using Alias-free Shadow Maps, sections 4.2 and 4.3, after Eisemann and Décoret 2007).
+//! The paper's two coordinates are the normal's two angles; these are its hemi-octahedral
+//! coordinates and sign ([`PlaneBins`]), whose bin is found by arithmetic where the angles'
+//! bins took a search (or trigonometry).
 //!
 //! - [`Lut`], the paper's table: the samples behind the plane at the bin's center. It
 //!   approximates: a plane is moved to its bin's center, so a sample near the plane may land on
@@ -24,190 +27,150 @@ use rayon::prelude::*;
 
 use super::LightSamples;
 
-/// The bins of a plane by its unit normal (polar angle from +z, azimuth about it) and its signed
-/// distance from the light's center in units of `extent`, `bins` each.
+/// The bins of a plane by its unit normal, on a hemi-octahedral grid, and its signed distance
+/// from the light's center in units of `extent`.
 ///
-/// A plane's bins are found without trigonometry, by counting the bins' boundaries (`theta_bounds`,
-/// `phi_bounds`) that its normal reaches: the same bins as `acos` and `atan2` give up to rounding
-/// at a boundary, and the same arithmetic as `methods/alias_free/alias_free.wgsl`, which has no
-/// 64-bit `acos` or `atan2`, so both backends read the same entries. The shader counts by binary
-/// search; the CPU reads a [`Guide`] (per cell of a fine grid over `u.z` and over a pseudo-angle
-/// of the azimuth, the boundaries certainly reached there) and tests the next one or two: the
-/// same count of the same tests, without a search's mispredicted branches.
+/// A unit normal `u` is `±r` for the `r` of the upper hemisphere (`z > 0`, the equator's ties
+/// broken by `y`, then `x`), which maps to the square `[−1, 1]²` by `(r.x + r.y, r.x − r.y) / |r|₁`
+/// (the octahedral map of the hemisphere, turned by 45 degrees; Meyer et al. 2010, On
+/// Floating-Point Normal Vectors), cut into `cells × cells` equal cells; the normal's bin is its
+/// sign and cell. Its bin is then arithmetic: one division and a few sums, no search and no
+/// trigonometry, the same operations in `methods/alias_free/alias_free.wgsl`, so both backends
+/// read the same entries. The cells span 0.33 to 1.65 times their mean solid angle (the paper's
+/// two angles, 0.04 to 1.57: cells at the poles a fortieth of those at the equator). `−u` falls
+/// in the cell of `u` with the other sign, whose center is the negated center: a plane and its
+/// complement (the two sides of an edge shared by two triangles) are binned to complementary
+/// planes (up to round-off at a distance bin's boundary), so the table leaves no sample between
+/// two triangles that share an edge, as the angles' symmetric bins did not (an octahedral map of
+/// the whole sphere, not symmetric, left samples lit in the umbra). `cells` is `bins / √2`
+/// rounded down: the `2 cells²` normal bins are at most the paper's `bins²` (the table no larger
+/// than `bins³` entries), within 4% from 64 bins on; the distance takes `bins`.
 pub(crate) struct PlaneBins {
     pub bins: usize,
+    /// Cells per side of the square of each sign.
+    pub cells: usize,
     pub center: DVec3,
     pub extent: f64,
     /// `1 / extent`.
     inv_extent: f64,
     /// `|center|`, for the bracketing table's round-off bound.
     center_length: f64,
-    /// `cos(k π / bins)` for k = 1..bins: the polar angle's inner bin boundaries, decreasing.
-    pub theta_bounds: Vec<f64>,
-    /// `(cos, sin)` of `2 k π / bins` for k = 1..bins: the azimuth's inner bin boundaries.
-    pub phi_bounds: Vec<[f64; 2]>,
-    /// Over `u.z + 1` in [0, 2): the polar boundaries reached.
-    theta_guide: Guide,
-    /// Over [`pseudo_angle`] in [0, 4): the azimuth boundaries reached.
-    phi_guide: Guide,
 }
 
-/// Guide cells per bin of each angle: fine enough that a cell rarely holds two boundaries.
-const GUIDE_CELLS: usize = 16;
-
-/// A margin of the guides, far above the round-off of `u.z` and of [`pseudo_angle`].
-const GUIDE_MARGIN: f64 = 1e-9;
-
-/// Per cell of a uniform grid over `[0, span)`, the number of boundaries (of a predicate true
-/// on a prefix of them, and monotone in the value) that every value of the cell reaches.
-struct Guide {
-    span: f64,
-    starts: Vec<u16>,
+/// Whether the unit vector `u` lies in the upper hemisphere: `z > 0`, on the equator `y > 0`,
+/// on its diameter `x > 0` (so that exactly one of `u` and `−u` does, −0 counting as 0).
+#[inline]
+fn upper(u: DVec3) -> bool {
+    u.z > 0.0 || (u.z == 0.0 && (u.y > 0.0 || (u.y == 0.0 && u.x > 0.0)))
 }
 
-impl Guide {
-    /// `reached(k, value)`: whether boundary `k` of `n` is reached at `value`.
-    fn new(cells: usize, span: f64, n: usize, reached: impl Fn(usize, f64) -> bool) -> Self {
-        let edge = |c: usize| c as f64 / cells as f64 * span;
-        let count = |value: f64| (0..n).take_while(|&k| reached(k, value)).count() as u16;
-        Self {
-            span,
-            starts: (0..cells)
-                .map(|c| count(edge(c) - GUIDE_MARGIN).min(count(edge(c + 1) + GUIDE_MARGIN)))
-                .collect(),
-        }
-    }
-
-    /// How many of `n` boundaries `value` (in `[0, span)`) reaches, `reached(k)` telling for
-    /// boundary `k`: those its cell surely reaches, then the next one tested without branching,
-    /// and only where the one after is reached too (a cell holding two boundaries), the rest in
-    /// turn.
-    #[inline]
-    fn count(&self, value: f64, n: usize, reached: impl Fn(usize) -> bool) -> usize {
-        let cells = self.starts.len();
-        let start =
-            usize::from(self.starts[((value / self.span * cells as f64) as usize).min(cells - 1)]);
-        let at = |k: usize| (k < n) & reached(k.min(n.max(1) - 1));
-        if at(start + 1) {
-            return (start + 2..n).find(|&k| !reached(k)).unwrap_or(n);
-        }
-        start + usize::from(at(start))
-    }
+/// The sign (0 for `+`, 1 for `−`) and the coordinates in `[−1, 1]²` of the unit vector `u` (see
+/// [`PlaneBins`]).
+#[inline]
+fn hemi_octahedral(u: DVec3) -> (usize, [f64; 2]) {
+    let (sign, r) = match upper(u) {
+        true => (0, u),
+        false => (1, -u),
+    };
+    let l1 = (r.x.abs() + r.y.abs()) + r.z.abs();
+    let (x, y) = (r.x / l1, r.y / l1);
+    (sign, [x + y, x - y])
 }
 
-/// A value in [0, 4) that grows with the azimuth `atan2(y, x)` in [0, 2π) (the upper half-plane,
-/// `y > 0` or `y = 0 < x`, in [0, 2)), without trigonometry.
-fn pseudo_angle(x: f64, y: f64) -> f64 {
-    let r = x / (x.abs() + y.abs());
-    if y > 0.0 || (y == 0.0 && x > 0.0) {
-        1.0 - r
-    } else {
-        3.0 + r
+/// The unit vector of sign `sign` at coordinates `(a, b)`: the inverse of [`hemi_octahedral`].
+fn from_hemi_octahedral(sign: usize, a: f64, b: f64) -> DVec3 {
+    let (x, y) = ((a + b) * 0.5, (a - b) * 0.5);
+    let r = DVec3::new(x, y, 1.0 - x.abs() - y.abs()).normalize();
+    match sign {
+        0 => r,
+        _ => -r,
     }
 }
 
 impl PlaneBins {
     fn new(center: DVec3, extent: f64, bins: usize) -> Self {
-        let angle = |k: usize, range: f64| k as f64 / bins as f64 * range;
-        let theta_bounds: Vec<f64> = (1..bins)
-            .map(|k| angle(k, std::f64::consts::PI).cos())
-            .collect();
-        // The boundary at π exactly on the axis: `sin(π)` rounds to 1.2e-16, which put it in the
-        // upper half-plane while `phi_bin` counts it in the lower one, and a direction a hair below
-        // the +x axis then failed its test (reaching 3π/2 but not π).
-        let phi_bounds: Vec<[f64; 2]> = (1..bins)
-            .map(|k| match 2 * k == bins {
-                true => [-1.0, 0.0],
-                false => {
-                    let a = angle(k, 2.0 * std::f64::consts::PI);
-                    [a.cos(), a.sin()]
-                }
-            })
-            .collect();
-        let cells = GUIDE_CELLS * bins;
-        // Polar: `u.z` (the value less 1) at or below the boundary. Azimuth: the boundary's
-        // pseudo-angle at or below the value.
-        let theta_guide = Guide::new(cells, 2.0, bins - 1, |k, value| {
-            value - 1.0 <= theta_bounds[k]
-        });
-        let phi_guide = Guide::new(cells, 4.0, bins - 1, |k, value| {
-            let [x, y] = phi_bounds[k];
-            pseudo_angle(x, y) <= value
-        });
         Self {
             bins,
+            cells: ((bins as f64) / std::f64::consts::SQRT_2) as usize,
             center,
             extent,
             inv_extent: 1.0 / extent,
             center_length: center.length(),
-            theta_bounds,
-            phi_bounds,
-            theta_guide,
-            phi_guide,
         }
     }
 
-    /// The unit normal at the center of normal bin `(i, j)`.
-    fn normal(&self, i: usize, j: usize) -> DVec3 {
-        self.direction(i as f64 + 0.5, j as f64 + 0.5)
+    /// The number of normal bins: `2 cells²`.
+    pub fn normal_bins(&self) -> usize {
+        2 * self.cells * self.cells
     }
 
-    /// The unit vector at fractional bin coordinates `(i, j)` (polar, azimuth).
-    fn direction(&self, i: f64, j: f64) -> DVec3 {
-        let theta = i / self.bins as f64 * std::f64::consts::PI;
-        let phi = j / self.bins as f64 * 2.0 * std::f64::consts::PI;
-        DVec3::new(
-            theta.sin() * phi.cos(),
-            theta.sin() * phi.sin(),
-            theta.cos(),
-        )
+    /// The bin of `t` in `[−1, 1]` (1 in the last) among `n`.
+    #[inline]
+    fn bin(t: f64, n: usize) -> usize {
+        (((t + 1.0) * 0.5 * n as f64) as usize).min(n - 1)
     }
 
-    /// An upper bound of the distance from the center normal of a bin of row `i` to any unit
-    /// vector of that bin: the farthest of its corners (the distance from a point of the sphere
-    /// has no maximum inside a bin, nor inside an edge of constant azimuth, and grows along an
-    /// edge of constant polar angle away from the center's azimuth), with a margin.
-    fn spread(&self, i: usize) -> f64 {
-        let center = self.normal(i, 0);
-        let corners = [(0.0, 0.0), (0.0, 1.0), (1.0, 0.0), (1.0, 1.0)];
+    /// The coordinate in `[−1, 1]` of the (fractional) cell boundary `k`.
+    fn boundary(&self, k: f64) -> f64 {
+        k / self.cells as f64 * 2.0 - 1.0
+    }
+
+    /// The sign and cell `(i, j)` of normal bin `n`.
+    fn split(&self, n: usize) -> (usize, usize, usize) {
+        let per_sign = self.cells * self.cells;
+        (n / per_sign, n % per_sign / self.cells, n % self.cells)
+    }
+
+    /// The unit normal at the center of normal bin `n`.
+    fn normal(&self, n: usize) -> DVec3 {
+        let (sign, i, j) = self.split(n);
+        let at = |k: usize| self.boundary(k as f64 + 0.5);
+        from_hemi_octahedral(sign, at(i), at(j))
+    }
+
+    /// An upper bound of the distance from the center normal of normal bin `n` to any unit vector
+    /// of that bin, with a margin. The lines `a = b` and `a = −b` (`y = 0` and `x = 0`) cut the
+    /// bin's square into convex pieces, each on one face of the octahedron, where the map is
+    /// affine: each piece is a spherical polygon with great-circle edges whose corners are the
+    /// square's, the lines' crossings with its sides and their own crossing inside it. A cap
+    /// about the center normal narrower than a hemisphere (a cell of a grid of 2 or more is) is
+    /// convex, so it holds a piece when it holds the piece's corners: the farthest of these
+    /// points bounds. Negation keeps distances: both signs share the bound.
+    fn spread(&self, n: usize) -> f64 {
+        let (_, i, j) = self.split(n);
+        let (a0, a1) = (self.boundary(i as f64), self.boundary(i as f64 + 1.0));
+        let (b0, b1) = (self.boundary(j as f64), self.boundary(j as f64 + 1.0));
+        let in_a = |a: f64| (a0..=a1).contains(&a);
+        let in_b = |b: f64| (b0..=b1).contains(&b);
+        let mut corners = vec![(a0, b0), (a0, b1), (a1, b0), (a1, b1)];
+        if in_a(0.0) && in_b(0.0) {
+            corners.push((0.0, 0.0));
+        }
+        for a in [a0, a1] {
+            corners.extend([a, -a].into_iter().filter(|&b| in_b(b)).map(|b| (a, b)));
+        }
+        for b in [b0, b1] {
+            corners.extend([b, -b].into_iter().filter(|&a| in_a(a)).map(|a| (a, b)));
+        }
+        // The center of the bin's cell with sign `+`.
+        let center = self.normal(n % (self.cells * self.cells));
         let far = corners
-            .iter()
-            .map(|&(di, dj)| (self.direction(i as f64 + di, dj) - center).length())
+            .into_iter()
+            .map(|(a, b)| (from_hemi_octahedral(0, a, b) - center).length())
             .fold(0.0f64, f64::max);
         far * (1.0 + 1e-6) + 1e-12
     }
 
-    /// The polar bin of the unit normal `u`: the number of boundaries `k π / bins` that
-    /// `acos(u.z)` reaches, i.e. with `u.z <= cos(k π / bins)`.
+    /// The normal bin of the unit vector `u`.
     #[inline]
-    fn theta_bin(&self, u: DVec3) -> usize {
-        let bounds = &self.theta_bounds;
-        self.theta_guide
-            .count(u.z + 1.0, bounds.len(), |k| u.z <= bounds[k])
+    fn normal_bin(&self, u: DVec3) -> usize {
+        let (sign, [a, b]) = hemi_octahedral(u);
+        let n = self.cells;
+        (sign * n + Self::bin(a, n)) * n + Self::bin(b, n)
     }
 
-    /// The azimuth bin of the unit normal `u`: the number of boundaries `2 k π / bins` that
-    /// `atan2(u.y, u.x)` (in [0, 2π)) reaches. Within one half-plane the angle grows with the
-    /// sign of the cross product against the boundary's direction; a boundary in the upper half
-    /// ([0, π)) is reached by every direction of the lower half.
-    #[inline]
-    fn phi_bin(&self, u: DVec3) -> usize {
-        if u.x == 0.0 && u.y == 0.0 {
-            return 0;
-        }
-        let upper = u.y > 0.0 || (u.y == 0.0 && u.x > 0.0);
-        let (bins, bounds) = (self.bins, &self.phi_bounds);
-        self.phi_guide
-            .count(pseudo_angle(u.x, u.y), bounds.len(), |k| {
-                let bound_upper = 2 * (k + 1) < bins;
-                let [c, s] = bounds[k];
-                (bound_upper != upper && bound_upper)
-                    | (bound_upper == upper && c * u.y - s * u.x >= 0.0)
-            })
-    }
-
-    /// The bin of the plane `m · y < k` (flat index `(i · bins + j) · bins + k`), or `None` when
-    /// it misses the light (its distance from the center is `extent` or more); `inv` is
+    /// The bin of the plane `m · y < k` (flat index `normal bin · bins + distance bin`), or `None`
+    /// when it misses the light (its distance from the center is `extent` or more); `inv` is
     /// `1 / |m|` (the shader's arithmetic, one division and one square root per plane).
     #[inline]
     fn locate(&self, m: DVec3, k: f64, inv: f64) -> Option<usize> {
@@ -216,25 +179,21 @@ impl PlaneBins {
         if !(-1.0..1.0).contains(&d) {
             return None;
         }
-        let b = self.bins as f64;
-        let (i, j) = (self.theta_bin(u), self.phi_bin(u));
-        let k = (((d + 1.0) * 0.5 * b) as usize).min(self.bins - 1);
-        Some((i * self.bins + j) * self.bins + k)
+        Some(self.normal_bin(u) * self.bins + Self::bin(d, self.bins))
     }
 
-    /// For each normal bin `(i, j)` (in index order, in parallel), calls `fill(i, j, chunk)` on
-    /// its `bins * per_bin` values.
+    /// For each normal bin `n` (in index order, in parallel), calls `fill(n, chunk)` on its
+    /// `bins * per_bin` values.
     fn fill_by_normal(
         &self,
         values: &mut [u64],
         per_bin: usize,
-        fill: impl Fn(usize, usize, &mut [u64]) + Sync,
+        fill: impl Fn(usize, &mut [u64]) + Sync,
     ) {
-        let bins = self.bins;
         values
-            .par_chunks_mut(bins * per_bin)
+            .par_chunks_mut(self.bins * per_bin)
             .enumerate()
-            .for_each(|(ij, chunk)| fill(ij / bins, ij % bins, chunk));
+            .for_each(|(n, chunk)| fill(n, chunk));
     }
 }
 
@@ -281,10 +240,10 @@ impl Lut {
             limits::bytes(&[bins as u64, bins as u64, bins as u64, words as u64, 8]),
         )?;
         let grid = PlaneBins::new(center, extent, bins);
-        let mut masks = vec![0u64; bins * bins * bins * words];
+        let mut masks = vec![0u64; grid.normal_bins() * bins * words];
         let distance = |k: usize| ((k as f64 + 0.5) / bins as f64 * 2.0 - 1.0) * extent;
-        grid.fill_by_normal(&mut masks, words, |i, j, chunk| {
-            let m = grid.normal(i, j);
+        grid.fill_by_normal(&mut masks, words, |n, chunk| {
+            let m = grid.normal(n);
             // Sample y lies behind bin k's plane when m · y < m · c + d_k: from the first such k on.
             let limits: Vec<f64> = (0..bins).map(|k| m.dot(center) + distance(k)).collect();
             let first: Vec<usize> = samples
@@ -320,7 +279,7 @@ const BRACKET_BUDGET_BYTES: u64 = 32 << 20;
 /// some of its planes put behind and others not (`unsure`), stored side by side (`sure` then
 /// `unsure`, `words` each) so that one lookup reads one run.
 ///
-/// A plane `m · y < k` of normal bin `(i, j)` (unit normal `u` within `spread(i)` of the bin's
+/// A plane `m · y < k` of normal bin `n` (unit normal `u` within `spread(n)` of the bin's
 /// center normal `u0`) and distance bin `[d0, d1)` puts sample `y` (at `e = y − c` from the
 /// center) behind it when `u · e < d · extent`; since `|u · e − u0 · e| <= spread · |e|`, every
 /// plane of the bin does when `u0 · e + spread |e| < d0 · extent` and none does when
@@ -351,15 +310,15 @@ impl BracketTable {
             limits::bytes(&[bins as u64, bins as u64, bins as u64, 2 * words as u64, 8]),
         )?;
         let grid = PlaneBins::new(center, extent, bins);
-        let mut masks = vec![0u64; bins * bins * bins * 2 * words];
+        let mut masks = vec![0u64; grid.normal_bins() * bins * 2 * words];
         let b = bins as f64;
         // The first distance bin [d0, d1) whose d0 (d1 for `ahead`) exceeds `d`, in units of extent.
         let first_bin_past = |d: f64, ahead: bool| {
             let edge = (d + 1.0) * 0.5 * b - f64::from(u8::from(ahead));
             (edge.floor() + 1.0).clamp(0.0, b) as usize
         };
-        grid.fill_by_normal(&mut masks, 2 * words, |i, j, chunk| {
-            let (u0, spread) = (grid.normal(i, j), grid.spread(i));
+        grid.fill_by_normal(&mut masks, 2 * words, |n, chunk| {
+            let (u0, spread) = (grid.normal(n), grid.spread(n));
             let (mut sure, mut maybe) = (Vec::new(), Vec::new());
             for y in &samples.points {
                 let e = *y - center;
@@ -443,25 +402,14 @@ mod tests {
             .collect()
     }
 
-    /// The binary search of `alias_free.wgsl`.
-    fn leading_true(n: usize, pred: impl Fn(usize) -> bool) -> usize {
-        let (mut lo, mut hi) = (0, n);
-        while lo < hi {
-            let mid = (lo + hi) / 2;
-            if pred(mid) {
-                lo = mid + 1;
-            } else {
-                hi = mid;
-            }
-        }
-        lo
-    }
-
     #[test]
-    fn guided_bins_are_the_shaders_binary_searches() {
-        // Random normals, normals on and next to every boundary, the poles and the axes.
+    fn every_normal_lies_within_its_bins_spread() {
+        // Random normals, normals on and next to every cell corner, the poles and the axes: each
+        // maps back to itself, lies within its bin's spread of the bin's center normal (what the
+        // bracketing table's bounds rest on), and its negation falls in the bin of the other
+        // sign, whose center is the negated center. Odd grids (cells across the axes) included.
         let mut rng = Rng::new(12);
-        for bins in [4, 7, 16, 64, 128, 256] {
+        for bins in [4, 7, 16, 64, 256] {
             let g = PlaneBins::new(DVec3::ZERO, 1.0, bins);
             let mut normals: Vec<DVec3> = (0..4000)
                 .map(|_| {
@@ -473,50 +421,42 @@ mod tests {
                         - 1.0
                 })
                 .collect();
-            for i in 0..=bins {
-                for j in 0..=bins {
-                    let u = g.direction(i as f64, j as f64);
+            let step = g.cells.div_ceil(64);
+            for i in (0..=g.cells).step_by(step) {
+                for j in (0..=g.cells).step_by(step) {
+                    let u = from_hemi_octahedral(0, g.boundary(i as f64), g.boundary(j as f64));
                     normals.extend([
                         u,
-                        u * (1.0 + 1e-16),
                         DVec3::new(u.x.next_up(), u.y.next_down(), u.z.next_up()),
+                        DVec3::new(u.x.next_down(), u.y.next_up(), u.z.next_down()),
                     ]);
                 }
             }
             let tiny = f64::from_bits(1);
             normals.extend([
-                DVec3::Z,
-                -DVec3::Z,
                 DVec3::X,
-                -DVec3::X,
                 DVec3::Y,
-                -DVec3::Y,
+                DVec3::Z,
+                DVec3::new(1.0, -0.0, 0.0),
+                DVec3::new(-0.0, 1.0, -0.0),
+                DVec3::new(tiny, -tiny, 1.0),
+                DVec3::new(1.0, 1.0, 0.0),
             ]);
-            normals.extend(
-                [
-                    (1.0, -tiny),
-                    (-1.0, tiny),
-                    (-1.0, -tiny),
-                    (tiny, -1.0),
-                    (-tiny, 1.0),
-                ]
-                .map(|(x, y)| DVec3::new(x, y, 0.3)),
-            );
             for m in normals.into_iter().filter(|m| m.length() > 0.0) {
-                let u = m / m.length();
-                let theta = leading_true(g.theta_bounds.len(), |k| u.z <= g.theta_bounds[k]);
-                assert_eq!(g.theta_bin(u), theta, "{bins} bins, {u}");
-                if u.x != 0.0 || u.y != 0.0 {
-                    let upper = u.y > 0.0 || (u.y == 0.0 && u.x > 0.0);
-                    let phi = leading_true(g.phi_bounds.len(), |k| {
-                        let bound_upper = 2 * (k + 1) < bins;
-                        if bound_upper != upper {
-                            return bound_upper;
-                        }
-                        let [c, s] = g.phi_bounds[k];
-                        c * u.y - s * u.x >= 0.0
-                    });
-                    assert_eq!(g.phi_bin(u), phi, "{bins} bins, {u}");
+                for u in [m / m.length(), -m / m.length()] {
+                    let (sign, [a, b]) = hemi_octahedral(u);
+                    assert!(
+                        (from_hemi_octahedral(sign, a, b) - u).length() < 1e-12,
+                        "{bins} bins, {u}"
+                    );
+                    let n = g.normal_bin(u);
+                    assert!(
+                        (u - g.normal(n)).length() <= g.spread(n),
+                        "{bins} bins, {u} in bin {n}"
+                    );
+                    let opposite = g.normal_bin(-u);
+                    assert_eq!(opposite, (n + g.normal_bins() / 2) % g.normal_bins());
+                    assert_eq!(g.normal(opposite), -g.normal(n));
                 }
             }
         }
@@ -530,17 +470,15 @@ mod tests {
         let light = samples(100, center, &mut rng);
         let lut = Lut::new(&light, center, 1.1, 12)?;
         let g = &lut.grid;
-        for i in 0..12 {
-            for j in 0..12 {
-                let m = g.normal(i, j);
-                for k in 0..12 {
-                    let d = ((k as f64 + 0.5) / 12.0 * 2.0 - 1.0) * 1.1;
-                    let at = ((i * 12 + j) * 12 + k) * lut.words;
-                    assert_eq!(
-                        lut.masks[at..at + lut.words],
-                        exact(&light, m, m.dot(center) + d)[..]
-                    );
-                }
+        for n in 0..g.normal_bins() {
+            let m = g.normal(n);
+            for k in 0..12 {
+                let d = ((k as f64 + 0.5) / 12.0 * 2.0 - 1.0) * 1.1;
+                let at = (n * 12 + k) * lut.words;
+                assert_eq!(
+                    lut.masks[at..at + lut.words],
+                    exact(&light, m, m.dot(center) + d)[..]
+                );
             }
         }
         Ok(())
