@@ -20,7 +20,6 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -37,19 +36,10 @@ PAPER_REPEATS = (483, 241)
 
 def table(title, repeat, contenders, oracle, mask, images=True):
     """Runs the contenders (name -> function) side by side and prints their seconds (wall and CPU)
-    as ratios to the first, and the share of pixels identical to the contender named ``oracle`` for those whose
-    ``images`` flag (name -> bool, or True for all) is set."""
-    cpu = {name: float("inf") for name in contenders}
-
-    def with_cpu(name, fn):
-        def run():
-            start = time.process_time()
-            out = fn()
-            cpu[name] = min(cpu[name], time.process_time() - start)
-            return out
-        return run
-
-    seconds, results = side_by_side(repeat, {name: with_cpu(name, fn) for name, fn in contenders.items()})
+    as ratios to the first, and the share of pixels identical to the contender named ``oracle``
+    for those whose ``images`` flag (name -> bool, or True for all) is set."""
+    cpu = {}
+    seconds, results = side_by_side(repeat, contenders, cpu=cpu)
     base, base_cpu = next(iter(seconds.values())), next(iter(cpu.values()))
     print(f"\n{title}\n{'method':<34} {'seconds':>8} {'x stsv':>7} {'cpu s':>7} {'x stsv':>7} {'identical':>9}")
     for name in contenders:

@@ -649,10 +649,13 @@ impl<'a> Occlusion<'a> {
     }
 }
 
-/// Whether `s` lies inside the convex quadrilateral `q` (either winding).
+/// Whether `s` lies inside the convex quadrilateral `q` (either winding). A sample on all four
+/// edges' lines, which only a quad of no area has, is not inside: so a sample inside lies in the
+/// quad's bounding box, where [`Occlusion::add`] looks for them.
 fn in_quad(q: &[DVec2; 4], s: DVec2) -> bool {
     let sides = [0, 1, 2, 3].map(|i| (q[(i + 1) % 4] - q[i]).perp_dot(s - q[i]));
-    sides.iter().all(|&v| v >= 0.0) || sides.iter().all(|&v| v <= 0.0)
+    sides.iter().any(|&v| v != 0.0)
+        && (sides.iter().all(|&v| v >= 0.0) || sides.iter().all(|&v| v <= 0.0))
 }
 
 /// Everything the per-receiver passes read.

@@ -541,7 +541,8 @@ impl SamplePlane {
     }
 }
 
-/// A pattern of light samples shared by receivers, binned along each axis of a [`SamplePlane`].
+/// A pattern of light samples shared by receivers, or rotated rigidly per receiver
+/// ([`RotatedBack`]), binned along each axis of a [`SamplePlane`].
 ///
 /// A sample that a triangle hides from a receiver `p` lies in the cone from `p` through the
 /// triangle, whose section by the plane is the triangle of the vertices' projections from `p`.
@@ -654,8 +655,8 @@ impl RotatedBack {
     /// light's center) and its pattern sample rotated exactly, for the pattern `at` (plane
     /// coordinates, about the center): a few f32 roundings of the center and of the sample's
     /// offset, and the f32 rotation's departure from orthonormal, generously.
-    fn slack(light: &Light, at: &[DVec3]) -> f64 {
-        let reach = at.iter().map(|y| y.length()).fold(0.0, f64::max);
+    fn slack<'a>(light: &Light, at: impl IntoIterator<Item = &'a DVec3>) -> f64 {
+        let reach = at.into_iter().map(|y| y.length()).fold(0.0, f64::max);
         64.0 * f64::from(f32::EPSILON) * (light.center().as_dvec3().length() + reach)
     }
 
@@ -855,8 +856,10 @@ fn perforated_masks(
                 .collect()
         })
         .collect();
-    // Receivers that share a pattern (not rotated) find the samples worth projecting in its bins;
-    // those of a rectangle light, rotated per receiver, in the bins of its parameters.
+    // Receivers that share a pattern (not rotated) find the samples worth projecting in its bins,
+    // and so do those of a disk or a sphere, rotated rigidly per receiver, through the cone
+    // rotated back ([`RotatedBack`]); those of a rectangle light, rotated per receiver, in the
+    // bins of its parameters.
     let rotated = samples.rotates();
     let rigid = origins.light.rigid_rotation([0.0; 3]).is_some();
     let bins: Option<Vec<SampleBins>> =
@@ -878,7 +881,10 @@ fn perforated_masks(
         rotates: rotated,
         bins: bins.as_deref(),
         shifted: shifted.as_deref(),
-        slack: RotatedBack::slack(origins.light, &patterns.concat()),
+        slack: match rotated && rigid {
+            true => RotatedBack::slack(origins.light, patterns.iter().flatten()),
+            false => 0.0,
+        },
         every: every_sample(samples.count()),
     };
     // Each entry's one mask holds the samples blocked or that do not count: neither needs
@@ -1317,6 +1323,25 @@ mod tests {
         w.min_element() >= -1e-9 && w.element_sum() >= 1.0 - 1e-9
     }
 
+    /// A receiver on the ground (`|x|, |z| < 2`) and a triangle of half-size `half` above it, at
+    /// heights 0.5 to `top`.
+    fn receiver_and_triangle(
+        uniform: &mut impl FnMut(f32, f32) -> f32,
+        top: f32,
+        half: f32,
+    ) -> (Vec3, [Vec3; 3]) {
+        let p = Vec3::new(uniform(-2.0, 2.0), 0.0, uniform(-2.0, 2.0));
+        let c = Vec3::new(uniform(-1.5, 1.5), uniform(0.5, top), uniform(-1.5, 1.5));
+        let tri = [0, 1, 2].map(|_| {
+            c + Vec3::new(
+                uniform(-half, half),
+                uniform(-0.05, 0.05),
+                uniform(-half, half),
+            )
+        });
+        (p, tri)
+    }
+
     /// For a disk and a sphere rotating their samples per receiver, every rotated sample (the
     /// same bits as `Light::rotate`) that a triangle may hide from a receiver is among the
     /// pattern's bin candidates for the cone rotated back; and the bins leave most samples out.
@@ -1327,7 +1352,10 @@ mod tests {
         // direction, its box widened by the ball's thickness times the cone's slope: the bins
         // leave fewer out than a disk's.
         for (light, most) in [
-            (Light::disk(center, Vec3::new(0.2, -1.0, 0.1), 0.7).unwrap(), 4),
+            (
+                Light::disk(center, Vec3::new(0.2, -1.0, 0.1), 0.7).unwrap(),
+                4,
+            ),
             (Light::sphere(center, 0.5).unwrap(), 2),
         ] {
             let pattern = light_samples(&light, 128, Pattern::Poisson, 7, 0);
@@ -1340,11 +1368,7 @@ mod tests {
             let mut uniform = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
             let (mut found, mut total) = (0, 0);
             for trial in 0..2000 {
-                let p = Vec3::new(uniform(-2.0, 2.0), 0.0, uniform(-2.0, 2.0));
-                let c = Vec3::new(uniform(-1.5, 1.5), uniform(0.5, 3.0), uniform(-1.5, 1.5));
-                let tri = [0, 1, 2].map(|_| {
-                    c + Vec3::new(uniform(-0.2, 0.2), uniform(-0.05, 0.05), uniform(-0.2, 0.2))
-                });
+                let (p, tri) = receiver_and_triangle(&mut uniform, 3.0, 0.2);
                 let r = [uniform(0.0, 1.0), uniform(0.0, 1.0), uniform(0.0, 1.0)];
                 let back = RotatedBack::new(&light, &plane, r).unwrap();
                 let (pp, tt) = (at(p), tri.map(at));
@@ -1361,7 +1385,10 @@ mod tests {
                     total += 1;
                 }
             }
-            assert!(found * most < total, "{light:?}: {found} candidates of {total}");
+            assert!(
+                found * most < total,
+                "{light:?}: {found} candidates of {total}"
+            );
         }
     }
 
@@ -1384,11 +1411,7 @@ mod tests {
         let mut uniform = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
         let (mut found, mut total) = (0, 0);
         for trial in 0..2000 {
-            let p = Vec3::new(uniform(-2.0, 2.0), 0.0, uniform(-2.0, 2.0));
-            let c = Vec3::new(uniform(-1.5, 1.5), uniform(0.5, 3.5), uniform(-1.5, 1.5));
-            let tri = [0, 1, 2].map(|_| {
-                c + Vec3::new(uniform(-0.3, 0.3), uniform(-0.05, 0.05), uniform(-0.3, 0.3))
-            });
+            let (p, tri) = receiver_and_triangle(&mut uniform, 3.5, 0.3);
             let r = match trial % 4 {
                 0 => [1.0 - f32::EPSILON, uniform(0.0, 1.0)],
                 _ => [uniform(0.0, 1.0), uniform(0.0, 1.0)],

@@ -34,17 +34,17 @@ use super::LightSamples;
 /// broken by `y`, then `x`), which maps to the square `[−1, 1]²` by `(r.x + r.y, r.x − r.y) / |r|₁`
 /// (the octahedral map of the hemisphere, turned by 45 degrees; Meyer et al. 2010, On
 /// Floating-Point Normal Vectors), cut into `cells × cells` equal cells; the normal's bin is its
-/// sign and cell. Its bin is then arithmetic: one division and a few sums, no search and no
+/// sign and cell. Its bin is then arithmetic: two divisions and a few sums, no search and no
 /// trigonometry, the same operations in `methods/alias_free/alias_free.wgsl`, so both backends
 /// read the same entries. The cells span 0.33 to 1.65 times their mean solid angle (the paper's
 /// two angles, 0.04 to 1.57: cells at the poles a fortieth of those at the equator). `−u` falls
 /// in the cell of `u` with the other sign, whose center is the negated center: a plane and its
 /// complement (the two sides of an edge shared by two triangles) are binned to complementary
 /// planes (up to round-off at a distance bin's boundary), so the table leaves no sample between
-/// two triangles that share an edge, as the angles' symmetric bins did not (an octahedral map of
-/// the whole sphere, not symmetric, left samples lit in the umbra). `cells` is `bins / √2`
-/// rounded down: the `2 cells²` normal bins are at most the paper's `bins²` (the table no larger
-/// than `bins³` entries), within 4% from 64 bins on; the distance takes `bins`.
+/// two triangles that share an edge, as the angles' bins did too, and as an octahedral map of
+/// the whole sphere, not symmetric, did not (it left samples lit in the umbra). `cells` is
+/// `bins / √2` rounded down: the `2 cells²` normal bins are at most the paper's `bins²` (the
+/// table no larger than `bins³` entries), within 4.2% from 64 bins on; the distance takes `bins`.
 pub(crate) struct PlaneBins {
     pub bins: usize,
     /// Cells per side of the square of each sign.
@@ -218,9 +218,9 @@ fn fill_suffixes(chunk: &mut [u64], stride: usize, offset: usize, words: usize, 
     }
 }
 
-/// The paper's plane-to-bitmask lookup table: for a unit normal (two angles) and a signed
-/// distance from the light's center (in units of the light's extent), the samples behind the
-/// plane at the bin's center.
+/// The paper's plane-to-bitmask lookup table: for a unit normal (its hemi-octahedral cell and
+/// sign, [`PlaneBins`], where the paper bins two angles) and a signed distance from the light's
+/// center (in units of the light's extent), the samples behind the plane at the bin's center.
 pub(crate) struct Lut {
     pub grid: PlaneBins,
     pub words: usize,
