@@ -369,10 +369,13 @@ mod tests {
         }
         let opts = TemporalOptions::default();
         assert_eq!(arg(accumulate(&rx, &v[..3], None, &opts)), "visibility");
-        let hit = rx.valid.iter().position(|&ok| ok).unwrap();
+        assert!(rx.valid.contains(&true), "the receivers have hit pixels");
         for wrong in [f32::NAN, 1.5, -0.25] {
-            let mut bad = v.clone();
-            bad[hit] = wrong;
+            let bad: Vec<f32> = v
+                .iter()
+                .zip(&rx.valid)
+                .map(|(&x, &hit)| if hit { wrong } else { x })
+                .collect();
             assert_eq!(arg(accumulate(&rx, &bad, None, &opts)), "visibility");
         }
         let short = Previous {

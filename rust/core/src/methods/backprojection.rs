@@ -400,6 +400,11 @@ struct LightPlane {
     world: Vec<DVec3>,
 }
 
+/// The light samples `samples` (light coordinates) binned for [`Occlusion::add`]'s box look-ups.
+fn binned(samples: &[DVec2]) -> BoxBins {
+    BoxBins::new(&samples.iter().map(|s| s.to_array()).collect::<Vec<_>>())
+}
+
 impl LightPlane {
     fn new(light: &Light, side: usize) -> Result<LightPlane> {
         let bounds = light_polytope(light, 16)
@@ -440,7 +445,7 @@ impl LightPlane {
                     to_light,
                     outline: ConvexWindow::new(&outline),
                     outline_area: 4.0,
-                    bins: BoxBins::new(&samples.iter().map(|s| s.to_array()).collect::<Vec<_>>()),
+                    bins: binned(&samples),
                     samples,
                     world,
                 })
@@ -476,7 +481,7 @@ impl LightPlane {
                     to_light: [t.as_dvec3() / r, b.as_dvec3() / r],
                     outline: ConvexWindow::new(&outline),
                     outline_area: std::f64::consts::PI,
-                    bins: BoxBins::new(&samples.iter().map(|s| s.to_array()).collect::<Vec<_>>()),
+                    bins: binned(&samples),
                     samples,
                     world,
                 })

@@ -1346,17 +1346,14 @@ mod tests {
     /// same bits as `Light::rotate`) that a triangle may hide from a receiver is among the
     /// pattern's bin candidates for the cone rotated back; and the bins leave most samples out.
     #[test]
-    fn rotated_back_bins_find_every_rigidly_rotated_sample_in_the_cone() {
+    fn rotated_back_bins_find_every_rigidly_rotated_sample_in_the_cone() -> Result<()> {
         let center = Vec3::new(0.3, 4.0, -0.2);
         // A ball's samples are binned in one plane, and its cone rotated back comes from any
         // direction, its box widened by the ball's thickness times the cone's slope: the bins
         // leave fewer out than a disk's.
         for (light, most) in [
-            (
-                Light::disk(center, Vec3::new(0.2, -1.0, 0.1), 0.7).unwrap(),
-                4,
-            ),
-            (Light::sphere(center, 0.5).unwrap(), 2),
+            (Light::disk(center, Vec3::new(0.2, -1.0, 0.1), 0.7)?, 4),
+            (Light::sphere(center, 0.5)?, 2),
         ] {
             let pattern = light_samples(&light, 128, Pattern::Poisson, 7, 0);
             let plane = SamplePlane::new(&light, Vec3::NEG_Y);
@@ -1370,7 +1367,10 @@ mod tests {
             for trial in 0..2000 {
                 let (p, tri) = receiver_and_triangle(&mut uniform, 3.0, 0.2);
                 let r = [uniform(0.0, 1.0), uniform(0.0, 1.0), uniform(0.0, 1.0)];
-                let back = RotatedBack::new(&light, &plane, r).unwrap();
+                let back = RotatedBack::new(&light, &plane, r).ok_or(Error::unsupported(
+                    "light",
+                    "a disk and a sphere rotate their samples rigidly",
+                ))?;
                 let (pp, tt) = (at(p), tri.map(at));
                 let (back_p, back_tri) = back.cone(pp, &tt);
                 let mut candidates = [0u64; 2];
@@ -1390,6 +1390,7 @@ mod tests {
                 "{light:?}: {found} candidates of {total}"
             );
         }
+        Ok(())
     }
 
     /// On a rectangle whose sides are not orthogonal, every sample that a triangle may hide from
@@ -1397,16 +1398,18 @@ mod tests {
     /// shifted bins' candidates, also where its parameters wrap; and the bins leave most samples
     /// out (what they are for).
     #[test]
-    fn shifted_bins_find_every_rotated_sample_in_the_cone() {
+    fn shifted_bins_find_every_rotated_sample_in_the_cone() -> Result<()> {
         let light = Light::rect(
             Vec3::new(0.3, 4.0, -0.2),
             Vec3::new(0.6, 0.0, 0.2),
             Vec3::new(0.2, 0.0, -0.3),
-        )
-        .unwrap();
+        )?;
         let pattern = light_samples(&light, 64, Pattern::Poisson, 7, 0);
         let plane = SamplePlane::new(&light, Vec3::NEG_Y);
-        let bins = ShiftedBins::new(&light, &pattern, &plane).unwrap();
+        let bins = ShiftedBins::new(&light, &pattern, &plane).ok_or(Error::unsupported(
+            "light",
+            "a rectangle's samples are shifted by their parameters",
+        ))?;
         let mut rng = Rng::stream(3, 0);
         let mut uniform = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
         let (mut found, mut total) = (0, 0);
@@ -1434,5 +1437,6 @@ mod tests {
             }
         }
         assert!(found * 4 < total, "{found} candidates of {total}");
+        Ok(())
     }
 }
