@@ -89,10 +89,10 @@ const SPARSE_LANES: u32 = 3;
 /// sample, and a hand-off tests 1.4 nodes and 0.7 leaves on average (one call: 127k nodes
 /// handing off 299k lanes, against 108k node visits of the 6k packets themselves). Timed by the
 /// time-stamp counter, the hand-offs take about 40% of the call's CPU time and the packets'
-/// own node visits about 30%. A hand-off is bound by its instructions and branches more than
-/// by the latency of its loads: running each one a second time right after the first, its
+/// own node visits about 30%. Running each hand-off a second time right after the first, its
 /// nodes and leaves now in cache, adds about half the hand-offs' time (1.18-1.21x the whole
-/// call). So hiding the loads does not pay: a software ray stream (Wald, Woop, Benthin,
+/// call): half of a hand-off is its instructions and branches, the rest at most is waiting on
+/// its loads. Hiding that wait did not pay: a software ray stream (Wald, Woop, Benthin,
 /// Johnson and Ernst, "Embree: A Kernel Framework for Efficient CPU Ray Tracing", 2014; the
 /// latency hiding of Aila and Laine, "Understanding the Efficiency of Ray Traversal on GPUs",
 /// 2009) that runs a node's handed-off lanes round-robin, one node or leaf step of each in
@@ -1149,12 +1149,12 @@ impl Bvh {
     /// after the inner children of their parent, so they are tested first. A node popped with
     /// at most [`SINGLE_RAY_LANES`] active lanes goes to [`Bvh::single_ray_lanes`].
     ///
-    /// A node visit is a chain of dependent work (the node's rectangles, the lanes of its
-    /// children, the pushes, the next pop), and its memory is not what bounds it: at 128x128
-    /// (timed as [`SINGLE_RAY_LANES`]) prefetching the nodes and leaves pushed on the stack
-    /// took 0.97-1.03x the CPU time, pushing the children without a branch per child
-    /// 0.99-1.01x; computing the rectangles and the children's lanes twice more per visit,
-    /// 1.18-1.20x, puts that part near a tenth of the call.
+    /// A node visit is a chain of dependent work: the node's rectangles, the lanes of its
+    /// children, the pushes, the next pop. At 128x128 (timed as [`SINGLE_RAY_LANES`])
+    /// prefetching the nodes and leaves pushed on the stack took 0.97-1.03x the CPU time and
+    /// pushing the children without a branch per child 0.99-1.01x; computing the rectangles
+    /// and the children's lanes twice more per visit took 1.18-1.20x, which puts that part near
+    /// a tenth of the call.
     #[inline(always)]
     fn packet_traverse(
         &self,
