@@ -100,16 +100,17 @@ const SPARSE_LANES: u32 = 3;
 /// lane at a time, 1.09-1.11x); queueing the hand-offs of several nodes and running 4 or 8 of
 /// a queue of 8 round-robin took 1.15-1.18x, as the lanes waiting in the queue stay active in
 /// the packet. Nor did a cheaper set-up: building each lane's `RayData` once per packet rather
-/// than once per hand-off took 0.98-1.01x (alternating processes, one thread, fastest CPU time
-/// of 20 calls, three rounds each, same bits). What did not make it cheaper before (one
-/// thread, each variant against this code in interleaved rounds of one process, fastest CPU
-/// time, same bits): testing first the block that last blocked the lane, an occluder cache per
-/// receiver after Haines and Greenberg, "The light buffer: a shadow-testing accelerator" (1986),
-/// found the segment blocked for 0.9% of the hand-offs with a remembered block (1.3% at
-/// 256x256) and took 1.05x the CPU time (1.03x), since a receiver's Poisson samples spread over
-/// the light and its consecutive rays rarely meet the same block; tracing a node's handed-off
-/// lanes together on one stack, each node slab-tested for all of them, took 1.58x; 3 lanes
-/// took 1.03x and 6 lanes 0.99x the time of 4.
+/// than once per hand-off took 0.98-1.01x (builds of the `quick` profile, alternating
+/// processes, one thread, fastest CPU time of 20 calls, three rounds each, same bits). What
+/// did not make it cheaper before (one thread, each variant against this code in interleaved
+/// rounds of one process, fastest CPU time, same bits): testing first the block that last
+/// blocked the lane, an occluder cache per receiver after Haines and Greenberg, "The light
+/// buffer: a shadow-testing accelerator" (1986), found the segment blocked for 0.9% of the
+/// hand-offs with a remembered block (1.3% at 256x256) and took 1.05x the CPU time (1.03x),
+/// since a receiver's Poisson samples spread over the light and its consecutive rays rarely
+/// meet the same block; tracing a node's handed-off lanes together on one stack, each node
+/// slab-tested for all of them, took 1.58x; 3 lanes took 1.03x and 6 lanes 0.99x the time of
+/// 4.
 const SINGLE_RAY_LANES: u32 = 4;
 
 /// The instruction sets the packet traversal is compiled for; [`Isa::detect`] picks the
