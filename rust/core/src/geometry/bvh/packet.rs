@@ -38,6 +38,12 @@
 //! ([`Bvh::occluded_converging_lanes`]), and the same lanes serve the candidate test of the
 //! per-receiver frustum pass (one origin, many targets: [`Bvh::occluded_by_blocks`]).
 //!
+//! The same traversal serves the mirror image: the segments from one origin to many targets
+//! ([`Bvh::occluded_diverging`]), whose frustum has its apex at the origin. Every point of a
+//! lane's segment has the lane's slopes from the origin as well, so the projection test, the
+//! frustum and the lanes' own `RayData` are those of the converging packets with the apex
+//! moved.
+//!
 //! Exactness: every lane does the IEEE operations, in the same order, of the `RayData` that
 //! [`Bvh::occluded`] builds for the same segment and of its slab and watertight tests (LLVM
 //! never fuses or reorders float operations, whatever the vector width; lanes tested one by
@@ -50,7 +56,7 @@
 //! segment answers either way, so each lane's answer equals [`Bvh::occluded`] bit for bit,
 //! whatever the packet it travels in and whatever the instruction set.
 
-use super::frustum::RayFrustum;
+use super::frustum::{bounds, RayFrustum};
 use super::triangle::RayData;
 use super::{Bvh, LeafRef, Node4, Tri4, LEAF, ROBUST, STACK};
 use crate::geometry::mesh::Scene;
@@ -512,14 +518,21 @@ impl Chunk {
     /// The lanes' slopes from the common target. `org_far` is the origin up to one ulp on axes
     /// of zero direction: far below the tolerance of the slope test.
     #[inline(always)]
-    fn aim_slopes(&mut self, &Slopes { y, k, sign, .. }: &Slopes) {
+    fn aim_slopes(&mut self, slopes: &Slopes) {
+        let o = self.org_far;
+        self.set_slopes(&o, slopes);
+    }
+
+    /// Sets the lanes' slopes to those of the points `p[axis][lane]` (one on each lane's
+    /// segment, other than the apex) from the apex `slopes.y`.
+    #[inline(always)]
+    fn set_slopes(&mut self, p: &[[f32; W]; 3], &Slopes { y, k, sign, .. }: &Slopes) {
         let (i, j) = ((k + 1) % 3, (k + 2) % 3);
-        let o = &self.org_far;
         let (mut sa, mut sb) = ([0f32; W], [0f32; W]);
         for l in 0..W {
-            let dk = (o[k][l] - y[k]) * sign;
-            sa[l] = (o[i][l] - y[i]) / dk;
-            sb[l] = (o[j][l] - y[j]) / dk;
+            let dk = (p[k][l] - y[k]) * sign;
+            sa[l] = (p[i][l] - y[i]) / dk;
+            sb[l] = (p[j][l] - y[j]) / dk;
         }
         (self.sa, self.sb) = (sa, sb);
     }
@@ -828,6 +841,30 @@ impl Packet {
         live
     }
 
+    /// Sets the lanes to the segments from `origin` to `targets` (at most [`LANES`], one lane
+    /// each, in order) with their slopes from the apex `origin`, for the frustum axis
+    /// `(k, sign)`; returns the mask of those with a non-empty segment.
+    #[inline(always)]
+    fn aim_diverging(&mut self, origin: Vec3, targets: &[Vec3], (k, sign): (usize, f32)) -> u64 {
+        let targets = &targets[..targets.len().min(LANES)];
+        let scale = targets.iter().fold(origin.abs().max_element(), |m, y| {
+            m.max(y.abs().max_element())
+        });
+        self.slopes = Slopes {
+            y: origin,
+            k,
+            sign,
+            scale,
+        };
+        let slopes = self.slopes;
+        let mut live = 0u64;
+        for (c, chunk) in targets.chunks(W).enumerate() {
+            live |= self.chunks[c].set_rays(origin, chunk) << (W * c);
+            self.chunks[c].set_slopes(&transposed(chunk), &slopes);
+        }
+        live
+    }
+
     /// The slope rectangles `[a min, a max, b min, b max]` of the four children of `node`
     /// (one lane per child), widened by `1e-4` of the slopes' magnitude and of their absolute
     /// rounding scale: over a thousand times the float error of either side, so a lane whose
@@ -1037,6 +1074,83 @@ impl Bvh {
             .filter(|&lane| lanes >> lane & 1 != 0)
             .filter(|&lane| self.occluded(scene, origins[lane], target - origins[lane], 1.0))
             .fold(0, |m, lane| m | 1 << lane)
+    }
+
+    /// The mask of the segments `origin -> targets[lane]` (t in (0, 1); at most
+    /// [`Bvh::PACKET_LANES`] targets, any further ones ignored) that are blocked: the shadow
+    /// rays of one receiver to many light samples, traced as one packet diverging from
+    /// `origin`.
+    ///
+    /// Same answers as [`Bvh::occluded`] per segment (see `bvh/packet.rs`).
+    pub fn occluded_diverging(&self, scene: &Scene, origin: Vec3, targets: &[Vec3]) -> u64 {
+        self.occluded_diverging_with(Isa::detect(), scene, origin, targets)
+    }
+
+    /// [`Bvh::occluded_diverging`] with the traversal compiled for `isa`.
+    pub(super) fn occluded_diverging_with(
+        &self,
+        isa: Isa,
+        scene: &Scene,
+        origin: Vec3,
+        targets: &[Vec3],
+    ) -> u64 {
+        let targets = &targets[..targets.len().min(LANES)];
+        let one_by_one = || {
+            (0..targets.len())
+                .filter(|&l| self.occluded(scene, origin, targets[l] - origin, 1.0))
+                .fold(0, |m, l| m | 1 << l)
+        };
+        // No pyramid with apex `origin` bounding the targets: the rays go one by one.
+        let Some(f) = bounds(targets).and_then(|b| RayFrustum::around(origin, b)) else {
+            return one_by_one();
+        };
+        PACKET.with(|p| match p.try_borrow_mut() {
+            Ok(mut packet) => super::ANY_STACK.with(|s| match s.try_borrow_mut() {
+                Ok(mut stack) => {
+                    self.diverging_trace(isa, scene, &mut packet, origin, targets, &f, &mut stack)
+                }
+                Err(_) => self.diverging_trace(
+                    isa,
+                    scene,
+                    &mut packet,
+                    origin,
+                    targets,
+                    &f,
+                    &mut [0; STACK],
+                ),
+            }),
+            // Only busy if `is_opaque_at` re-entered the BVH on this thread.
+            Err(_) => one_by_one(),
+        })
+    }
+
+    isa_dispatch! {
+        /// Aims the packet's lanes from `origin` at `targets` and traverses it; returns the
+        /// mask of blocked lanes.
+        fn diverging_trace => diverging_trace_body(
+            scene: &Scene,
+            p: &mut Packet,
+            origin: Vec3,
+            targets: &[Vec3],
+            f: &RayFrustum,
+            stack: &mut [u32; STACK],
+        ) -> u64
+    }
+
+    #[inline(always)]
+    fn diverging_trace_body(
+        &self,
+        scene: &Scene,
+        p: &mut Packet,
+        origin: Vec3,
+        targets: &[Vec3],
+        f: &RayFrustum,
+        stack: &mut [u32; STACK],
+    ) -> u64 {
+        let live = p.aim_diverging(origin, targets, f.axis());
+        let mut active = live;
+        self.packet_traverse(scene, p, f, &mut active, stack);
+        live & !active
     }
 
     isa_dispatch! {
@@ -1458,6 +1572,76 @@ mod tests {
         let (blocked, lit) =
             converging_lanes_against_single_rays(&bvh, &scene, &origins, &targets, &lanes);
         assert!(blocked > 100 && lit > 100, "blocked {blocked}, lit {lit}");
+    }
+
+    /// Asserts that the packet diverging from `origin` to `targets` (past the first [`LANES`]
+    /// ignored) gets the answers of single rays on every instruction set; returns the blocked
+    /// and lit lanes.
+    fn diverging_against_single_rays(
+        bvh: &Bvh,
+        scene: &Scene,
+        origin: Vec3,
+        targets: &[Vec3],
+    ) -> (u32, u32) {
+        let n = targets.len().min(LANES);
+        let expected = (0..n)
+            .filter(|&l| bvh.occluded(scene, origin, targets[l] - origin, 1.0))
+            .fold(0u64, |m, l| m | 1 << l);
+        for isa in isas() {
+            let got = bvh.occluded_diverging_with(isa, scene, origin, targets);
+            assert_eq!(got, expected, "{isa:?} origin {origin}");
+        }
+        (expected.count_ones(), n as u32 - expected.count_ones())
+    }
+
+    /// The shadow rays of one origin to many targets as one diverging packet: the answers of
+    /// single rays, lane for lane, on every instruction set, from origins on the ground and
+    /// inside the soup (opaque and perforated hits), with more targets than lanes.
+    #[test]
+    fn diverging_packets_equal_single_rays() {
+        let scene = scene(600, 17);
+        let bvh = Bvh::build(&scene).unwrap();
+        let mut rng = Rng::new(29);
+        let (mut blocked, mut lit) = (0, 0);
+        for _ in 0..60 {
+            let origin = Vec3::new(
+                rng.next_f32() * 4.0,
+                rng.next_f32() * 4.5 - 0.49,
+                rng.next_f32() * 4.0,
+            );
+            // A light 1 to 3 units wide above the soup.
+            let (corner, size) = (
+                Vec3::new(rng.next_f32() * 4.0 - 1.0, 6.0, rng.next_f32() * 4.0 - 1.0),
+                1.0 + rng.next_f32() * 2.0,
+            );
+            let targets: Vec<Vec3> = (0..LANES + 9)
+                .map(|_| corner + Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * size)
+                .collect();
+            let (b, l) = diverging_against_single_rays(&bvh, &scene, origin, &targets);
+            (blocked, lit) = (blocked + b, lit + l);
+        }
+        assert!(blocked > 1000 && lit > 1000, "blocked {blocked}, lit {lit}");
+    }
+
+    /// Diverging packets with empty segments (targets at the origin), directions with exactly
+    /// zero components, targets on both sides of the origin (no frustum: ray by ray) and no
+    /// targets at all.
+    #[test]
+    fn diverging_packets_handle_degenerate_rays() {
+        let scene = scene(300, 3);
+        let bvh = Bvh::build(&scene).unwrap();
+        let origin = Vec3::new(2.0, -0.4, 2.0);
+        let mut targets: Vec<Vec3> = (0..20)
+            .map(|k| Vec3::new(2.0, 0.5 + 0.3 * k as f32, 2.0))
+            .collect();
+        targets.extend((0..20).map(|k| Vec3::new(0.2 * k as f32, 6.0, 2.0)));
+        targets.push(origin);
+        diverging_against_single_rays(&bvh, &scene, origin, &targets);
+        let around: Vec<Vec3> = (0..16)
+            .map(|k| Vec3::new(0.3 * k as f32 - 0.5, 2.0, 2.1))
+            .collect();
+        diverging_against_single_rays(&bvh, &scene, Vec3::new(2.0, 2.0, 2.0), &around);
+        diverging_against_single_rays(&bvh, &scene, origin, &[]);
     }
 
     /// Packets of a few lanes (at most [`SINGLE_RAY_LANES`] + 1 per target, so that some go
