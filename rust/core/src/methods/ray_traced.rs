@@ -464,13 +464,13 @@ fn trace_tile(
 /// ([`trace_by_sample`]): whichever makes fewer packets, since a packet's traversal from the
 /// root costs about as much with few lanes as with many.
 ///
-/// On the bunny (`bench/shadow_rays.py`, 64 shared samples, one thread, alternating processes,
-/// same bits) the packets by sample took 1.07x the time of those by receiver summed over the
-/// tiles of 64 hard receivers at 128x128, 1.34x at 256x256 and 1.89x at 512x512, but
-/// 0.2-0.8x over the tiles of fewer (a tile's two ways timed back to back by the time-stamp
-/// counter); this rule took 0.86-0.88x the CPU time of packets by sample alone at 128x128,
-/// 0.95-0.97x at 256x256 and 1.00x at 512x512, and packets by receiver for every tile
-/// 0.91x at 128x128.
+/// On the bunny (`bench/shadow_rays.py`'s rays, 64 shared samples, one thread, same bits),
+/// timing a tile's two ways back to back by the time-stamp counter, the packets by receiver
+/// took 1.07x the time of those by sample over the tiles of 64 such receivers at 128x128,
+/// 1.34x at 256x256 and 1.89x at 512x512, but 0.2-0.8x over the tiles of fewer (0.3-1.0x at
+/// 512x512). In alternating processes (`quick` builds, fastest CPU time of 15 calls) this rule
+/// took 0.86-0.88x the CPU time of packets by sample alone at 128x128, 0.93-0.97x at 256x256
+/// and 1.00-1.01x at 512x512; packets by receiver in every tile took 0.90-0.93x at 128x128.
 fn by_receiver(hard: usize, samples: usize) -> bool {
     hard * samples.div_ceil(Bvh::PACKET_LANES) < samples
 }

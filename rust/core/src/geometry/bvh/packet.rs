@@ -91,32 +91,31 @@ const SPARSE_LANES: u32 = 3;
 /// 512x512, with the same answers bit for bit. At 128x128, 2 lanes took 1.06-1.07x the CPU time
 /// of 4, and 8 the same as 4 within the noise (three alternating runs each).
 ///
-/// At 128x128, 44% of the packets' live lanes are handed off, each about three times per
-/// sample, and a hand-off tests 1.4 nodes and 0.7 leaves on average (one call: 127k nodes
+/// At 128x128, with packets by sample only (before `ray_traced` sent the tiles of few receivers to
+/// [`Bvh::occluded_diverging`]), 44% of the packets' live lanes are handed off, each about three
+/// times per sample, and a hand-off tests 1.4 nodes and 0.7 leaves on average (one call: 127k nodes
 /// handing off 299k lanes, against 108k node visits of the 6k packets themselves). Timed by the
-/// time-stamp counter, the hand-offs take about 40% of the call's CPU time and the packets'
-/// own node visits about 30%. Running each hand-off a second time right after the first, its
-/// nodes and leaves now in cache, adds about half the hand-offs' time (1.18-1.21x the whole
-/// call): half of a hand-off is its instructions and branches, the rest at most is waiting on
-/// its loads. Hiding that wait did not pay: a software ray stream (Wald, Woop, Benthin,
-/// Johnson and Ernst, "Embree: A Kernel Framework for Efficient CPU Ray Tracing", 2014; the
-/// latency hiding of Aila and Laine, "Understanding the Efficiency of Ray Traversal on GPUs",
-/// 2009) that runs a node's handed-off lanes round-robin, one node or leaf step of each in
-/// turn on its own stack, took 1.00-1.04x the CPU time of this code (its bookkeeping, run one
-/// lane at a time, 1.09-1.11x); queueing the hand-offs of several nodes and running 4 or 8 of
-/// a queue of 8 round-robin took 1.15-1.18x, as the lanes waiting in the queue stay active in
-/// the packet. Nor did a cheaper set-up: building each lane's `RayData` once per packet rather
-/// than once per hand-off took 0.98-1.01x (builds of the `quick` profile, alternating
-/// processes, one thread, fastest CPU time of 20 calls, three rounds each, same bits). What
-/// did not make it cheaper before (one thread, each variant against this code in interleaved
-/// rounds of one process, fastest CPU time, same bits): testing first the block that last
-/// blocked the lane, an occluder cache per receiver after Haines and Greenberg, "The light
-/// buffer: a shadow-testing accelerator" (1986), found the segment blocked for 0.9% of the
-/// hand-offs with a remembered block (1.3% at 256x256) and took 1.05x the CPU time (1.03x),
-/// since a receiver's Poisson samples spread over the light and its consecutive rays rarely
-/// meet the same block; tracing a node's handed-off lanes together on one stack, each node
-/// slab-tested for all of them, took 1.58x; 3 lanes took 1.03x and 6 lanes 0.99x the time of
-/// 4.
+/// time-stamp counter, the hand-offs take about 40% of the call's CPU time and the packets' own
+/// node visits about 30%. Running each hand-off a second time right after the first, its nodes and
+/// leaves now in cache, adds about half the hand-offs' time (1.18-1.21x the whole call): half of a
+/// hand-off is its instructions and branches, the rest at most is waiting on its loads. Hiding that
+/// wait did not pay: a software ray stream (Wald, Woop, Benthin, Johnson and Ernst, "Embree: A
+/// Kernel Framework for Efficient CPU Ray Tracing", 2014; the latency hiding of Aila and Laine,
+/// "Understanding the Efficiency of Ray Traversal on GPUs", 2009) that runs a node's handed-off
+/// lanes round-robin, one node or leaf step of each in turn on its own stack, took 1.00-1.04x the
+/// CPU time of this code (its bookkeeping, run one lane at a time, 1.09-1.11x); queueing the
+/// hand-offs of several nodes and running 4 or 8 of a queue of 8 round-robin took 1.15-1.18x, as
+/// the lanes waiting in the queue stay active in the packet. Nor did a cheaper set-up: building
+/// each lane's `RayData` once per packet rather than once per hand-off took 0.98-1.01x (builds of
+/// the `quick` profile, alternating processes, one thread, fastest CPU time of 20 calls, three
+/// rounds each, same bits). What did not make it cheaper before (one thread, each variant against
+/// this code in interleaved rounds of one process, fastest CPU time, same bits): testing first the
+/// block that last blocked the lane, an occluder cache per receiver after Haines and Greenberg,
+/// "The light buffer: a shadow-testing accelerator" (1986), found the segment blocked for 0.9% of
+/// the hand-offs with a remembered block (1.3% at 256x256) and took 1.05x the CPU time (1.03x),
+/// since a receiver's Poisson samples spread over the light and its consecutive rays rarely meet
+/// the same block; tracing a node's handed-off lanes together on one stack, each node slab-tested
+/// for all of them, took 1.58x; 3 lanes took 1.03x and 6 lanes 0.99x the time of 4.
 const SINGLE_RAY_LANES: u32 = 4;
 
 /// The instruction sets the packet traversal is compiled for; [`Isa::detect`] picks the
