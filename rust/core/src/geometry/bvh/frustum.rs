@@ -22,7 +22,7 @@ use glam::{Vec3, Vec4};
 ///
 /// On the bunny with 64 shared samples (`bench/shadow_rays.py`'s rays, one thread, alternating
 /// processes, same bits), 48 took 0.95-0.98x the CPU time of 24 at 128x128 receivers, where
-/// the packets that the receivers left over go to are least coherent, but 0.98-1.00x at
+/// the packets of the receivers left over are least coherent, but 0.98-1.00x at
 /// 256x256 and 1.02-1.08x at 512x512; 16 took 0.99-1.03x at 128x128. Sending every receiver
 /// through its frustum pass (not skipping those whose neighbours went to the packets) took
 /// 1.05-1.10x at 128x128 with 48 to 128 candidates.

@@ -522,8 +522,10 @@ impl Chunk {
         self.set_slopes(&o, slopes);
     }
 
-    /// Sets the lanes' slopes to those of the points `p[axis][lane]` (one on each lane's
-    /// segment, other than the apex) from the apex `slopes.y`.
+    /// Sets the lanes' slopes to those of the points `p[axis][lane]` from the apex `slopes.y`:
+    /// for each lane a point of its segment's line other than the apex (the origin of a
+    /// converging lane, the target of a diverging one), so every point of the segment has those
+    /// slopes up to rounding.
     #[inline(always)]
     fn set_slopes(&mut self, p: &[[f32; W]; 3], &Slopes { y, k, sign, .. }: &Slopes) {
         let (i, j) = ((k + 1) % 3, (k + 2) % 3);
