@@ -38,6 +38,12 @@
 //! ([`Bvh::occluded_converging_lanes`]), and the same lanes serve the candidate test of the
 //! per-receiver frustum pass (one origin, many targets: [`Bvh::occluded_by_blocks`]).
 //!
+//! The same traversal serves the mirror image: the segments from one origin to many targets
+//! ([`Bvh::occluded_diverging`]), whose frustum has its apex at the origin. Every point of a
+//! lane's segment has the lane's slopes from the origin as well, so the projection test, the
+//! frustum and the lanes' own `RayData` are those of the converging packets with the apex
+//! moved.
+//!
 //! Exactness: every lane does the IEEE operations, in the same order, of the `RayData` that
 //! [`Bvh::occluded`] builds for the same segment and of its slab and watertight tests (LLVM
 //! never fuses or reorders float operations, whatever the vector width; lanes tested one by
@@ -50,7 +56,7 @@
 //! segment answers either way, so each lane's answer equals [`Bvh::occluded`] bit for bit,
 //! whatever the packet it travels in and whatever the instruction set.
 
-use super::frustum::RayFrustum;
+use super::frustum::{bounds, RayFrustum};
 use super::triangle::RayData;
 use super::{Bvh, LeafRef, Node4, Tri4, LEAF, ROBUST, STACK};
 use crate::geometry::mesh::Scene;
@@ -85,17 +91,31 @@ const SPARSE_LANES: u32 = 3;
 /// 512x512, with the same answers bit for bit. At 128x128, 2 lanes took 1.06-1.07x the CPU time
 /// of 4, and 8 the same as 4 within the noise (three alternating runs each).
 ///
-/// At 128x128, 44% of the packets' live lanes are handed off, each about three times per
-/// sample, and a hand-off tests 1.4 nodes and 0.7 leaves on average: its cost is the latency of
-/// a few dependent node tests, with nothing left to skip. What did not make it cheaper (one
-/// thread, each variant against this code in interleaved rounds of one process, fastest CPU
-/// time, same bits): testing first the block that last blocked the lane, an occluder cache per
-/// receiver after Haines and Greenberg, "The light buffer: a shadow-testing accelerator" (1986),
-/// found the segment blocked for 0.9% of the hand-offs with a remembered block (1.3% at
-/// 256x256) and took 1.05x the CPU time (1.03x), since a receiver's Poisson samples spread over
-/// the light and its consecutive rays rarely meet the same block; tracing a node's handed-off
-/// lanes together on one stack, each node slab-tested for all of them, took 1.58x; 3 lanes
-/// took 1.03x and 6 lanes 0.99x the time of 4.
+/// At 128x128, with packets by sample only (before `ray_traced` sent the tiles of few receivers to
+/// [`Bvh::occluded_diverging`]), 44% of the packets' live lanes are handed off, each about three
+/// times per sample, and a hand-off tests 1.4 nodes and 0.7 leaves on average (one call: 127k nodes
+/// handing off 299k lanes, against 108k node visits of the 6k packets themselves). Timed by the
+/// time-stamp counter, the hand-offs take about 40% of the call's CPU time and the packets' own
+/// node visits about 30%. Running each hand-off a second time right after the first, its nodes and
+/// leaves now in cache, adds about half the hand-offs' time (1.18-1.21x the whole call): half of a
+/// hand-off is its instructions and branches, the rest at most is waiting on its loads. Hiding that
+/// wait did not pay: a software ray stream (Wald, Woop, Benthin, Johnson and Ernst, "Embree: A
+/// Kernel Framework for Efficient CPU Ray Tracing", 2014; the latency hiding of Aila and Laine,
+/// "Understanding the Efficiency of Ray Traversal on GPUs", 2009) that runs a node's handed-off
+/// lanes round-robin, one node or leaf step of each in turn on its own stack, took 1.00-1.04x the
+/// CPU time of this code (its bookkeeping, run one lane at a time, 1.09-1.11x); queueing the
+/// hand-offs of several nodes and running 4 or 8 of a queue of 8 round-robin took 1.15-1.18x, as
+/// the lanes waiting in the queue stay active in the packet. Nor did a cheaper set-up: building
+/// each lane's `RayData` once per packet rather than once per hand-off took 0.98-1.01x (builds of
+/// the `quick` profile, alternating processes, one thread, fastest CPU time of 20 calls, three
+/// rounds each, same bits). What did not make it cheaper before (one thread, each variant against
+/// this code in interleaved rounds of one process, fastest CPU time, same bits): testing first the
+/// block that last blocked the lane, an occluder cache per receiver after Haines and Greenberg,
+/// "The light buffer: a shadow-testing accelerator" (1986), found the segment blocked for 0.9% of
+/// the hand-offs with a remembered block (1.3% at 256x256) and took 1.05x the CPU time (1.03x),
+/// since a receiver's Poisson samples spread over the light and its consecutive rays rarely meet
+/// the same block; tracing a node's handed-off lanes together on one stack, each node slab-tested
+/// for all of them, took 1.58x; 3 lanes took 1.03x and 6 lanes 0.99x the time of 4.
 const SINGLE_RAY_LANES: u32 = 4;
 
 /// The instruction sets the packet traversal is compiled for; [`Isa::detect`] picks the
@@ -142,6 +162,11 @@ fn has_avx512() -> bool {
 /// compiled for `isa` (the baseline unless the CPU has it): one body, inlined into one wrapper
 /// per instruction set, each compiled with its target features. `$body` must be
 /// `#[inline(always)]`, and so must everything its lane loops call.
+///
+/// Neither feature set holds `popcnt`, so the lane counts of the traversal take a dozen
+/// instructions; adding `popcnt`, `lzcnt` and BMI1/2 (checked at run time beside the rest)
+/// took 0.99-1.00x the CPU time at 128x128 (timed as [`SINGLE_RAY_LANES`]), not worth a
+/// stricter CPU check.
 macro_rules! isa_dispatch {
     ($(#[$doc:meta])* fn $name:ident => $body:ident($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty) => {
         $(#[$doc])*
@@ -492,14 +517,23 @@ impl Chunk {
     /// The lanes' slopes from the common target. `org_far` is the origin up to one ulp on axes
     /// of zero direction: far below the tolerance of the slope test.
     #[inline(always)]
-    fn aim_slopes(&mut self, &Slopes { y, k, sign, .. }: &Slopes) {
+    fn aim_slopes(&mut self, slopes: &Slopes) {
+        let o = self.org_far;
+        self.set_slopes(&o, slopes);
+    }
+
+    /// Sets the lanes' slopes to those of the points `p[axis][lane]` from the apex `slopes.y`:
+    /// for each lane a point of its segment's line other than the apex (the origin of a
+    /// converging lane, the target of a diverging one), so every point of the segment has those
+    /// slopes up to rounding.
+    #[inline(always)]
+    fn set_slopes(&mut self, p: &[[f32; W]; 3], &Slopes { y, k, sign, .. }: &Slopes) {
         let (i, j) = ((k + 1) % 3, (k + 2) % 3);
-        let o = &self.org_far;
         let (mut sa, mut sb) = ([0f32; W], [0f32; W]);
         for l in 0..W {
-            let dk = (o[k][l] - y[k]) * sign;
-            sa[l] = (o[i][l] - y[i]) / dk;
-            sb[l] = (o[j][l] - y[j]) / dk;
+            let dk = (p[k][l] - y[k]) * sign;
+            sa[l] = (p[i][l] - y[i]) / dk;
+            sb[l] = (p[j][l] - y[j]) / dk;
         }
         (self.sa, self.sb) = (sa, sb);
     }
@@ -808,6 +842,30 @@ impl Packet {
         live
     }
 
+    /// Sets the lanes to the segments from `origin` to `targets` (at most [`LANES`], one lane
+    /// each, in order) with their slopes from the apex `origin`, for the frustum axis
+    /// `(k, sign)`; returns the mask of those with a non-empty segment.
+    #[inline(always)]
+    fn aim_diverging(&mut self, origin: Vec3, targets: &[Vec3], (k, sign): (usize, f32)) -> u64 {
+        let targets = &targets[..targets.len().min(LANES)];
+        let scale = targets.iter().fold(origin.abs().max_element(), |m, y| {
+            m.max(y.abs().max_element())
+        });
+        self.slopes = Slopes {
+            y: origin,
+            k,
+            sign,
+            scale,
+        };
+        let slopes = self.slopes;
+        let mut live = 0u64;
+        for (c, chunk) in targets.chunks(W).enumerate() {
+            live |= self.chunks[c].set_rays(origin, chunk) << (W * c);
+            self.chunks[c].set_slopes(&transposed(chunk), &slopes);
+        }
+        live
+    }
+
     /// The slope rectangles `[a min, a max, b min, b max]` of the four children of `node`
     /// (one lane per child), widened by `1e-4` of the slopes' magnitude and of their absolute
     /// rounding scale: over a thousand times the float error of either side, so a lane whose
@@ -1019,6 +1077,83 @@ impl Bvh {
             .fold(0, |m, lane| m | 1 << lane)
     }
 
+    /// The mask of the segments `origin -> targets[lane]` (t in (0, 1); at most
+    /// [`Bvh::PACKET_LANES`] targets, any further ones ignored) that are blocked: the shadow
+    /// rays of one receiver to many light samples, traced as one packet diverging from
+    /// `origin`.
+    ///
+    /// Same answers as [`Bvh::occluded`] per segment (see `bvh/packet.rs`).
+    pub fn occluded_diverging(&self, scene: &Scene, origin: Vec3, targets: &[Vec3]) -> u64 {
+        self.occluded_diverging_with(Isa::detect(), scene, origin, targets)
+    }
+
+    /// [`Bvh::occluded_diverging`] with the traversal compiled for `isa`.
+    pub(super) fn occluded_diverging_with(
+        &self,
+        isa: Isa,
+        scene: &Scene,
+        origin: Vec3,
+        targets: &[Vec3],
+    ) -> u64 {
+        let targets = &targets[..targets.len().min(LANES)];
+        let one_by_one = || {
+            (0..targets.len())
+                .filter(|&l| self.occluded(scene, origin, targets[l] - origin, 1.0))
+                .fold(0, |m, l| m | 1 << l)
+        };
+        // No pyramid with apex `origin` bounding the targets: the rays go one by one.
+        let Some(f) = bounds(targets).and_then(|b| RayFrustum::around(origin, b)) else {
+            return one_by_one();
+        };
+        PACKET.with(|p| match p.try_borrow_mut() {
+            Ok(mut packet) => super::ANY_STACK.with(|s| match s.try_borrow_mut() {
+                Ok(mut stack) => {
+                    self.diverging_trace(isa, scene, &mut packet, origin, targets, &f, &mut stack)
+                }
+                Err(_) => self.diverging_trace(
+                    isa,
+                    scene,
+                    &mut packet,
+                    origin,
+                    targets,
+                    &f,
+                    &mut [0; STACK],
+                ),
+            }),
+            // Only busy if `is_opaque_at` re-entered the BVH on this thread.
+            Err(_) => one_by_one(),
+        })
+    }
+
+    isa_dispatch! {
+        /// Aims the packet's lanes from `origin` at `targets` and traverses it; returns the
+        /// mask of blocked lanes.
+        fn diverging_trace => diverging_trace_body(
+            scene: &Scene,
+            p: &mut Packet,
+            origin: Vec3,
+            targets: &[Vec3],
+            f: &RayFrustum,
+            stack: &mut [u32; STACK],
+        ) -> u64
+    }
+
+    #[inline(always)]
+    fn diverging_trace_body(
+        &self,
+        scene: &Scene,
+        p: &mut Packet,
+        origin: Vec3,
+        targets: &[Vec3],
+        f: &RayFrustum,
+        stack: &mut [u32; STACK],
+    ) -> u64 {
+        let live = p.aim_diverging(origin, targets, f.axis());
+        let mut active = live;
+        self.packet_traverse(scene, p, f, &mut active, stack);
+        live & !active
+    }
+
     isa_dispatch! {
         /// Aims the lanes `lanes` of the packet at `target` and traverses it; returns the mask
         /// of blocked lanes.
@@ -1129,6 +1264,13 @@ impl Bvh {
     /// One loop, no inner one (see [`Packet::child_lanes`]): leaves are stacked like nodes,
     /// after the inner children of their parent, so they are tested first. A node popped with
     /// at most [`SINGLE_RAY_LANES`] active lanes goes to [`Bvh::single_ray_lanes`].
+    ///
+    /// A node visit is a chain of dependent work: the node's rectangles, the lanes of its
+    /// children, the pushes, the next pop. At 128x128 (timed as [`SINGLE_RAY_LANES`])
+    /// prefetching the nodes and leaves pushed on the stack took 0.97-1.03x the CPU time and
+    /// pushing the children without a branch per child 0.99-1.01x; computing the rectangles
+    /// and the children's lanes twice more per visit took 1.18-1.20x, which puts that part near
+    /// a tenth of the call.
     #[inline(always)]
     fn packet_traverse(
         &self,
@@ -1431,6 +1573,76 @@ mod tests {
         let (blocked, lit) =
             converging_lanes_against_single_rays(&bvh, &scene, &origins, &targets, &lanes);
         assert!(blocked > 100 && lit > 100, "blocked {blocked}, lit {lit}");
+    }
+
+    /// Asserts that the packet diverging from `origin` to `targets` (past the first [`LANES`]
+    /// ignored) gets the answers of single rays on every instruction set; returns the blocked
+    /// and lit lanes.
+    fn diverging_against_single_rays(
+        bvh: &Bvh,
+        scene: &Scene,
+        origin: Vec3,
+        targets: &[Vec3],
+    ) -> (u32, u32) {
+        let n = targets.len().min(LANES);
+        let expected = (0..n)
+            .filter(|&l| bvh.occluded(scene, origin, targets[l] - origin, 1.0))
+            .fold(0u64, |m, l| m | 1 << l);
+        for isa in isas() {
+            let got = bvh.occluded_diverging_with(isa, scene, origin, targets);
+            assert_eq!(got, expected, "{isa:?} origin {origin}");
+        }
+        (expected.count_ones(), n as u32 - expected.count_ones())
+    }
+
+    /// The shadow rays of one origin to many targets as one diverging packet: the answers of
+    /// single rays, lane for lane, on every instruction set, from origins on the ground and
+    /// inside the soup (opaque and perforated hits), with more targets than lanes.
+    #[test]
+    fn diverging_packets_equal_single_rays() {
+        let scene = scene(600, 17);
+        let bvh = Bvh::build(&scene).unwrap();
+        let mut rng = Rng::new(29);
+        let (mut blocked, mut lit) = (0, 0);
+        for _ in 0..60 {
+            let origin = Vec3::new(
+                rng.next_f32() * 4.0,
+                rng.next_f32() * 4.5 - 0.49,
+                rng.next_f32() * 4.0,
+            );
+            // A light 1 to 3 units wide above the soup.
+            let (corner, size) = (
+                Vec3::new(rng.next_f32() * 4.0 - 1.0, 6.0, rng.next_f32() * 4.0 - 1.0),
+                1.0 + rng.next_f32() * 2.0,
+            );
+            let targets: Vec<Vec3> = (0..LANES + 9)
+                .map(|_| corner + Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * size)
+                .collect();
+            let (b, l) = diverging_against_single_rays(&bvh, &scene, origin, &targets);
+            (blocked, lit) = (blocked + b, lit + l);
+        }
+        assert!(blocked > 1000 && lit > 1000, "blocked {blocked}, lit {lit}");
+    }
+
+    /// Diverging packets with empty segments (targets at the origin), directions with exactly
+    /// zero components, targets on both sides of the origin (no frustum: ray by ray) and no
+    /// targets at all.
+    #[test]
+    fn diverging_packets_handle_degenerate_rays() {
+        let scene = scene(300, 3);
+        let bvh = Bvh::build(&scene).unwrap();
+        let origin = Vec3::new(2.0, -0.4, 2.0);
+        let mut targets: Vec<Vec3> = (0..20)
+            .map(|k| Vec3::new(2.0, 0.5 + 0.3 * k as f32, 2.0))
+            .collect();
+        targets.extend((0..20).map(|k| Vec3::new(0.2 * k as f32, 6.0, 2.0)));
+        targets.push(origin);
+        diverging_against_single_rays(&bvh, &scene, origin, &targets);
+        let around: Vec<Vec3> = (0..16)
+            .map(|k| Vec3::new(0.3 * k as f32 - 0.5, 2.0, 2.1))
+            .collect();
+        diverging_against_single_rays(&bvh, &scene, Vec3::new(2.0, 2.0, 2.0), &around);
+        diverging_against_single_rays(&bvh, &scene, origin, &[]);
     }
 
     /// Packets of a few lanes (at most [`SINGLE_RAY_LANES`] + 1 per target, so that some go
