@@ -573,3 +573,20 @@ def test_surfaces_beyond_the_light_samples_block_nothing(alpha):
     with_ceiling = reference.mitsuba_visibility(Scene([GROUND, blocker, ceiling]), LIGHT, rx, samples, cache=False)
     np.testing.assert_array_equal(with_ceiling, without)
     assert without.mean() > 0.5
+
+
+@pytest.mark.parametrize("alpha", [None, "checker"])
+def test_visibility_does_not_depend_on_the_samples_order(alpha):
+    # The samples are traced in an order of their own (along a curve over the light): any order
+    # given must give the same bits, weights of a textured light and per-ray marching included.
+    checker = None if alpha is None else np.kron(np.eye(2), np.ones((4, 4)))
+    blocker = quad([0.2, 0.1, 0.9], [0.5, 0, 0], [0, 0.4, 0], alpha=checker)
+    scene = Scene([GROUND, blocker])
+    textured = RectLight(LIGHT.center, LIGHT.u, LIGHT.v, emission=np.array([[0.0, 1.0, 3.0], [2.0, 0.5, 0.25]]))
+    rx = Receivers(*ground_receivers(300))
+    samples = light_samples(40)
+    shuffled = samples[np.random.default_rng(3).permutation(len(samples))]
+    for light in (LIGHT, textured):
+        vis = reference.mitsuba_visibility(scene, light, rx, samples, cache=False)
+        assert np.mean((vis > 0) & (vis < 1)) > 0.1  # penumbrae, where the order could matter
+        np.testing.assert_array_equal(reference.mitsuba_visibility(scene, light, rx, shuffled, cache=False), vis)
