@@ -1119,16 +1119,21 @@ def alias_free(
 
     On the CPU the time goes to the (view sample, triangle) pairs: the bunny at 512x512 with 256
     samples tests 41 million pairs (217 per view sample) and reads 2.0 plane masks per pair (2.1
-    exact), in 4.4-4.8x ``ray_traced``'s CPU time with ``lut=64``, 4.7-5.2x with ``lut="auto"``
-    (128 bins) and 6.7-6.9x exact (release build, one loaded machine; in the same session,
-    before the table's bins were found by arithmetic and its masks read only until their AND is
-    empty: 5.3-5.7x, 5.8-6.4x and 6.7-7.6x). A triangle's own plane, its sphere test and its
-    table entry (for unrotated samples) are set up once per band of the light's map; the three
-    planes through the receiver and the triangle's edges are built, normalized (a square root
-    and a division each) and located in the table per pair (about 12% of the time), and the pair
-    loop with its reads far into a table of megabytes (about 40%) bounds what is left. Most of
-    those pairs block nothing: 25 million have three or four planes across the light's bounding
-    sphere, 3.7 million block a sample, and their masks must be read to know.
+    exact), in 4.2-4.3x ``ray_traced``'s CPU time with ``lut=64`` and 6.5-6.8x exact (release
+    build, one thread, three interleaved pairs of runs on a loaded machine; the build before,
+    4.4-4.8x and 6.7-7.1x). One thread's call splits as: the pair loop with its table reads 73%
+    (2.6 s), the influence regions (each caster's once, then again per band of rows of the map,
+    their rows and supporting-plane cuts) 11%, allocation and copies 4%, the lists with their
+    initial masks and entries 5%, the rest (set-up, the inside test, Python) 7%; before, the
+    pair loop was 72% (2.7 s) and the reduction of the masks to visibility, now parallel and
+    over the lit samples only, 3%. A triangle's own plane, its sphere test and its table entry
+    (for unrotated samples) are set up once per band; per pair the three planes through the
+    receiver and the triangle's edges are built and placed against the light's bounding sphere
+    by squared distances, and only those across it are normalized (a square root and a division)
+    and located in the table. So the pairs bound it: even with everything else free, the pair
+    loop alone takes 3.4x ``ray_traced``'s time. Most of them block nothing: 25 million have
+    three or four planes across the light's bounding sphere, 3.7 million block a sample, and
+    their masks must be read to know.
 
     Parameters
     ----------

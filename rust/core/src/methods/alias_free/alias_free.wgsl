@@ -416,13 +416,14 @@ fn blocked_by(t: Caster, v: u32, p: vec3<f64>, mask: ptr<function, array<u32, MA
     let c = center();
     let radius = light[3u];
     var straddling: array<bool, 4>;
+    // alias_free.rs reach: squared, as on the CPU.
     for (var k = 0u; k < 4u; k++) {
         let m = planes.m[k];
-        let distance = (planes.k[k] - dot_d(m, c)) * (1.0lf / sqrt(dot_d(m, m)));
-        if (distance < -radius) {
+        let distance = planes.k[k] - dot_d(m, c);
+        straddling[k] = distance * distance <= (radius * radius) * dot_d(m, m);
+        if (!straddling[k] && distance < 0.0lf) {
             return false;
         }
-        straddling[k] = distance <= radius;
     }
     for (var w = 0u; w < params.words; w++) {
         (*mask)[w] = full_word(w);

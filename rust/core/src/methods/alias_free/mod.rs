@@ -430,18 +430,20 @@ enum Reach {
     Straddles,
 }
 
-/// Where the plane `(m, k)` lies against the sphere `(center, radius)`, and `1 / |m|`.
+/// Where the plane `(m, k)` lies against the sphere `(center, radius)`, and `1 / |m|` where it
+/// straddles it (NaN otherwise). Squared, so that only a plane the tables will read pays for
+/// the square root and the division.
+#[inline]
 fn reach(m: DVec3, k: f64, center: DVec3, radius: f64) -> (Reach, f64) {
-    let inv = 1.0 / m.length();
-    let distance = (k - m.dot(center)) * inv;
-    let reach = if distance < -radius {
-        Reach::Above
-    } else if distance <= radius {
-        Reach::Straddles
+    let length_squared = m.length_squared();
+    let distance = k - m.dot(center);
+    if distance * distance <= radius * radius * length_squared {
+        (Reach::Straddles, 1.0 / length_squared.sqrt())
+    } else if distance < 0.0 {
+        (Reach::Above, f64::NAN)
     } else {
-        Reach::Below
-    };
-    (reach, inv)
+        (Reach::Below, f64::NAN)
+    }
 }
 
 /// A caster's supporting plane seen from either of its sides, set up once per caster and band:
@@ -791,7 +793,10 @@ fn alias_free_in_one_frustum(
     object_work(scene, n, samples.count()).check("alias_free", &mut stats)?;
     let masks = sample_masks(scene, light, receivers, samples, opts, false, &mut stats)?;
     Ok((
-        (0..receivers.len()).map(|i| masks.visibility(i)).collect(),
+        (0..receivers.len())
+            .into_par_iter()
+            .map(|i| masks.visibility(i))
+            .collect(),
         stats,
     ))
 }
@@ -804,6 +809,8 @@ pub(crate) struct SampleMasks {
     /// light (and invalid ones).
     pub masks: Vec<u64>,
     pub weights: Vec<f64>,
+    /// The sum of `weights`, summed once.
+    pub total: f64,
 }
 
 impl SampleMasks {
@@ -814,12 +821,20 @@ impl SampleMasks {
 
     /// The emission-weighted fraction of receiver `i`'s unblocked samples.
     pub fn visibility(&self, i: usize) -> f32 {
-        let m = self.mask(i);
-        let total: f64 = self.weights.iter().sum();
-        let lit = (0..self.weights.len())
-            .filter(|&k| m[k / 64] >> (k % 64) & 1 == 0)
-            .fold(0.0f64, |acc, k| acc + self.weights[k]);
-        lit_fraction(lit, total)
+        // The unblocked samples' weights in sample order, visited through the mask's clear bits.
+        let mut lit = 0.0f64;
+        for (w, &word) in self.mask(i).iter().enumerate() {
+            let mut clear = !word;
+            while clear != 0 {
+                let k = w * 64 + clear.trailing_zeros() as usize;
+                if k >= self.weights.len() {
+                    break;
+                }
+                lit += self.weights[k];
+                clear &= clear - 1;
+            }
+        }
+        lit_fraction(lit, self.total)
     }
 }
 
@@ -897,6 +912,7 @@ pub(crate) fn sample_masks(
         words,
         masks: vec![!0u64; receivers.len() * words],
         weights: light_samples.weights.clone(),
+        total: light_samples.weights.iter().sum(),
     };
     let bounds = LightBounds::new(light, samples, opts.hull_degree)?;
     let mut view = view_samples(light, &bounds, receivers, samples, opts.bias);
