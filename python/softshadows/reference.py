@@ -484,7 +484,7 @@ def _coherent_order(samples: np.ndarray, *, bits: int = 10) -> np.ndarray:
     Neighbours along a Hilbert curve are neighbours on the light (Hilbert 1891, "Ueber die
     stetige Abbildung einer Linie auf ein Flaechenstueck"), so a receiver's consecutive rays,
     which Mitsuba hands to Embree as one packet, start together and end close together. On the
-    bunny (64 Poisson samples) Mitsuba's ``ray_test`` kernel takes 0.92-0.94x the time in this
+    bunny (64 Poisson samples) Mitsuba's ``ray_test`` kernel takes 0.91-0.94x the time in this
     order (128x128 to 512x512 receivers).
     """
     centered = samples - samples.mean(axis=0)
