@@ -1347,6 +1347,7 @@ impl Bvh {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::error::Result;
     use crate::geometry::mesh::{AlphaTexture, Mesh};
     use crate::light::sampling::Rng;
     use glam::Vec2;
@@ -1433,6 +1434,15 @@ mod tests {
         (blocked, out.len() - blocked)
     }
 
+    /// A random point on the ground of [`scene`] or inside its soup of triangles.
+    fn point_in_soup(rng: &mut Rng) -> Vec3 {
+        Vec3::new(
+            rng.next_f32() * 4.0,
+            rng.next_f32() * 4.5 - 0.49,
+            rng.next_f32() * 4.0,
+        )
+    }
+
     #[test]
     fn converging_packets_equal_single_rays() {
         let scene = scene(600, 7);
@@ -1442,11 +1452,7 @@ mod tests {
         for _ in 0..60 {
             // A tile of origins on the ground or inside the soup (9 x 9: two packets), and
             // targets above: lit, penumbra and umbra lanes, perforated hits included.
-            let corner = Vec3::new(
-                rng.next_f32() * 4.0,
-                rng.next_f32() * 4.5 - 0.49,
-                rng.next_f32() * 4.0,
-            );
+            let corner = point_in_soup(&mut rng);
             let step = 0.002 + rng.next_f32() * 0.05;
             let origins: Vec<Vec3> = (0..81)
                 .map(|k| corner + Vec3::new((k % 9) as f32 * step, 0.0, (k / 9) as f32 * step))
@@ -1599,17 +1605,13 @@ mod tests {
     /// single rays, lane for lane, on every instruction set, from origins on the ground and
     /// inside the soup (opaque and perforated hits), with more targets than lanes.
     #[test]
-    fn diverging_packets_equal_single_rays() {
+    fn diverging_packets_equal_single_rays() -> Result<()> {
         let scene = scene(600, 17);
-        let bvh = Bvh::build(&scene).unwrap();
+        let bvh = Bvh::build(&scene)?;
         let mut rng = Rng::new(29);
         let (mut blocked, mut lit) = (0, 0);
         for _ in 0..60 {
-            let origin = Vec3::new(
-                rng.next_f32() * 4.0,
-                rng.next_f32() * 4.5 - 0.49,
-                rng.next_f32() * 4.0,
-            );
+            let origin = point_in_soup(&mut rng);
             // A light 1 to 3 units wide above the soup.
             let (corner, size) = (
                 Vec3::new(rng.next_f32() * 4.0 - 1.0, 6.0, rng.next_f32() * 4.0 - 1.0),
@@ -1622,15 +1624,16 @@ mod tests {
             (blocked, lit) = (blocked + b, lit + l);
         }
         assert!(blocked > 1000 && lit > 1000, "blocked {blocked}, lit {lit}");
+        Ok(())
     }
 
     /// Diverging packets with empty segments (targets at the origin), directions with exactly
     /// zero components, targets on both sides of the origin (no frustum: ray by ray) and no
     /// targets at all.
     #[test]
-    fn diverging_packets_handle_degenerate_rays() {
+    fn diverging_packets_handle_degenerate_rays() -> Result<()> {
         let scene = scene(300, 3);
-        let bvh = Bvh::build(&scene).unwrap();
+        let bvh = Bvh::build(&scene)?;
         let origin = Vec3::new(2.0, -0.4, 2.0);
         let mut targets: Vec<Vec3> = (0..20)
             .map(|k| Vec3::new(2.0, 0.5 + 0.3 * k as f32, 2.0))
@@ -1643,6 +1646,7 @@ mod tests {
             .collect();
         diverging_against_single_rays(&bvh, &scene, Vec3::new(2.0, 2.0, 2.0), &around);
         diverging_against_single_rays(&bvh, &scene, origin, &[]);
+        Ok(())
     }
 
     /// Packets of a few lanes (at most [`SINGLE_RAY_LANES`] + 1 per target, so that some go
