@@ -500,8 +500,8 @@ def _versus_shadow_rays(tier):
                                    "megabytes (the triangle's own plane once per band of the map, the three through the "
                                    "view sample and its edges per pair); most pairs whose planes cut the light block no "
                                    "sample (the bunny at 512², 256 samples: of 41M pairs, 25M have three or four planes "
-                                   "across the light's bounding sphere, 3.7M block a sample; on one thread the pair loop "
-                                   "is 73% of the call, 3.4x ray_traced's whole time, the influence regions 11%), where "
+                                   "across the light's bounding sphere, 3.7M block a sample; on one thread the per-texel "
+                                   "tests are 84% of the call, 3.4x ray_traced's whole time, the influence regions 9%), where "
                                    "a shadow ray visits a few BVH nodes and triangles for each sample; the GPU of the "
                                    "paper hid those reads behind thousands of threads.")
 

@@ -757,6 +757,9 @@ pub fn rasterize_depth(
         .depth
         .par_chunks_mut(band * w)
         .zip(bins.par_iter())
+        // A job per band: the casters crowd a few neighbouring bands (see
+        // `ReceiverLists::split_by_band`).
+        .with_max_len(1)
         .enumerate()
         .map(|(b, (rows, bin))| draw_band(scene, &raster, &casters, bin, b * band, rows))
         .sum();
