@@ -329,19 +329,19 @@ impl ReceiverLists {
     }
 
     /// Splits `data` (`per_entry` values per list entry, in list order) into the parts of each
-    /// band: `(band, rows, first entry, part)`, for passes that process the bands in parallel.
+    /// band, `(band, rows, first entry, part)`, as a parallel iterator of one job per band.
     ///
-    /// Those passes make each band a job of its own (`with_max_len(1)`): a shadow crosses
-    /// neighbouring rows, so the costly bands lie together, and rayon's adaptive splitting,
-    /// which stops at a few runs of bands per thread, leaves one thread a run it cannot share.
+    /// One job per band (`with_max_len(1)`): a shadow crosses neighbouring rows, so the costly
+    /// bands lie together, and rayon's adaptive splitting, which stops at a few runs of bands
+    /// per thread, leaves one thread a run it cannot share.
     /// On the bunny (512x512 receivers, 256 samples, lookup table of 64 bins, two threads)
     /// `alias_free`'s per-texel tests took 2.1 s in runs of bands, though two single-threaded
     /// processes side by side ran as fast as one alone, and 1.5 s with a job per band.
-    pub fn split_by_band<'a, T>(
+    pub fn split_by_band<'a, T: Send>(
         &self,
         data: &'a mut [T],
         per_entry: usize,
-    ) -> Vec<(usize, Range<usize>, usize, &'a mut [T])> {
+    ) -> impl IndexedParallelIterator<Item = (usize, Range<usize>, usize, &'a mut [T])> {
         let mut rest = data;
         let mut out = Vec::with_capacity(self.bands());
         for b in 0..self.bands() {
@@ -351,7 +351,7 @@ impl ReceiverLists {
             out.push((b, rows, entries.start, head));
             rest = tail;
         }
-        out
+        out.into_par_iter().with_max_len(1)
     }
 
     /// A frustum for the receivers of `rows`: the map's, with its far plane at their farthest
@@ -432,8 +432,6 @@ impl ReceiverLists {
         // stops at the next item once the call is asked to stop.
         let watch = crate::interrupt::watch();
         self.split_by_band(data, per_entry)
-            .into_par_iter()
-            .with_max_len(1)
             .for_each(|(b, rows, base, part)| {
                 let Some(band_frustum) = self.band_frustum(&rows) else {
                     return;

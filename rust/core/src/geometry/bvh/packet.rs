@@ -824,14 +824,11 @@ impl Packet {
     /// data that the lane masks never read.
     #[inline(always)]
     fn aim(&mut self, target: Vec3, lanes: u64, (k, sign): (usize, f32)) -> u64 {
-        let scale = self.origin_scale.max(target.abs().max_element());
-        self.slopes = Slopes {
-            y: target,
-            k,
-            sign,
-            scale,
-        };
-        let slopes = self.slopes;
+        let slopes = self.project_from(
+            target,
+            (k, sign),
+            self.origin_scale.max(target.abs().max_element()),
+        );
         let mut live = 0u64;
         for (c, chunk) in self.chunks.iter_mut().enumerate() {
             let mine = chunk_lanes(lanes, c);
@@ -840,6 +837,14 @@ impl Packet {
             }
         }
         live
+    }
+
+    /// Sets the projection of the lanes' slopes: from the apex `y` along the frustum axis
+    /// `(k, sign)`, with the rounding scale `scale` of every point it projects; returns it.
+    #[inline(always)]
+    fn project_from(&mut self, y: Vec3, (k, sign): (usize, f32), scale: f32) -> Slopes {
+        self.slopes = Slopes { y, k, sign, scale };
+        self.slopes
     }
 
     /// Sets the lanes to the segments from `origin` to `targets` (at most [`LANES`], one lane
@@ -851,13 +856,7 @@ impl Packet {
         let scale = targets.iter().fold(origin.abs().max_element(), |m, y| {
             m.max(y.abs().max_element())
         });
-        self.slopes = Slopes {
-            y: origin,
-            k,
-            sign,
-            scale,
-        };
-        let slopes = self.slopes;
+        let slopes = self.project_from(origin, (k, sign), scale);
         let mut live = 0u64;
         for (c, chunk) in targets.chunks(W).enumerate() {
             live |= self.chunks[c].set_rays(origin, chunk) << (W * c);

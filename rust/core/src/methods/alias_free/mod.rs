@@ -1575,14 +1575,11 @@ impl<'a> Tester<'a> {
 
     /// Tests every band of rows in parallel, each over its own part of `masks` (the bitmasks of
     /// the list entries, in list order), returning the work done. Errors: interrupted (each
-    /// band stops at its next caster once the call is asked to stop). Each band is a job of its
-    /// own (see [`ReceiverLists::split_by_band`]).
+    /// band stops at its next caster once the call is asked to stop).
     fn run(&self, masks: &mut [u64]) -> Result<Work> {
         let parts = self.lists.split_by_band(masks, self.setup.full.len());
         let watch = crate::interrupt::watch();
         let work = parts
-            .into_par_iter()
-            .with_max_len(1)
             .map(|(b, rows, base, band_masks)| self.band(b, rows, base, band_masks, &watch))
             .reduce(Work::default, Work::plus);
         crate::interrupt::check()?;
