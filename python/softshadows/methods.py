@@ -1119,19 +1119,18 @@ def alias_free(
     the same ``caster_faces``: ``ray_traced(..., caster_faces="backfacing")`` for the default.
 
     On the CPU the time goes to the (view sample, triangle) pairs: the bunny at 512x512 with 256
-    samples tests 41 million pairs (217 per view sample) and reads 2.0 plane masks per pair (2.1
-    exact), in 4.1x ``ray_traced``'s CPU time with ``lut=64`` and 6.4-6.5x exact on one thread
-    (release build, two rounds against the build before, 4.4x and 6.7x), and 4.1-4.2x and
-    6.3-6.8x its wall time on two threads (before, 5.7-6.3x and 9.3-9.7x, when runs of the costly
-    neighbouring bands of map rows fell to one thread). One thread's call splits as: the
-    per-texel tests (the pair loop with its table reads) 84%, the influence regions (each
+    samples tests 41 million pairs (217 per view sample) and reads 2.1 plane masks per pair, in
+    3.2-3.6x ``ray_traced``'s wall time with ``lut=64`` and 6.1-7.0x exact on two threads (three
+    rounds against the build before, 3.9-4.3x and 6.2-7.2x). One thread's call splits as: the
+    per-texel tests (the pair loop with its table reads) 78%, the influence regions (each
     caster's once, then again per band of rows of the map, their rows and supporting-plane cuts)
-    9%, the lists 2%, the rest (set-up, the inside test, the table's build, Python) 5%. A
+    13%, the lists 3%, the rest (set-up, the inside test, the table's build, Python) 6%. A
     triangle's own plane, its sphere test and its table entry (for unrotated samples) are set up
     once per band; per pair the three planes through the receiver and the triangle's edges are
-    built and placed against the light's bounding sphere by squared distances, and only those
-    across it are normalized (a square root and a division) and located in the table. So the
-    pairs bound it: even with everything else free, the per-texel tests alone take 3.4x
+    built and placed against the light's bounding sphere by squared distances, normalized and
+    located in the table, for 8 receivers side by side in the CPU's vector registers (the same
+    bits as one by one), and the masks of those across the sphere are read and AND-ed. So the
+    pairs bound it: even with everything else free, the per-texel tests alone take 2.8x
     ``ray_traced``'s time. Most pairs block nothing: 25 million have three or four planes across
     the light's bounding sphere, 3.7 million block a sample, and their masks must be read to
     know.

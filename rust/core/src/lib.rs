@@ -5,8 +5,9 @@
 //! rasterization, pyramids); [`influence`] (receiver lists and influence regions of the
 //! object-based methods); [`methods`] (one module per soft-shadow method, its GPU half and
 //! shader beside it); [`gpu`] (what the GPU halves share, feature `gpu`); [`backend`] (where a
-//! method runs); [`temporal`] (accumulation of any method's visibility over a sequence). Every
-//! fallible call returns [`Result`].
+//! method runs); `isa` (the instruction sets lane loops are compiled for); [`temporal`]
+//! (accumulation of any method's visibility over a sequence). Every fallible call returns
+//! [`Result`].
 
 pub mod backend;
 pub mod error;
@@ -14,6 +15,7 @@ pub mod geometry;
 pub mod gpu;
 pub mod influence;
 pub mod interrupt;
+mod isa;
 pub mod light;
 pub mod limits;
 pub mod methods;

@@ -33,9 +33,9 @@ mod triangle;
 
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
+use crate::isa::Isa;
 use frustum::{RayFrustum, MAX_CANDIDATES};
 use glam::{Vec3, Vec4};
-use packet::Isa;
 use std::cell::RefCell;
 pub use triangle::intersect_triangle;
 use triangle::{hit4, Lanes, RayData};

@@ -60,6 +60,7 @@ use super::frustum::{bounds, RayFrustum};
 use super::triangle::RayData;
 use super::{Bvh, LeafRef, Node4, Tri4, LEAF, ROBUST, STACK};
 use crate::geometry::mesh::Scene;
+use crate::isa::{isa_dispatch, Isa};
 use glam::{Vec3, Vec4};
 use std::cell::RefCell;
 
@@ -117,88 +118,6 @@ const SPARSE_LANES: u32 = 3;
 /// the same block; tracing a node's handed-off lanes together on one stack, each node slab-tested
 /// for all of them, took 1.58x; 3 lanes took 1.03x and 6 lanes 0.99x the time of 4.
 const SINGLE_RAY_LANES: u32 = 4;
-
-/// The instruction sets the packet traversal is compiled for; [`Isa::detect`] picks the
-/// widest the CPU has.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum Isa {
-    /// The target's baseline (SSE2 on x86-64): 16 lanes as four registers.
-    Baseline,
-    /// Two 8-lane registers.
-    #[cfg(target_arch = "x86_64")]
-    Avx2,
-    /// One 16-lane register, compares straight into mask registers.
-    #[cfg(target_arch = "x86_64")]
-    Avx512,
-}
-
-impl Isa {
-    /// The widest instruction set of this CPU.
-    pub(super) fn detect() -> Isa {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if has_avx512() {
-                return Isa::Avx512;
-            }
-            if std::is_x86_feature_detected!("avx2") {
-                return Isa::Avx2;
-            }
-        }
-        Isa::Baseline
-    }
-}
-
-/// Whether the CPU has the AVX-512 subsets the `avx512` variants of [`isa_dispatch`] are
-/// compiled for.
-#[cfg(target_arch = "x86_64")]
-fn has_avx512() -> bool {
-    std::is_x86_feature_detected!("avx512f")
-        && std::is_x86_feature_detected!("avx512bw")
-        && std::is_x86_feature_detected!("avx512vl")
-        && std::is_x86_feature_detected!("avx512dq")
-}
-
-/// Defines the method `$name(&self, isa: Isa, args...)`, which runs `self.$body(args...)`
-/// compiled for `isa` (the baseline unless the CPU has it): one body, inlined into one wrapper
-/// per instruction set, each compiled with its target features. `$body` must be
-/// `#[inline(always)]`, and so must everything its lane loops call.
-///
-/// Neither feature set holds `popcnt`, so the lane counts of the traversal take a dozen
-/// instructions; adding `popcnt`, `lzcnt` and BMI1/2 (checked at run time beside the rest)
-/// took 0.99-1.00x the CPU time at 128x128 (timed as [`SINGLE_RAY_LANES`]), not worth a
-/// stricter CPU check.
-macro_rules! isa_dispatch {
-    ($(#[$doc:meta])* fn $name:ident => $body:ident($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty) => {
-        $(#[$doc])*
-        #[allow(clippy::too_many_arguments)]
-        fn $name(&self, isa: Isa, $($arg: $ty),*) -> $ret {
-            #[cfg(target_arch = "x86_64")]
-            #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx512dq")]
-            fn avx512(bvh: &Bvh, $($arg: $ty),*) -> $ret {
-                bvh.$body($($arg),*)
-            }
-            #[cfg(target_arch = "x86_64")]
-            #[target_feature(enable = "avx2")]
-            fn avx2(bvh: &Bvh, $($arg: $ty),*) -> $ret {
-                bvh.$body($($arg),*)
-            }
-            match isa {
-                #[cfg(target_arch = "x86_64")]
-                Isa::Avx512 if has_avx512() => {
-                    // SAFETY: the CPU has every feature `avx512` is compiled for (checked just
-                    // above).
-                    unsafe { avx512(self, $($arg),*) }
-                }
-                #[cfg(target_arch = "x86_64")]
-                Isa::Avx2 if std::is_x86_feature_detected!("avx2") => {
-                    // SAFETY: the CPU has AVX2 (checked just above).
-                    unsafe { avx2(self, $($arg),*) }
-                }
-                _ => self.$body($($arg),*),
-            }
-        }
-    };
-}
 
 /// The per-lane data of [`W`] rays of a packet, one array entry per lane: the fields of the
 /// lane's single-ray `RayData` (see `bvh/triangle.rs`) and its slopes.
@@ -1127,7 +1046,7 @@ impl Bvh {
     isa_dispatch! {
         /// Aims the packet's lanes from `origin` at `targets` and traverses it; returns the
         /// mask of blocked lanes.
-        fn diverging_trace => diverging_trace_body(
+        fn diverging_trace(&Bvh) => diverging_trace_body(
             scene: &Scene,
             p: &mut Packet,
             origin: Vec3,
@@ -1156,7 +1075,7 @@ impl Bvh {
     isa_dispatch! {
         /// Aims the lanes `lanes` of the packet at `target` and traverses it; returns the mask
         /// of blocked lanes.
-        fn packet_trace => packet_trace_body(
+        fn packet_trace(&Bvh) => packet_trace_body(
             scene: &Scene,
             p: &mut Packet,
             target: Vec3,
@@ -1220,7 +1139,7 @@ impl Bvh {
     isa_dispatch! {
         /// The mask of the segments `origin -> targets` (at most [`LANES`]) that hit one of the
         /// blocks `cand`.
-        fn blocks_trace => blocks_trace_body(
+        fn blocks_trace(&Bvh) => blocks_trace_body(
             scene: &Scene,
             p: &mut Packet,
             origin: Vec3,
@@ -1386,17 +1305,7 @@ mod tests {
 
     /// The instruction sets of this CPU: every packet test runs on each.
     fn isas() -> Vec<Isa> {
-        let mut isas = vec![Isa::Baseline];
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::is_x86_feature_detected!("avx2") {
-                isas.push(Isa::Avx2);
-            }
-            if has_avx512() {
-                isas.push(Isa::Avx512);
-            }
-        }
-        isas
+        Isa::all_on_this_cpu()
     }
 
     /// Checks every lane of `occluded_converging` against `occluded`, and the traversal of

@@ -45,11 +45,13 @@
 //!    The bins are directions and distances relative to the light, so a binned plane's error, as seen
 //!    from a view sample, grows with the light's apparent size there: a view sample that sees the
 //!    samples' bounding sphere wider than [`TABLE_MAX_SPREAD`] tests its planes exactly instead.
-//!    A view sample whose mask is full skips the remaining tests. With per-receiver rotation of the
-//!    samples (disk and sphere lights) a view sample's planes are rotated the other way instead, so
-//!    the one table serves every rotation (the paper's rotated lookups for symmetric lights). Samples behind the receiver's
-//!    tangent plane start blocked (`docs/design.md` section 3), and a perforated caster's blocked samples
-//!    are kept only where the segment meets an opaque texel.
+//!    A view sample whose mask is full skips the remaining tests. One caster's planes and bins
+//!    are found for several view samples side by side ([`lanes`]), the same bits as one by one.
+//!    With per-receiver rotation of the samples (disk and sphere lights) a view sample's planes
+//!    are rotated the other way instead, so the one table serves every rotation (the paper's
+//!    rotated lookups for symmetric lights). Samples behind the receiver's tangent plane start
+//!    blocked (`docs/design.md` section 3), and a perforated caster's blocked samples are kept
+//!    only where the segment meets an opaque texel.
 //!
 //! 7. **Penumbra restriction** (section 4.3, `restrict_to_penumbra`): occlusion seen from a
 //!    view sample can only change across the light where its segments to the light cross an
@@ -71,6 +73,7 @@ pub mod gpu;
 #[cfg(not(feature = "gpu"))]
 #[path = "no_gpu.rs"]
 pub mod gpu;
+mod lanes;
 mod tables;
 
 use crate::backend::Backend;
@@ -84,6 +87,7 @@ use crate::geometry::receivers::Receivers;
 use crate::influence::{
     check_hull_degree, influence_hull, record_list_stats, LightBounds, ReceiverLists,
 };
+use crate::isa::signum;
 use crate::light::lights::{Light, Shape};
 use crate::light::sampling::{lit_fraction, SampleSet};
 use crate::limits::{self, object_work, Peak};
@@ -95,9 +99,11 @@ use crate::raster::frustum::LightFrustum;
 use crate::raster::region::conservative_rows;
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
+use lanes::{CasterLanes, Lanes};
 use rayon::prelude::*;
 use std::borrow::Cow;
 pub(crate) use tables::{BracketTable, Lut};
+use tables::{MISSES_ABOVE, MISSES_BELOW};
 
 /// The most light samples a view sample's bitmask holds.
 pub const MAX_SAMPLES: usize = 1024;
@@ -311,11 +317,7 @@ impl<'a> Planes<'a> {
     #[inline]
     fn read(&self, (m, k, inv): Plane) -> Read<'a> {
         if let Some(lut) = self.lut {
-            return match lut.lookup(m, k, inv) {
-                Some(mask) => Read::Lut(mask),
-                None if m.dot(lut.grid.center) >= k => Read::Nothing,
-                None => Read::Everything,
-            };
+            return Read::from_lut(lut, lut.grid.code(m, k, inv));
         }
         match self.brackets.and_then(|b| b.lookup(m, k, inv)) {
             Some((sure, unsure)) => Read::Bracket(sure, unsure),
@@ -323,48 +325,38 @@ impl<'a> Planes<'a> {
         }
     }
 
-    /// The samples that every plane of `planes` (unrotated) puts strictly below it, into `out`
-    /// (`scratch` and `sure` of the same length); false when none. `first` is how the tables
-    /// serve `planes[0]`, where the caller has read it already. Counts the planes' masks AND-ed
-    /// in `ops`.
-    #[allow(clippy::too_many_arguments)]
+    /// The samples that every plane of `pair` puts strictly below it, into `out` (`scratch` and
+    /// `sure` of the same length); false when none. Counts the planes' masks AND-ed in `ops`.
     fn below_all(
         &self,
-        planes: &[Plane],
-        first: Option<Read<'a>>,
+        pair: &PairPlanes<'a>,
         full: &[u64],
         out: &mut [u64],
         scratch: &mut [u64],
         sure: &mut [u64],
         ops: &mut u64,
     ) -> bool {
-        let read = |i: usize| match (i, first) {
-            (0, Some(read)) => read,
-            _ => self.read(planes[i]),
-        };
+        let planes = &pair.planes[..pair.count];
+        let read = |i: usize| pair.known[i].unwrap_or_else(|| self.read(planes[i]));
         out.copy_from_slice(full);
         if self.lut.is_some() {
-            // The paper's table: each plane's mask is read and AND-ed, until none is left.
+            // The paper's table: every plane's mask is read and AND-ed, not stopping at an empty
+            // one, so that the reads (far apart in a table of megabytes) overlap rather than
+            // wait on a branch on the one before.
             for i in 0..planes.len() {
                 *ops += 1;
                 match read(i) {
-                    Read::Lut(table) => {
-                        and_into(out, table);
-                        if out.iter().all(|w| *w == 0) {
-                            return false;
-                        }
-                    }
+                    Read::Lut(table) => and_into(out, table),
                     Read::Nothing => return false,
                     _ => {}
                 }
             }
-            return true;
+            return out.iter().any(|w| *w != 0);
         }
         // Exact: `out` gathers the samples some planes may put below all of them, `sure` those
         // every plane does; the rest of `out` is tested against every plane, sample by sample.
         // The bracketing table's entries are found before any is read, so that the reads (far
-        // apart in a table of megabytes) overlap: here that pays, unlike for the paper's table
-        // (finding the entries as they are read measured no faster).
+        // apart in a table of megabytes) overlap.
         let mut reads = [Read::Test; 4];
         for (i, r) in reads.iter_mut().enumerate().take(planes.len()) {
             *r = read(i);
@@ -405,6 +397,36 @@ impl<'a> Planes<'a> {
     }
 }
 
+/// The planes of one pair's test that straddle the light, unrotated, in the order they are
+/// tested (the supporting plane's, then the edges'), with how the tables serve those whose reads
+/// are known already.
+#[derive(Clone, Copy)]
+struct PairPlanes<'a> {
+    planes: [Plane; 4],
+    known: [Option<Read<'a>>; 4],
+    count: usize,
+}
+
+impl<'a> PairPlanes<'a> {
+    fn new() -> Self {
+        Self {
+            planes: [(DVec3::ZERO, 0.0, 0.0); 4],
+            known: [None; 4],
+            count: 0,
+        }
+    }
+
+    fn clear(&mut self) {
+        self.count = 0;
+    }
+
+    fn push(&mut self, plane: Plane, known: Option<Read<'a>>) {
+        self.planes[self.count] = plane;
+        self.known[self.count] = known;
+        self.count += 1;
+    }
+}
+
 /// How the tables serve one plane `m · y < k`.
 #[derive(Clone, Copy)]
 enum Read<'a> {
@@ -418,6 +440,18 @@ enum Read<'a> {
     Bracket(&'a [u64], &'a [u64]),
     /// No table serves it: every sample is tested.
     Test,
+}
+
+impl<'a> Read<'a> {
+    /// How the paper's table serves a plane of [`tables::PlaneBins::code`] `code`.
+    #[inline]
+    fn from_lut(lut: &'a Lut, code: u32) -> Self {
+        match code {
+            MISSES_ABOVE => Read::Nothing,
+            MISSES_BELOW => Read::Everything,
+            _ => Read::Lut(lut.mask(code)),
+        }
+    }
 }
 
 /// Where a plane lies against the light's bounding sphere.
@@ -436,15 +470,27 @@ enum Reach {
 /// the square root and the division.
 #[inline]
 fn reach(m: DVec3, k: f64, center: DVec3, radius: f64) -> (Reach, f64) {
+    match straddles_or_above(m, k, center, radius) {
+        (true, _) => (Reach::Straddles, inverse_length(m)),
+        (false, true) => (Reach::Above, f64::NAN),
+        (false, false) => (Reach::Below, f64::NAN),
+    }
+}
+
+/// [`reach`] without a branch, for lane loops: whether the plane straddles the sphere, and
+/// whether it lies wholly above it.
+#[inline(always)]
+fn straddles_or_above(m: DVec3, k: f64, center: DVec3, radius: f64) -> (bool, bool) {
     let length_squared = m.length_squared();
     let distance = k - m.dot(center);
-    if distance * distance <= radius * radius * length_squared {
-        (Reach::Straddles, 1.0 / length_squared.sqrt())
-    } else if distance < 0.0 {
-        (Reach::Above, f64::NAN)
-    } else {
-        (Reach::Below, f64::NAN)
-    }
+    let straddles = distance * distance <= radius * radius * length_squared;
+    (straddles, !straddles & (distance < 0.0))
+}
+
+/// `1 / |m|`.
+#[inline(always)]
+fn inverse_length(m: DVec3) -> f64 {
+    1.0 / m.length_squared().sqrt()
 }
 
 /// A caster's supporting plane seen from either of its sides, set up once per caster and band:
@@ -467,7 +513,22 @@ struct SupportingSide<'a> {
     exact: Read<'a>,
 }
 
+impl<'a> SupportingSide<'a> {
+    /// How the tables serve this plane for unrotated samples tested through `planes`.
+    fn read(&self, planes: &Planes<'a>) -> Read<'a> {
+        match planes.lut {
+            Some(_) => self.lut,
+            None => self.exact,
+        }
+    }
+}
+
 impl<'a> Supporting<'a> {
+    /// The side a view sample on the negative side of the triangle's plane (or not) sees.
+    fn side(&self, negative: bool) -> &SupportingSide<'a> {
+        &self.sides[usize::from(negative)]
+    }
+
     fn new(t: &Prepared, unrotated: &Planes<'a>) -> Self {
         let exact = Planes {
             lut: None,
@@ -556,25 +617,48 @@ fn bounding_planes(t: &Prepared, p: DVec3) -> Option<[(DVec3, f64); 4]> {
 /// The side (+1 or −1) of `t`'s plane that `p` lies on, `None` where `t` can block nothing from
 /// `p` (on its plane, or behind a front-only caster).
 fn side_of(t: &Prepared, p: DVec3) -> Option<f64> {
-    let side = t.normal.dot(p - t.v[0]);
-    (side != 0.0 && !(t.front_only && side < 0.0)).then(|| side.signum())
+    let side = side_value(t, p);
+    can_block_from(t, side).then(|| side.signum())
+}
+
+/// `n · (p − v0)`: where `p` lies against `t`'s plane (of normal `n` through vertex `v0`).
+#[inline(always)]
+fn side_value(t: &Prepared, p: DVec3) -> f64 {
+    t.normal.dot(p - t.v[0])
+}
+
+/// Whether `t` may block anything from a point at [`side_value`] `side`: off its plane, and
+/// not behind a front-only caster.
+#[inline(always)]
+fn can_block_from(t: &Prepared, side: f64) -> bool {
+    // `&`, not `&&`: no branch, for lane loops.
+    (side != 0.0) & !(t.front_only & (side < 0.0))
 }
 
 /// The three edge planes of [`bounding_planes`]: inside the planes through `p` and each edge of
 /// `t`, i.e. `e · (y − p)` with the sign of `e · (w − p)`: `(−sign e) · y < −sign e · p`.
+#[inline]
 fn edge_planes(t: &Prepared, p: DVec3) -> Option<[(DVec3, f64); 3]> {
     let mut bounds = [(DVec3::ZERO, 0.0); 3];
     for (k, bound) in bounds.iter_mut().enumerate() {
-        let (u, v, w) = (t.v[k], t.v[(k + 1) % 3], t.v[(k + 2) % 3]);
-        let e = (u - p).cross(v - p);
-        let s = e.dot(w - p);
+        let (plane, s) = edge_plane(t, p, k);
         if s == 0.0 {
             return None;
         }
-        let m = -e * s.signum();
-        *bound = (m, m.dot(p));
+        *bound = plane;
     }
     Some(bounds)
+}
+
+/// The plane of [`edge_planes`] through `p` and edge `k` of `t`, and `e · (w − p)`, zero (and
+/// the plane meaningless) where `p` lies in the triangle's plane or on the edge's line.
+#[inline(always)]
+fn edge_plane(t: &Prepared, p: DVec3, k: usize) -> ((DVec3, f64), f64) {
+    let (u, v, w) = (t.v[k], t.v[(k + 1) % 3], t.v[(k + 2) % 3]);
+    let e = (u - p).cross(v - p);
+    let s = e.dot(w - p);
+    let m = -e * signum(s);
+    ((m, m.dot(p)), s)
 }
 
 /// Whether triangle `t` blocks the single light point `y` from view point `p`.
@@ -583,8 +667,9 @@ fn blocks_point(t: &Prepared, p: DVec3, y: DVec3) -> bool {
 }
 
 /// The samples of `samples` that triangle `t` (its supporting plane set up in `supporting`)
-/// blocks from view point `p`, written into `out` (false when none), following the module
-/// documentation.
+/// blocks from view point `p`, written into `buffers.blocked` (false when none), following the
+/// module documentation.
+#[inline]
 fn blocked_by(
     t: &Prepared,
     p: DVec3,
@@ -594,12 +679,28 @@ fn blocked_by(
     buffers: &mut Buffers,
     work: &mut Work,
 ) -> bool {
+    let mut pair = PairPlanes::new();
+    pair_planes(t, p, supporting, planes, &mut pair)
+        && below_all_planes(&pair, planes, full, buffers, work)
+}
+
+/// The planes of the test of triangle `t` from view point `p` that straddle the light, into
+/// `pair`; false where one leaves every sample unblocked (or where `t` can block nothing from
+/// `p`).
+#[inline]
+fn pair_planes<'a>(
+    t: &Prepared,
+    p: DVec3,
+    supporting: &Supporting<'a>,
+    planes: &Planes<'a>,
+    pair: &mut PairPlanes<'a>,
+) -> bool {
     let Some(sigma) = side_of(t, p) else {
         return false;
     };
     // The light wholly on p's side of the supporting plane: nothing is behind it (the test of
     // its plane, made before the edge planes are built).
-    let side = &supporting.sides[usize::from(sigma < 0.0)];
+    let side = supporting.side(sigma < 0.0);
     if side.reach == Reach::Above {
         return false;
     }
@@ -608,42 +709,37 @@ fn blocked_by(
     };
     // The light's bounding sphere decides most planes without looking at a sample: wholly above a
     // plane, nothing is blocked; wholly below, the plane removes nothing.
-    let mut straddling = [(DVec3::ZERO, 0.0, 0.0); 4];
-    let mut count = 0;
+    pair.clear();
     if side.reach == Reach::Straddles {
-        straddling[0] = planes.unrotated(side.plane);
-        count = 1;
+        // The supporting plane's reads hold for unrotated samples only.
+        let known = planes.rotation.is_none().then(|| side.read(planes));
+        pair.push(planes.unrotated(side.plane), known);
     }
     for (m, bound) in edges {
         match reach(m, bound, planes.center, planes.radius) {
             (Reach::Above, _) => return false,
-            (Reach::Straddles, inv) => {
-                straddling[count] = planes.unrotated((m, bound, inv));
-                count += 1;
-            }
+            (Reach::Straddles, inv) => pair.push(planes.unrotated((m, bound, inv)), None),
             (Reach::Below, _) => {}
         }
     }
-    // The supporting plane's reads hold for unrotated samples only.
-    let first =
-        (side.reach == Reach::Straddles && planes.rotation.is_none()).then_some(match planes.lut {
-            Some(_) => side.lut,
-            None => side.exact,
-        });
+    true
+}
+
+/// The samples below every plane of `pair`, into `buffers.blocked` (false when none).
+#[inline]
+fn below_all_planes(
+    pair: &PairPlanes<'_>,
+    planes: &Planes<'_>,
+    full: &[u64],
+    buffers: &mut Buffers,
+    work: &mut Work,
+) -> bool {
     let Buffers {
         blocked,
         scratch,
         sure,
     } = buffers;
-    planes.below_all(
-        &straddling[..count],
-        first,
-        full,
-        blocked,
-        scratch,
-        sure,
-        &mut work.plane_mask_ops,
-    )
+    planes.below_all(pair, full, blocked, scratch, sure, &mut work.plane_mask_ops)
 }
 
 /// The per-band buffers of the tests: a pair's blocked samples and two of scratch.
@@ -1630,11 +1726,13 @@ impl<'a> Tester<'a> {
             rotation: None,
         };
         let entries = &self.entries;
+        let mut lanes = Lanes::new();
         for &c in self.bins[b].iter().take_while(|_| !watch.requested()) {
             let t = &casters.prepared[c as usize];
             let center_only = self.pass == Pass::Center && !t.alpha;
             let region = self.region(c as usize, &band_frustum);
             let supporting = Supporting::new(t, &unrotated);
+            let caster_lanes = CasterLanes::new(t, &supporting, &unrotated);
             let slack = 1e-9 * t.near_depth.abs();
             for span in lists.spans(region.as_deref(), &rows) {
                 for e in lists.span_entries(span) {
@@ -1645,6 +1743,27 @@ impl<'a> Tester<'a> {
                     {
                         continue;
                     }
+                    work.pair_tests += 1;
+                    if !(center_only || s.inside || s.rotated) {
+                        let p = if t.moved { s.moved } else { s.p };
+                        if lanes.push(e, p) {
+                            let band = BandMasks {
+                                masks: band_masks,
+                                base,
+                                words,
+                            };
+                            let (caster, buffers) = (&caster_lanes, &mut buffers);
+                            self.test_lanes(
+                                caster,
+                                &supporting,
+                                &mut lanes,
+                                band,
+                                buffers,
+                                &mut work,
+                            );
+                        }
+                        continue;
+                    }
                     let from_inside;
                     let t = if s.inside {
                         from_inside = t.seen_from_inside();
@@ -1653,7 +1772,6 @@ impl<'a> Tester<'a> {
                         t
                     };
                     let p = if t.moved { s.moved } else { s.p };
-                    work.pair_tests += 1;
                     if center_only {
                         if blocks_point(t, p, center) {
                             m.copy_from_slice(full);
@@ -1670,25 +1788,98 @@ impl<'a> Tester<'a> {
                         ..unrotated
                     };
                     if blocked_by(t, p, &supporting, &planes, full, &mut buffers, &mut work) {
-                        if t.alpha {
-                            alpha_test(
-                                setup.scene,
-                                t,
-                                p,
-                                setup.samples,
-                                |y| rotate_about(center, rotation, y),
-                                &mut buffers.blocked,
-                            );
-                        }
-                        m.iter_mut()
-                            .zip(&buffers.blocked)
-                            .for_each(|(a, b)| *a |= b);
+                        self.add_blocked(t, p, rotation, &mut buffers.blocked, m);
                     }
                 }
             }
+            let band = BandMasks {
+                masks: band_masks,
+                base,
+                words,
+            };
+            self.test_lanes(
+                &caster_lanes,
+                &supporting,
+                &mut lanes,
+                band,
+                &mut buffers,
+                &mut work,
+            );
         }
         work
     }
+
+    /// Tests the caster of `caster` (its supporting plane set up in `supporting`) against the
+    /// view samples of `lanes`, side by side ([`lanes`]), adding the samples it blocks to their
+    /// masks; empties `lanes`.
+    fn test_lanes(
+        &self,
+        caster: &CasterLanes<'_>,
+        supporting: &Supporting<'a>,
+        lanes: &mut Lanes,
+        band: BandMasks<'_>,
+        buffers: &mut Buffers,
+        work: &mut Work,
+    ) {
+        let (setup, t) = (self.setup, caster.t);
+        if lanes.entries().is_empty() {
+            return;
+        }
+        lanes.find_planes(caster);
+        let mut pair = PairPlanes::new();
+        for (l, &e) in lanes.entries().iter().enumerate() {
+            let s = &self.entries[e];
+            let planes = Planes {
+                samples: setup.samples,
+                lut: setup.lut.filter(|_| !s.exact_planes),
+                brackets: setup.brackets,
+                center: setup.center,
+                radius: setup.radius,
+                rotation: None,
+            };
+            if !lanes.pair(l, supporting, &planes, &mut pair) {
+                continue;
+            }
+            if below_all_planes(&pair, &planes, &setup.full, buffers, work) {
+                let p = if t.moved { s.moved } else { s.p };
+                let m = &mut band.masks[(e - band.base) * band.words..][..band.words];
+                self.add_blocked(t, p, None, &mut buffers.blocked, m);
+            }
+        }
+        lanes.clear();
+    }
+
+    /// Adds to view sample `p`'s mask `m` the samples `blocked` by caster `t`, those whose
+    /// segment crosses a transparent texel cleared first (`rotation`: the transpose of the view
+    /// sample's samples' rotation).
+    fn add_blocked(
+        &self,
+        t: &Prepared,
+        p: DVec3,
+        rotation: Option<DMat3>,
+        blocked: &mut [u64],
+        m: &mut [u64],
+    ) {
+        let setup = self.setup;
+        if t.alpha {
+            alpha_test(
+                setup.scene,
+                t,
+                p,
+                setup.samples,
+                |y| rotate_about(setup.center, rotation, y),
+                blocked,
+            );
+        }
+        m.iter_mut().zip(blocked.iter()).for_each(|(a, b)| *a |= b);
+    }
+}
+
+/// A band's part of the masks of the list entries: entry `e`'s at `(e − base) · words`.
+struct BandMasks<'a> {
+    masks: &'a mut [u64],
+    base: usize,
+    words: usize,
 }
 
 /// A list entry's view sample as the per-texel tests read it. The lists point into the view

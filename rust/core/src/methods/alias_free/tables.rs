@@ -45,6 +45,7 @@ use super::LightSamples;
 /// the whole sphere, not symmetric, did not (it left samples lit in the umbra). `cells` is
 /// `bins / √2` rounded down: the `2 cells²` normal bins are at most the paper's `bins²` (the
 /// table no larger than `bins³` entries), within 4.2% from 64 bins on; the distance takes `bins`.
+#[derive(Debug, Clone, Copy)]
 pub(crate) struct PlaneBins {
     pub bins: usize,
     /// Cells per side of the square of each sign.
@@ -59,14 +60,15 @@ pub(crate) struct PlaneBins {
 
 /// Whether the unit vector `u` lies in the upper hemisphere: `z > 0`, on the equator `y > 0`,
 /// on its diameter `x > 0` (so that exactly one of `u` and `−u` does, −0 counting as 0).
-#[inline]
+#[inline(always)]
 fn upper(u: DVec3) -> bool {
-    u.z > 0.0 || (u.z == 0.0 && (u.y > 0.0 || (u.y == 0.0 && u.x > 0.0)))
+    // `|` and `&`, not `||` and `&&`: no branch, for lane loops.
+    (u.z > 0.0) | ((u.z == 0.0) & ((u.y > 0.0) | ((u.y == 0.0) & (u.x > 0.0))))
 }
 
 /// The sign (0 for `+`, 1 for `−`) and the coordinates in `[−1, 1]²` of the unit vector `u` (see
 /// [`PlaneBins`]).
-#[inline]
+#[inline(always)]
 fn hemi_octahedral(u: DVec3) -> (usize, [f64; 2]) {
     let (sign, r) = match upper(u) {
         true => (0, u),
@@ -104,13 +106,15 @@ impl PlaneBins {
         2 * self.cells * self.cells
     }
 
-    /// The bin of `t` in `[−1, 1]` (1 in the last) among `n`. Through `u32`, whose saturating
-    /// conversion is shorter than `usize`'s and gives the same bin for every `t`, NaN included
-    /// (bin 0), as `n` is far below `u32::MAX`: 0.91-0.93x the CPU time of `alias_free` on the
-    /// bunny at 512x512 with 256 samples and 64 bins.
-    #[inline]
+    /// The bin of `t` in `[−1, 1]` (1 in the last) among `n`: clamped in f64 (NaN to bin 0, as
+    /// `max` returns the number), then truncated without the checks of a saturating `as`,
+    /// which LLVM makes lane by lane.
+    #[inline(always)]
     fn bin(t: f64, n: usize) -> usize {
-        (((t + 1.0) * 0.5 * n as f64) as u32).min(n as u32 - 1) as usize
+        let at = ((t + 1.0) * 0.5 * n as f64).max(0.0).min((n - 1) as f64);
+        // SAFETY: `at` is a number in `0..=n − 1`, and `n` (at most 256 bins, or cells fewer)
+        // is far below `i32::MAX`.
+        unsafe { at.to_int_unchecked::<i32>() as usize }
     }
 
     /// The coordinate in `[−1, 1]` of the (fractional) cell boundary `k`.
@@ -165,7 +169,7 @@ impl PlaneBins {
     }
 
     /// The normal bin of the unit vector `u`.
-    #[inline]
+    #[inline(always)]
     fn normal_bin(&self, u: DVec3) -> usize {
         let (sign, [a, b]) = hemi_octahedral(u);
         let n = self.cells;
@@ -177,12 +181,36 @@ impl PlaneBins {
     /// `1 / |m|` (the shader's arithmetic, one division and one square root per plane).
     #[inline]
     fn locate(&self, m: DVec3, k: f64, inv: f64) -> Option<usize> {
+        let (hits, at) = self.locate_parts(m, k, inv);
+        hits.then_some(at)
+    }
+
+    /// [`Self::locate`] without a branch, for lane loops: whether the plane meets the light,
+    /// and its bin (meaningless, but within the table, where it does not).
+    #[inline(always)]
+    fn locate_parts(&self, m: DVec3, k: f64, inv: f64) -> (bool, usize) {
         let u = m * inv;
         let d = (k * inv - u.dot(self.center)) * self.inv_extent;
-        if !(-1.0..1.0).contains(&d) {
-            return None;
+        let hits = (-1.0..1.0).contains(&d);
+        (
+            hits,
+            self.normal_bin(u) * self.bins + Self::bin(d, self.bins),
+        )
+    }
+
+    /// How a table of these bins serves the plane `m · y < k` (`inv = 1 / |m|`), as a code that a lane loop
+    /// computes without a branch: the flat index of the plane's bin (its mask: [`Lut::mask`]),
+    /// or, for a plane that misses the light, [`MISSES_ABOVE`] (the center lies above it, so no
+    /// sample is behind it) or [`MISSES_BELOW`] (every sample is).
+    #[inline(always)]
+    pub(crate) fn code(&self, m: DVec3, k: f64, inv: f64) -> u32 {
+        let (hits, at) = self.locate_parts(m, k, inv);
+        let center_above = m.dot(self.center) >= k;
+        match (hits, center_above) {
+            (true, _) => at as u32,
+            (false, true) => MISSES_ABOVE,
+            (false, false) => MISSES_BELOW,
         }
-        Some(self.normal_bin(u) * self.bins + Self::bin(d, self.bins))
     }
 
     /// For each normal bin `n` (in index order, in parallel), calls `fill(n, chunk)` on its
@@ -262,13 +290,17 @@ impl Lut {
         Ok(Self { grid, words, masks })
     }
 
-    /// The mask of samples with `m · y < k` (`inv = 1 / |m|`), or `None` when the plane misses
-    /// the light (all or none of it behind: the caller decides by the center).
-    pub(crate) fn lookup(&self, m: DVec3, k: f64, inv: f64) -> Option<&[u64]> {
-        let at = self.grid.locate(m, k, inv)? * self.words;
-        Some(&self.masks[at..at + self.words])
+    /// The mask of the samples behind the planes of bin `code` (below [`MISSES_BELOW`]).
+    pub(crate) fn mask(&self, code: u32) -> &[u64] {
+        let at = code as usize * self.words;
+        &self.masks[at..at + self.words]
     }
 }
+
+/// The [`PlaneBins::code`] of a plane that misses the light with its center above it.
+pub(crate) const MISSES_ABOVE: u32 = u32::MAX;
+/// The [`PlaneBins::code`] of a plane that misses the light with its center below it.
+pub(crate) const MISSES_BELOW: u32 = u32::MAX - 1;
 
 /// The margin, in units of the table's extent, by which a sample must clear every plane of a
 /// bin to be sure; it absorbs the round-off of binning a plane and of the exact test
