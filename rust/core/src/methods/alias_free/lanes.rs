@@ -81,7 +81,8 @@ impl Lanes {
         true
     }
 
-    /// Adds the pair of list entry `e` at view point `p`; true when every lane is taken.
+    /// Adds the pair of list entry `e` at view point `p`; true when every lane is taken. The
+    /// caller tests the lanes (and empties them) as soon as it says so, so a lane is free here.
     pub(super) fn push(&mut self, e: usize, p: DVec3) -> bool {
         let l = self.count;
         self.entries[l] = e;
@@ -238,6 +239,7 @@ fn point(p: &[[f64; LANES]; 3], l: usize) -> DVec3 {
 mod tests {
     use super::super::{pair_planes, LightSamples, Lut, Plane};
     use super::*;
+    use crate::error::Result;
     use crate::light::sampling::Rng;
 
     /// Whether two reads are the same (the same masks, by address).
@@ -262,7 +264,7 @@ mod tests {
     /// (a vertex: on the triangle's plane and on two edge planes), from both sides of front-only
     /// and two-sided casters, with the paper's table and without.
     #[test]
-    fn lanes_find_the_planes_of_one_pair_at_a_time_on_every_instruction_set() {
+    fn lanes_find_the_planes_of_one_pair_at_a_time_on_every_instruction_set() -> Result<()> {
         let mut rng = Rng::new(5);
         let mut next = move |scale: f64| (f64::from(rng.next_f32()) * 2.0 - 1.0) * scale;
         let center = DVec3::new(0.0, 4.0, 0.0);
@@ -274,7 +276,7 @@ mod tests {
             words: points.len().div_ceil(64),
             points,
         };
-        let lut = Lut::new(&samples, center, 0.6, 16).unwrap();
+        let lut = Lut::new(&samples, center, 0.6, 16)?;
         let mut tested = [0usize; 2];
         for trial in 0..300 {
             let v = [0; 3].map(|_| DVec3::new(next(1.0), 2.0 + next(1.0), next(1.0)));
@@ -347,5 +349,6 @@ mod tests {
         }
         // Enough pairs reach the table (or the samples) to mean something.
         assert!(tested.iter().all(|&n| n > 500), "{tested:?}");
+        Ok(())
     }
 }

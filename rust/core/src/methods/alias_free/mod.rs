@@ -1716,15 +1716,8 @@ impl<'a> Tester<'a> {
         let Some(band_frustum) = self.band_frustums[b] else {
             return work;
         };
-        let (center, radius) = (setup.center, setup.radius);
-        let unrotated = Planes {
-            samples: setup.samples,
-            lut: setup.lut,
-            brackets: setup.brackets,
-            center,
-            radius,
-            rotation: None,
-        };
+        let center = setup.center;
+        let unrotated = self.unrotated_planes();
         let entries = &self.entries;
         let mut lanes = Lanes::new();
         for &c in self.bins[b].iter().take_while(|_| !watch.requested()) {
@@ -1809,6 +1802,19 @@ impl<'a> Tester<'a> {
         work
     }
 
+    /// The plane masks of the samples as the setup's tables serve them, unrotated.
+    fn unrotated_planes(&self) -> Planes<'a> {
+        let setup = self.setup;
+        Planes {
+            samples: setup.samples,
+            lut: setup.lut,
+            brackets: setup.brackets,
+            center: setup.center,
+            radius: setup.radius,
+            rotation: None,
+        }
+    }
+
     /// Tests the caster of `caster` (its supporting plane set up in `supporting`) against the
     /// view samples of `lanes`, side by side ([`lanes`]), adding the samples it blocks to their
     /// masks; empties `lanes`.
@@ -1826,16 +1832,13 @@ impl<'a> Tester<'a> {
             return;
         }
         lanes.find_planes(caster);
+        let unrotated = self.unrotated_planes();
         let mut pair = PairPlanes::new();
         for (l, &e) in lanes.entries().iter().enumerate() {
             let s = &self.entries[e];
             let planes = Planes {
-                samples: setup.samples,
                 lut: setup.lut.filter(|_| !s.exact_planes),
-                brackets: setup.brackets,
-                center: setup.center,
-                radius: setup.radius,
-                rotation: None,
+                ..unrotated
             };
             if !lanes.pair(l, supporting, &planes, &mut pair) {
                 continue;

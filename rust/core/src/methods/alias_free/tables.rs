@@ -198,10 +198,10 @@ impl PlaneBins {
         )
     }
 
-    /// How a table of these bins serves the plane `m · y < k` (`inv = 1 / |m|`), as a code that a lane loop
-    /// computes without a branch: the flat index of the plane's bin (its mask: [`Lut::mask`]),
-    /// or, for a plane that misses the light, [`MISSES_ABOVE`] (the center lies above it, so no
-    /// sample is behind it) or [`MISSES_BELOW`] (every sample is).
+    /// How a table of these bins serves the plane `m · y < k` (`inv = 1 / |m|`), as a code that
+    /// a lane loop computes without a branch: the flat index of the plane's bin (its mask:
+    /// [`Lut::mask`]), or, for a plane that misses the light, [`MISSES_ABOVE`] (the center lies
+    /// above it, so no sample is behind it) or [`MISSES_BELOW`] (every sample is).
     #[inline(always)]
     pub(crate) fn code(&self, m: DVec3, k: f64, inv: f64) -> u32 {
         let (hits, at) = self.locate_parts(m, k, inv);
