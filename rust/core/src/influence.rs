@@ -28,7 +28,7 @@ use crate::limits::Peak;
 use crate::raster::cube::enclosing_face;
 use crate::raster::depth::{band_rows, bin_row_ranges};
 use crate::raster::frustum::{check_resolution, LightFrustum, NEAR_FRACTION};
-use crate::raster::region::{conservative_row_range, conservative_rows, conservative_span};
+use crate::raster::region::{conservative_row_extent, conservative_row_range, conservative_span};
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
 use rayon::prelude::*;
@@ -464,8 +464,7 @@ pub fn bin_regions(frustum: &LightFrustum, hulls: &[Option<Vec<DVec2>>]) -> Vec<
         .map(|hull| match hull {
             None => Some((0, h)),
             Some(hull) => {
-                let r = conservative_rows(hull, w, h);
-                r.first().map(|f| (f.0, r.last().map_or(f.0, |l| l.0) + 1))
+                conservative_row_extent(hull, w, h).map(|(first, last)| (first, last + 1))
             }
         })
         .collect();
@@ -925,6 +924,7 @@ fn disk_beyond(
 mod tests {
     use super::*;
     use crate::light::sampling::{Pattern, Rng};
+    use crate::raster::region::conservative_rows;
 
     /// Whether the segment `p → y` meets triangle `t` strictly inside (general position).
     fn segment_meets_triangle(p: DVec3, y: DVec3, t: [DVec3; 3]) -> bool {

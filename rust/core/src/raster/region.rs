@@ -42,6 +42,21 @@ pub fn conservative_row_range(hull: &[DVec2], height: usize) -> Option<(usize, u
     (y_last >= 0.0 && y_first < height).then_some((y_first, y_last as usize))
 }
 
+/// The first and last rows of a `width × height` map in which the polygon `hull` touches a
+/// texel: the first and last rows of [`conservative_rows`], found from the ends of its row
+/// range inwards, without the spans of the rows between.
+pub fn conservative_row_extent(
+    hull: &[DVec2],
+    width: usize,
+    height: usize,
+) -> Option<(usize, usize)> {
+    let (first, last) = conservative_row_range(hull, height)?;
+    let touches = |y: &usize| conservative_span(hull, *y, width).is_some();
+    let first = (first..=last).find(touches)?;
+    let last = (first..=last).rev().find(touches)?;
+    Some((first, last))
+}
+
 /// The half-open columns `[x0, x1)` of row `y` of a `width`-column map whose texel squares the
 /// polygon `hull` touches (with the slack of [`conservative_rows`]); `None` for none. The GPU
 /// repeats it operation for operation (`row_span` in `methods/alias_free/alias_free.wgsl`).
@@ -75,6 +90,27 @@ pub fn conservative_span(hull: &[DVec2], y: usize, width: usize) -> Option<(usiz
 mod tests {
     use super::*;
     use crate::geometry::polygon::convex_hull;
+
+    #[test]
+    fn the_row_extent_is_that_of_the_rows() {
+        // Triangles and a long thin sliver, inside, across and wholly off a 10 x 12 map's sides.
+        let hulls = [
+            vec![(1.2, 1.5), (6.7, 2.1), (3.3, 7.9)],
+            vec![(-4.0, -3.0), (2.5, 5.5), (-1.0, 14.0)],
+            vec![(-9.0, 1.0), (-3.0, 2.0), (-5.0, 8.0)],
+            vec![(-3.0, -1.0), (13.0, 11.5), (12.9, 11.6)],
+            vec![(4.0, 20.0), (6.0, 25.0), (5.0, 30.0)],
+        ];
+        for points in hulls {
+            let points: Vec<DVec2> = points.iter().map(|&(x, y)| DVec2::new(x, y)).collect();
+            let hull = convex_hull(&points);
+            let rows = conservative_rows(&hull, 10, 12);
+            let expected = rows
+                .first()
+                .map(|f| (f.0, rows.last().map_or(f.0, |l| l.0)));
+            assert_eq!(conservative_row_extent(&hull, 10, 12), expected, "{hull:?}");
+        }
+    }
 
     #[test]
     fn coverage_is_conservative() {

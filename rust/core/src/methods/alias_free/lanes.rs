@@ -12,7 +12,7 @@
 use super::tables::PlaneBins;
 use super::{
     can_block_from, edge_plane, inverse_length, side_value, straddles_or_above, PairPlanes, Planes,
-    Prepared, Reach, Read, Supporting,
+    Prepared, Reach, Supporting,
 };
 use crate::isa::{isa_dispatch, Isa};
 use glam::DVec3;
@@ -56,7 +56,8 @@ impl Lanes {
 
     /// The planes of lane `l` (once found) that straddle the light, into `pair`, as
     /// [`super::pair_planes`] finds them for its view sample tested through `planes`
-    /// (unrotated); false where one leaves every sample unblocked.
+    /// (unrotated, without the paper's table: with it, [`Self::codes`] serve); false where one
+    /// leaves every sample unblocked.
     pub(super) fn pair<'a>(
         &self,
         l: usize,
@@ -75,10 +76,28 @@ impl Lanes {
         }
         for edge in found.edges.iter().filter(|edge| edge.straddles[l]) {
             let m = DVec3::new(edge.m[0][l], edge.m[1][l], edge.m[2][l]);
-            let known = planes.lut.map(|lut| Read::from_lut(lut, edge.code[l]));
-            pair.push((m, edge.k[l], edge.inv[l]), known);
+            pair.push((m, edge.k[l], edge.inv[l]), None);
         }
         true
+    }
+
+    /// The [`PlaneBins::code`]s of lane `l`'s planes (once found) in the paper's table, the
+    /// supporting plane's then the edges', a plane that does not straddle the light coded as
+    /// every sample's, and how many straddle; `None` where a plane leaves every sample
+    /// unblocked.
+    pub(super) fn codes(&self, l: usize, supporting: &Supporting<'_>) -> Option<([u32; 4], u64)> {
+        let found = &self.found;
+        if !found.live[l] {
+            return None;
+        }
+        let side = supporting.side(found.negative[l]);
+        let [a, b, c] = &found.edges;
+        let straddling = [a, b, c]
+            .iter()
+            .fold(u64::from(side.reach == Reach::Straddles), |n, edge| {
+                n + u64::from(edge.straddles[l])
+            });
+        Some(([side.code, a.code[l], b.code[l], c.code[l]], straddling))
     }
 
     /// Adds the pair of list entry `e` at view point `p`; true when every lane is taken. The
@@ -93,7 +112,7 @@ impl Lanes {
 }
 
 /// One edge plane per lane: `m · y < k`, `1 / |m|`, whether it straddles the light's bounding
-/// sphere and its [`PlaneBins::code`].
+/// sphere and its [`PlaneBins::code`] (every sample's where it does not straddle).
 #[derive(Clone, Copy)]
 struct EdgeLanes {
     m: [[f64; LANES]; 3],
@@ -152,6 +171,16 @@ impl<'a> CasterLanes<'a> {
             radius: planes.radius,
             lut: planes.lut,
         }
+    }
+
+    /// Whether the caster may block a sample from view point `p`: the first step of a lane's
+    /// test, made for one pair before it takes a lane, as it rules out a quarter of the pairs
+    /// (a view sample on the caster's plane, behind a front-only caster, or with the light wholly
+    /// on its side of the supporting plane).
+    #[inline(always)]
+    pub(super) fn may_block_from(&self, p: DVec3) -> bool {
+        let side = side_value(self.t, p);
+        can_block_from(self.t, side) & !self.above[usize::from(side < 0.0)]
     }
 
     isa_dispatch! {
@@ -219,12 +248,16 @@ impl<'a> CasterLanes<'a> {
 
 impl EdgeLanes {
     /// Each lane's plane's [`PlaneBins::code`] in `grid` (a copy, which LLVM knows the
-    /// lanes' stores leave alone: read through the table, the loop stayed scalar).
+    /// lanes' stores leave alone: read through the table, the loop stayed scalar), every
+    /// sample's where the plane does not straddle the light's bounding sphere (the one-pair
+    /// test leaves such a plane out).
     #[inline(always)]
     fn codes(&mut self, grid: PlaneBins) {
+        let every = grid.misses_below();
         for l in 0..LANES {
             let m = DVec3::new(self.m[0][l], self.m[1][l], self.m[2][l]);
-            self.code[l] = grid.code(m, self.k[l], self.inv[l]);
+            let code = grid.code(m, self.k[l], self.inv[l]);
+            self.code[l] = if self.straddles[l] { code } else { every };
         }
     }
 }
@@ -237,7 +270,7 @@ fn point(p: &[[f64; LANES]; 3], l: usize) -> DVec3 {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{pair_planes, LightSamples, Lut, Plane};
+    use super::super::{pair_planes, LightSamples, Lut, Plane, Read};
     use super::*;
     use crate::error::Result;
     use crate::light::sampling::Rng;
@@ -248,7 +281,6 @@ mod tests {
             (Read::Nothing, Read::Nothing)
             | (Read::Everything, Read::Everything)
             | (Read::Test, Read::Test) => true,
-            (Read::Lut(a), Read::Lut(b)) => std::ptr::eq(a, b),
             (Read::Bracket(a, u), Read::Bracket(b, v)) => std::ptr::eq(a, b) && std::ptr::eq(u, v),
             _ => false,
         }
@@ -259,10 +291,21 @@ mod tests {
         pair.known[i].unwrap_or_else(|| planes.read(pair.planes[i]))
     }
 
+    /// The samples the one-pair test finds below every plane of `pair` (false: none), and the
+    /// masks AND-ed.
+    fn below_all(pair: &PairPlanes<'_>, planes: &Planes<'_>) -> (bool, Vec<u64>, u64) {
+        let (full, words) = (planes.samples.full_mask(), planes.samples.words);
+        let (mut out, mut scratch, mut sure) = (vec![0; words], vec![0; words], vec![0; words]);
+        let mut ops = 0;
+        let any = planes.below_all(pair, &full, &mut out, &mut scratch, &mut sure, &mut ops);
+        (any, out, ops)
+    }
+
     /// Every lane finds the very planes and table reads of the one-pair test, on every
     /// instruction set of this CPU: view points in general position, and on the degenerate ones
     /// (a vertex: on the triangle's plane and on two edge planes), from both sides of front-only
-    /// and two-sided casters, with the paper's table and without.
+    /// and two-sided casters, with the paper's table (the same samples below all planes,
+    /// through the lanes' codes) and without it (the same planes, bit for bit).
     #[test]
     fn lanes_find_the_planes_of_one_pair_at_a_time_on_every_instruction_set() -> Result<()> {
         let mut rng = Rng::new(5);
@@ -277,7 +320,7 @@ mod tests {
             points,
         };
         let lut = Lut::new(&samples, center, 0.6, 16)?;
-        let mut tested = [0usize; 2];
+        let (mut tested, mut blocking) = ([0usize; 2], 0);
         for trial in 0..300 {
             let v = [0; 3].map(|_| DVec3::new(next(1.0), 2.0 + next(1.0), next(1.0)));
             let normal = (v[1] - v[0]).cross(v[2] - v[0]);
@@ -315,40 +358,58 @@ mod tests {
                 for isa in Isa::all_on_this_cpu() {
                     caster.planes_on(isa, &lanes.p, &mut lanes.found);
                     for l in 0..LANES {
-                        let (mut one, mut side) = (PairPlanes::new(), PairPlanes::new());
+                        let at = format!("{isa:?} trial {trial} lane {l}");
+                        let mut one = PairPlanes::new();
                         let found =
                             pair_planes(&t, point(&lanes.p, l), &supporting, &planes, &mut one);
+                        if let Some(lut) = lut {
+                            let codes = lanes.codes(l, &supporting);
+                            assert_eq!(codes.is_some(), found, "{at}");
+                            let Some((codes, straddling)) = codes else {
+                                continue;
+                            };
+                            tested[0] += 1;
+                            let (any, mask, ops) = below_all(&one, &planes);
+                            let mut side = vec![0; samples.words];
+                            assert_eq!(lut.below_all(codes, &mut side), any, "{at}");
+                            assert_eq!(straddling, one.count as u64, "{at}");
+                            assert!(ops <= straddling, "{at}");
+                            if any {
+                                blocking += 1;
+                                assert_eq!(side, mask, "{at}");
+                            }
+                            continue;
+                        }
+                        let mut side = PairPlanes::new();
                         assert_eq!(
                             lanes.pair(l, &supporting, &planes, &mut side),
                             found,
-                            "{isa:?} trial {trial} lane {l}"
+                            "{at}"
                         );
                         if !found {
                             continue;
                         }
-                        tested[usize::from(lut.is_some())] += 1;
-                        assert_eq!(one.count, side.count, "{isa:?} trial {trial} lane {l}");
+                        tested[1] += 1;
+                        assert_eq!(one.count, side.count, "{at}");
                         for i in 0..one.count {
                             let bits = |(m, k, inv): Plane| {
                                 (m.to_array().map(f64::to_bits), k.to_bits(), inv.to_bits())
                             };
-                            assert_eq!(
-                                bits(one.planes[i]),
-                                bits(side.planes[i]),
-                                "{isa:?} trial {trial} lane {l} plane {i}"
-                            );
-
+                            assert_eq!(bits(one.planes[i]), bits(side.planes[i]), "{at} plane {i}");
                             assert!(
                                 same(resolved(&one, &planes, i), resolved(&side, &planes, i)),
-                                "{isa:?} trial {trial} lane {l} plane {i}"
+                                "{at} plane {i}"
                             );
                         }
                     }
                 }
             }
         }
-        // Enough pairs reach the table (or the samples) to mean something.
-        assert!(tested.iter().all(|&n| n > 500), "{tested:?}");
+        // Enough pairs reach the table (or the samples), and block samples, to mean something.
+        assert!(
+            tested.iter().all(|&n| n > 500) && blocking > 100,
+            "{tested:?} {blocking}"
+        );
         Ok(())
     }
 }

@@ -103,7 +103,6 @@ use lanes::{CasterLanes, Lanes};
 use rayon::prelude::*;
 use std::borrow::Cow;
 pub(crate) use tables::{BracketTable, Lut};
-use tables::{MISSES_ABOVE, MISSES_BELOW};
 
 /// The most light samples a view sample's bitmask holds.
 pub const MAX_SAMPLES: usize = 1024;
@@ -447,8 +446,8 @@ impl<'a> Read<'a> {
     #[inline]
     fn from_lut(lut: &'a Lut, code: u32) -> Self {
         match code {
-            MISSES_ABOVE => Read::Nothing,
-            MISSES_BELOW => Read::Everything,
+            c if c == lut.grid.misses_above() => Read::Nothing,
+            c if c == lut.grid.misses_below() => Read::Everything,
             _ => Read::Lut(lut.mask(code)),
         }
     }
@@ -511,6 +510,9 @@ struct SupportingSide<'a> {
     /// and without it (the bracketing table of exact view samples).
     lut: Read<'a>,
     exact: Read<'a>,
+    /// Its [`tables::PlaneBins::code`] in the paper's table where it straddles the light, the
+    /// code of every sample where it lies below (meaningless without a table).
+    code: u32,
 }
 
 impl<'a> SupportingSide<'a> {
@@ -542,11 +544,16 @@ impl<'a> Supporting<'a> {
                 Reach::Straddles => planes.read(plane),
                 _ => Read::Test,
             };
+            let code = unrotated.lut.map_or(0, |lut| match reach {
+                Reach::Straddles => lut.grid.code(m, k, inv),
+                _ => lut.grid.misses_below(),
+            });
             SupportingSide {
                 plane,
                 reach,
                 lut: read(unrotated),
                 exact: read(&exact),
+                code,
             }
         };
         Self {
@@ -1739,6 +1746,9 @@ impl<'a> Tester<'a> {
                     work.pair_tests += 1;
                     if !(center_only || s.inside || s.rotated) {
                         let p = if t.moved { s.moved } else { s.p };
+                        if !caster_lanes.may_block_from(p) {
+                            continue;
+                        }
                         if lanes.push(e, p) {
                             let band = BandMasks {
                                 masks: band_masks,
@@ -1836,14 +1846,21 @@ impl<'a> Tester<'a> {
         let mut pair = PairPlanes::new();
         for (l, &e) in lanes.entries().iter().enumerate() {
             let s = &self.entries[e];
-            let planes = Planes {
-                lut: setup.lut.filter(|_| !s.exact_planes),
-                ..unrotated
+            let lut = setup.lut.filter(|_| !s.exact_planes);
+            let blocked = match lut {
+                Some(lut) => lanes
+                    .codes(l, supporting)
+                    .is_some_and(|(codes, straddling)| {
+                        work.plane_mask_ops += straddling;
+                        lut.below_all(codes, &mut buffers.blocked)
+                    }),
+                None => {
+                    let planes = Planes { lut, ..unrotated };
+                    lanes.pair(l, supporting, &planes, &mut pair)
+                        && below_all_planes(&pair, &planes, &setup.full, buffers, work)
+                }
             };
-            if !lanes.pair(l, supporting, &planes, &mut pair) {
-                continue;
-            }
-            if below_all_planes(&pair, &planes, &setup.full, buffers, work) {
+            if blocked {
                 let p = if t.moved { s.moved } else { s.p };
                 let m = &mut band.masks[(e - band.base) * band.words..][..band.words];
                 self.add_blocked(t, p, None, &mut buffers.blocked, m);

@@ -198,18 +198,37 @@ impl PlaneBins {
         )
     }
 
+    /// The number of bins: normal bins times distance bins.
+    fn entries(&self) -> usize {
+        self.normal_bins() * self.bins
+    }
+
+    /// The [`Self::code`] of a plane that misses the light with its center below it: every
+    /// sample lies behind it (a [`Lut`] row past its bins', of every sample).
+    #[inline(always)]
+    pub(crate) fn misses_below(&self) -> u32 {
+        self.entries() as u32
+    }
+
+    /// The [`Self::code`] of a plane that misses the light with its center above it: no sample
+    /// lies behind it (a [`Lut`] row past its bins', of none).
+    #[inline(always)]
+    pub(crate) fn misses_above(&self) -> u32 {
+        self.entries() as u32 + 1
+    }
+
     /// How a table of these bins serves the plane `m · y < k` (`inv = 1 / |m|`), as a code that
     /// a lane loop computes without a branch: the flat index of the plane's bin (its mask:
-    /// [`Lut::mask`]), or, for a plane that misses the light, [`MISSES_ABOVE`] (the center lies
-    /// above it, so no sample is behind it) or [`MISSES_BELOW`] (every sample is).
+    /// [`Lut::mask`]), or, for a plane that misses the light, [`Self::misses_above`] or
+    /// [`Self::misses_below`].
     #[inline(always)]
     pub(crate) fn code(&self, m: DVec3, k: f64, inv: f64) -> u32 {
         let (hits, at) = self.locate_parts(m, k, inv);
         let center_above = m.dot(self.center) >= k;
         match (hits, center_above) {
             (true, _) => at as u32,
-            (false, true) => MISSES_ABOVE,
-            (false, false) => MISSES_BELOW,
+            (false, true) => self.misses_above(),
+            (false, false) => self.misses_below(),
         }
     }
 
@@ -251,7 +270,10 @@ fn fill_suffixes(chunk: &mut [u64], stride: usize, offset: usize, words: usize, 
 
 /// The paper's plane-to-bitmask lookup table: for a unit normal (its hemi-octahedral cell and
 /// sign, [`PlaneBins`], where the paper bins two angles) and a signed distance from the light's
-/// center (in units of the light's extent), the samples behind the plane at the bin's center.
+/// center (in units of the light's extent), the samples behind the plane at the bin's center;
+/// then two rows for the planes that miss the light, every sample's
+/// ([`PlaneBins::misses_below`]) and none ([`PlaneBins::misses_above`]), so that a pair's masks
+/// are AND-ed by code without a branch ([`Lut::below_all`]).
 pub(crate) struct Lut {
     pub grid: PlaneBins,
     pub words: usize,
@@ -271,7 +293,7 @@ impl Lut {
             limits::bytes(&[bins as u64, bins as u64, bins as u64, words as u64, 8]),
         )?;
         let grid = PlaneBins::new(center, extent, bins);
-        let mut masks = vec![0u64; grid.normal_bins() * bins * words];
+        let mut masks = vec![0u64; (grid.entries() + 2) * words];
         let distance = |k: usize| ((k as f64 + 0.5) / bins as f64 * 2.0 - 1.0) * extent;
         grid.fill_by_normal(&mut masks, words, |n, chunk| {
             let m = grid.normal(n);
@@ -287,20 +309,56 @@ impl Lut {
                 .collect();
             fill_suffixes(chunk, words, 0, words, &first);
         });
+        let every = grid.misses_below() as usize * words;
+        masks[every..every + words].copy_from_slice(&samples.full_mask());
         Ok(Self { grid, words, masks })
     }
 
-    /// The mask of the samples behind the planes of bin `code` (below [`MISSES_BELOW`]).
+    /// The mask of the samples behind the planes of [`PlaneBins::code`] `code`.
     pub(crate) fn mask(&self, code: u32) -> &[u64] {
         let at = code as usize * self.words;
         &self.masks[at..at + self.words]
     }
-}
 
-/// The [`PlaneBins::code`] of a plane that misses the light with its center above it.
-pub(crate) const MISSES_ABOVE: u32 = u32::MAX;
-/// The [`PlaneBins::code`] of a plane that misses the light with its center below it.
-pub(crate) const MISSES_BELOW: u32 = u32::MAX - 1;
+    /// The samples behind all four planes of [`PlaneBins::code`]s `codes`, into `out` (of
+    /// [`Self::words`] words); false when none. Each mask is read whole and AND-ed, without a
+    /// branch on the codes or on the masks read before, so that the four reads (far apart in a
+    /// table of megabytes) overlap; at the usual mask lengths in whole registers.
+    #[inline]
+    pub(crate) fn below_all(&self, codes: [u32; 4], out: &mut [u64]) -> bool {
+        match self.words {
+            1 => self.below_all_in::<1>(codes, out),
+            2 => self.below_all_in::<2>(codes, out),
+            4 => self.below_all_in::<4>(codes, out),
+            8 => self.below_all_in::<8>(codes, out),
+            16 => self.below_all_in::<16>(codes, out),
+            _ => {
+                out.copy_from_slice(self.mask(codes[0]));
+                for &code in &codes[1..] {
+                    out.iter_mut()
+                        .zip(self.mask(code))
+                        .for_each(|(a, b)| *a &= b);
+                }
+                out.iter().any(|&w| w != 0)
+            }
+        }
+    }
+
+    /// [`Self::below_all`] for masks of `W` words.
+    #[inline(always)]
+    fn below_all_in<const W: usize>(&self, codes: [u32; 4], out: &mut [u64]) -> bool {
+        let (rows, _) = self.masks.as_chunks::<W>();
+        let mut all = rows[codes[0] as usize];
+        for &code in &codes[1..] {
+            let row = &rows[code as usize];
+            for w in 0..W {
+                all[w] &= row[w];
+            }
+        }
+        out.copy_from_slice(&all);
+        all.iter().fold(0, |any, &w| any | w) != 0
+    }
+}
 
 /// The margin, in units of the table's extent, by which a sample must clear every plane of a
 /// bin to be sure; it absorbs the round-off of binning a plane and of the exact test
