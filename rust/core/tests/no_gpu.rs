@@ -7,6 +7,7 @@ mod common;
 
 use common::{ground_and_cloud, ground_grid, rect_light_above};
 use softshadows_core::backend::Backend;
+use softshadows_core::geometry::bvh::SceneBvh;
 use softshadows_core::light::sampling::{light_samples, Pattern, SampleSet};
 use softshadows_core::methods::alias_free::{alias_free, AliasFreeOptions};
 use softshadows_core::methods::cssm::{cssm, CssmOptions};
@@ -15,6 +16,7 @@ use softshadows_core::methods::pcss::{pcss, PcssOptions};
 use softshadows_core::methods::shadow_map::{shadow_map, ShadowMapOptions};
 use softshadows_core::methods::vwss::{vwss, VwssOptions};
 use softshadows_core::{Error, Result, Stats};
+use std::sync::OnceLock;
 
 fn refuses_then_runs_on_the_cpu(name: &str, run: impl Fn(Backend) -> Result<(Vec<f32>, Stats)>) {
     match run(Backend::Gpu) {
@@ -70,7 +72,8 @@ fn every_gpu_method_refuses_the_gpu_cleanly_and_runs_on_the_cpu() {
             backend,
             ..Default::default()
         };
-        alias_free(&scene, &light, &rx, &samples, &opts)
+        let bvh = OnceLock::new();
+        alias_free(&scene, SceneBvh::Cached(&bvh), &light, &rx, &samples, &opts)
     });
     refuses_then_runs_on_the_cpu("mvr", |backend| {
         mvr(&scene, &light, &rx, &samples, &multiview(backend))

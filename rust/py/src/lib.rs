@@ -17,7 +17,7 @@ use numpy::{
     IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
 };
 use pyo3::prelude::*;
-use softshadows_core::geometry::bvh::Bvh;
+use softshadows_core::geometry::bvh::{Bvh, SceneBvh};
 use softshadows_core::geometry::camera::Camera;
 use softshadows_core::geometry::gbuffer::gbuffer;
 use softshadows_core::geometry::mesh::{AlphaTexture, Mesh, Scene};
@@ -39,11 +39,12 @@ pub struct NativeScene {
 impl NativeScene {
     /// The scene's BVH, built (with the GIL released) the first time it is needed.
     pub fn bvh(&self, py: Python<'_>) -> PyResult<&Bvh> {
-        if let Some(bvh) = self.bvh.get() {
-            return Ok(bvh);
-        }
-        let built = threads::detached(py, || Bvh::build(&self.scene))?;
-        Ok(self.bvh.get_or_init(|| built))
+        threads::detached(py, || self.lazy_bvh().get(&self.scene))
+    }
+
+    /// The scene's BVH kept with it, for a method that builds it only if it needs it.
+    pub fn lazy_bvh(&self) -> SceneBvh<'_> {
+        SceneBvh::Cached(&self.bvh)
     }
 }
 

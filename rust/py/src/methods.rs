@@ -416,6 +416,7 @@ fn alias_free<'py>(
     let out = crate::threads::detached(py, || {
         alias_free_core(
             &scene.scene,
+            scene.lazy_bvh(),
             &light.light,
             &receivers.receivers,
             &samples.samples,

@@ -37,6 +37,7 @@ use crate::isa::Isa;
 use frustum::{RayFrustum, MAX_CANDIDATES};
 use glam::{Vec3, Vec4};
 use std::cell::RefCell;
+use std::sync::OnceLock;
 pub use triangle::intersect_triangle;
 use triangle::{hit4, Lanes, RayData};
 
@@ -223,6 +224,34 @@ pub struct Bvh {
     depth: u32,
     bounds: (Vec3, Vec3),
     num_faces: usize,
+}
+
+/// Where a method that traces only now and then gets the BVH of its scene: one built already, or
+/// one kept with the scene and built on first use (by whichever method needs it first), so that
+/// no call builds a BVH of its own.
+#[derive(Clone, Copy)]
+pub enum SceneBvh<'a> {
+    Built(&'a Bvh),
+    Cached(&'a OnceLock<Bvh>),
+}
+
+impl<'a> SceneBvh<'a> {
+    /// The BVH of `scene`, built into the cache if it holds none yet. Errors: those of
+    /// [`Bvh::build`], and a BVH built for another scene ([`Bvh::check_scene`]).
+    pub fn get(self, scene: &Scene) -> Result<&'a Bvh> {
+        let bvh = match self {
+            SceneBvh::Built(bvh) => bvh,
+            SceneBvh::Cached(cache) => match cache.get() {
+                Some(bvh) => bvh,
+                None => {
+                    let built = Bvh::build(scene)?;
+                    cache.get_or_init(|| built)
+                }
+            },
+        };
+        bvh.check_scene(scene)?;
+        Ok(bvh)
+    }
 }
 
 impl Bvh {
@@ -845,6 +874,35 @@ mod tests {
     use super::*;
     use crate::geometry::mesh::Mesh;
     use crate::light::sampling::Rng;
+
+    /// A scene of `n` unit triangles side by side.
+    fn strip(n: u32) -> Result<Scene> {
+        let vertices = (0..n)
+            .flat_map(|i| {
+                let x = i as f32;
+                [
+                    Vec3::new(x, 0.0, 0.0),
+                    Vec3::new(x + 1.0, 0.0, 0.0),
+                    Vec3::new(x, 1.0, 0.0),
+                ]
+            })
+            .collect();
+        let faces = (0..n).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
+        Scene::new(vec![Mesh::new(vertices, faces, None, None, false)?])
+    }
+
+    #[test]
+    fn a_cached_bvh_is_built_once_and_kept_for_its_scene_only() -> Result<()> {
+        let (scene, other) = (strip(5)?, strip(7)?);
+        let cache = OnceLock::new();
+        let first = SceneBvh::Cached(&cache).get(&scene)?;
+        assert_eq!(first.num_faces(), 5);
+        assert!(std::ptr::eq(first, SceneBvh::Cached(&cache).get(&scene)?));
+        assert!(SceneBvh::Cached(&cache).get(&other).is_err());
+        assert!(SceneBvh::Built(first).get(&other).is_err());
+        assert!(std::ptr::eq(first, SceneBvh::Built(first).get(&scene)?));
+        Ok(())
+    }
 
     /// The shaft test is conservative: no segment between points of two boxes whose shaft is
     /// empty is blocked (random points and corners, against single rays), and it finds shafts

@@ -15,14 +15,12 @@ pub fn convex_hull(points: &[DVec2]) -> Vec<DVec2> {
     }
     let cross = |o: DVec2, a: DVec2, b: DVec2| (a - o).perp_dot(b - o);
     let mut hull: Vec<DVec2> = Vec::with_capacity(2 * pts.len());
+    let n = pts.len();
     for pass in 0..2 {
         let start = hull.len();
-        let iter: Box<dyn Iterator<Item = &DVec2>> = if pass == 0 {
-            Box::new(pts.iter())
-        } else {
-            Box::new(pts.iter().rev())
-        };
-        for &p in iter {
+        // The lower chain left to right, then the upper one right to left.
+        for i in 0..n {
+            let p = pts[if pass == 0 { i } else { n - 1 - i }];
             while hull.len() >= start + 2
                 && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
             {

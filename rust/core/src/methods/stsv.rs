@@ -50,7 +50,7 @@
 
 use crate::backend::Backend;
 use crate::error::{Error, Result};
-use crate::geometry::bvh::Bvh;
+use crate::geometry::bvh::{Bvh, SceneBvh};
 use crate::geometry::mesh::{AlphaTexture, Scene};
 use crate::geometry::polygon::clip_to_side;
 use crate::geometry::receivers::Receivers;
@@ -1256,7 +1256,16 @@ fn stsv_in_one_frustum(
     let start = std::time::Instant::now();
     match opts.opaque {
         Opaque::Bitmask => {
-            let mut opaque = sample_masks(scene, light, receivers, samples, &af, true, &mut stats)?;
+            let mut opaque = sample_masks(
+                scene,
+                SceneBvh::Built(bvh),
+                light,
+                receivers,
+                samples,
+                &af,
+                true,
+                &mut stats,
+            )?;
             // `alias_free`'s visibility reads every bit: only the samples that count are added.
             merge_counted_samples(&origins, &mut perforated, words, |mask, counted| {
                 mask.iter_mut().zip(counted).for_each(|(m, c)| *m &= c);

@@ -867,6 +867,7 @@ mod tests {
     //! exists); also with the limits forced low, so that view samples, rows and casters are
     //! split into many chunks, ranges, batches and dispatches.
     use crate::backend::Backend;
+    use crate::geometry::bvh::SceneBvh;
     use crate::geometry::mesh::{AlphaTexture, Mesh, Scene};
     use crate::geometry::receivers::Receivers;
     use crate::gpu::context;
@@ -877,7 +878,7 @@ mod tests {
     use crate::methods::CasterFaces;
     use crate::stats::Stats;
     use glam::{Vec2, Vec3};
-    use std::sync::Mutex;
+    use std::sync::{Mutex, OnceLock};
 
     /// The forced limits are global: tests that set them run one at a time.
     static LIMITS: Mutex<()> = Mutex::new(());
@@ -989,8 +990,10 @@ mod tests {
         limits: Option<DispatchLimits>,
     ) -> usize {
         let scene = scene();
+        let bvh = OnceLock::new();
         let cpu = sample_masks(
             &scene,
+            SceneBvh::Cached(&bvh),
             light,
             rx,
             samples,
@@ -1004,6 +1007,7 @@ mod tests {
         let mut stats = Stats::default();
         let gpu = sample_masks(
             &scene,
+            SceneBvh::Cached(&bvh),
             light,
             rx,
             samples,
@@ -1102,6 +1106,7 @@ mod tests {
         let mut stats = Stats::default();
         sample_masks(
             &scene(),
+            SceneBvh::Cached(&OnceLock::new()),
             &rect,
             &receivers(40),
             &set,
@@ -1173,7 +1178,9 @@ mod tests {
                     ..Default::default()
                 };
                 let mut stats = Stats::default();
-                let masks = sample_masks(&scene(), light, &rx, &set, &opts, false, &mut stats)?;
+                let scene = scene();
+                let bvh = SceneBvh::Cached(&OnceLock::new());
+                let masks = sample_masks(&scene, bvh, light, &rx, &set, &opts, false, &mut stats)?;
                 assert!(
                     stats.get("inside_view_samples").unwrap_or(0.0) >= (n * n) as f64,
                     "{stats:?}"

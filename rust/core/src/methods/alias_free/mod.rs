@@ -78,7 +78,7 @@ mod tables;
 
 use crate::backend::Backend;
 use crate::error::{Error, Result};
-use crate::geometry::bvh::Bvh;
+use crate::geometry::bvh::SceneBvh;
 use crate::geometry::edges::{edges, edges_peak, Edge};
 use crate::geometry::inside::inside_closed_meshes;
 use crate::geometry::mesh::Scene;
@@ -870,19 +870,21 @@ pub const STATS: &[&str] = &[
 /// view samples' bounds; `TooLarge`.
 pub fn alias_free(
     scene: &Scene,
+    bvh: SceneBvh<'_>,
     light: &Light,
     receivers: &Receivers,
     samples: &SampleSet,
     opts: &AliasFreeOptions,
 ) -> Result<(Vec<f32>, Stats)> {
     by_light_face(light, receivers, |part, _| {
-        alias_free_in_one_frustum(scene, light, part, samples, opts)
+        alias_free_in_one_frustum(scene, bvh, light, part, samples, opts)
     })
 }
 
 /// [`alias_free`] on receivers that one light frustum holds.
 fn alias_free_in_one_frustum(
     scene: &Scene,
+    bvh: SceneBvh<'_>,
     light: &Light,
     receivers: &Receivers,
     samples: &SampleSet,
@@ -895,7 +897,9 @@ fn alias_free_in_one_frustum(
         .and(masks_peak(scene, n, samples.count(), opts))
         .check("alias_free", &mut stats)?;
     object_work(scene, n, samples.count()).check("alias_free", &mut stats)?;
-    let masks = sample_masks(scene, light, receivers, samples, opts, false, &mut stats)?;
+    let masks = sample_masks(
+        scene, bvh, light, receivers, samples, opts, false, &mut stats,
+    )?;
     Ok((
         (0..receivers.len())
             .into_par_iter()
@@ -994,9 +998,12 @@ pub(crate) fn masks_peak(
 }
 
 /// The bitmasks of [`alias_free`] (see the module documentation) with its stats; with
-/// `opaque_only`, perforated casters are left out (`stsv` adds their shadows).
+/// `opaque_only`, perforated casters are left out (`stsv` adds their shadows). `bvh` serves the
+/// test of which view samples lie inside a closed mesh, where one may.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn sample_masks(
     scene: &Scene,
+    bvh: SceneBvh<'_>,
     light: &Light,
     receivers: &Receivers,
     samples: &SampleSet,
@@ -1026,7 +1033,7 @@ pub(crate) fn sample_masks(
     }
     let inside = if opts.caster_faces == CasterFaces::Backfacing {
         stats.time_add("list_build", || {
-            mark_inside_closed_meshes(scene, &mut view, opts.bias)
+            mark_inside_closed_meshes(scene, bvh, &mut view, opts.bias)
         })?
     } else {
         0
@@ -1409,10 +1416,15 @@ fn view_samples(
 
 /// Flags the view samples whose moved point lies inside a closed mesh (see the module doc,
 /// step 4, and [`inside_closed_meshes`]) and returns their number.
-fn mark_inside_closed_meshes(scene: &Scene, view: &mut [ViewSample], bias: f32) -> Result<usize> {
+fn mark_inside_closed_meshes(
+    scene: &Scene,
+    bvh: SceneBvh<'_>,
+    view: &mut [ViewSample],
+    bias: f32,
+) -> Result<usize> {
     let receivers: Vec<(DVec3, DVec3)> = view.iter().map(|s| (s.p, s.n)).collect();
     let inside = inside_closed_meshes(scene, &receivers, f64::from(bias), || {
-        Bvh::build(scene).map(Cow::Owned)
+        bvh.get(scene).map(Cow::Borrowed)
     })?;
     for (s, inside) in view.iter_mut().zip(inside) {
         s.inside = inside;
@@ -1592,17 +1604,23 @@ fn penumbra_texels(
     if hulls.iter().any(Option::is_none) {
         return (vec![true; w * h], silhouettes.len());
     }
-    let spans: Vec<Vec<(usize, usize, usize)>> = hulls
+    // Each thread marks the texels of its share of the regions in a map of its own (millions
+    // of spans, not gathered in lists first), and the maps are merged.
+    let mark = |mut flags: Vec<bool>, hull: &Vec<DVec2>| {
+        for (y, x0, x1) in conservative_rows(hull, w, h) {
+            flags[y * w + x0..y * w + x1].fill(true);
+        }
+        flags
+    };
+    let flags = hulls
         .par_iter()
-        .flatten()
-        .map(|hull| conservative_rows(hull, w, h))
-        .collect();
-    let mut flags = vec![false; w * h];
-    for (y, x0, x1) in spans.into_iter().flatten() {
-        flags[y * w + x0..y * w + x1]
-            .iter_mut()
-            .for_each(|f| *f = true);
-    }
+        .filter_map(Option::as_ref)
+        .fold(|| vec![false; w * h], mark)
+        .reduce_with(|mut a, b| {
+            a.iter_mut().zip(b).for_each(|(a, b)| *a |= b);
+            a
+        })
+        .unwrap_or_else(|| vec![false; w * h]);
     (flags, silhouettes.len())
 }
 
