@@ -322,6 +322,13 @@ impl ReceiverLists {
         })
     }
 
+    /// Whether a texel of rows `rows` and columns `columns` holds a list entry.
+    pub fn any_entry_in(&self, rows: &Range<usize>, columns: &Range<usize>) -> bool {
+        let w = self.frustum.width;
+        rows.clone()
+            .any(|y| self.start[y * w + columns.start] < self.start[y * w + columns.end])
+    }
+
     /// The list entries of the texels of a span.
     pub fn span_entries(&self, (y, x0, x1): (usize, usize, usize)) -> Range<usize> {
         let w = self.frustum.width;
@@ -645,6 +652,17 @@ pub fn influence_hull(
     points: &[Vec3],
     degree: usize,
 ) -> Option<Vec<DVec2>> {
+    influence_points(frustum, bounds, points, degree).map(|pts| convex_hull(&pts))
+}
+
+/// The points whose convex hull is [`influence_hull`]: `points`' projections from the bounding
+/// points of the light and its samples, in texel coordinates (empty where the region is).
+pub fn influence_points(
+    frustum: &LightFrustum,
+    bounds: &LightBounds<'_>,
+    points: &[Vec3],
+    degree: usize,
+) -> Option<Vec<DVec2>> {
     let (eye, f) = (frustum.eye.as_dvec3(), frustum.forward.as_dvec3());
     if wholly_behind(frustum, bounds, points) {
         return Some(Vec::new());
@@ -666,7 +684,7 @@ pub fn influence_hull(
             pts.push(DVec2::new(f64::from(s.x), f64::from(s.y)));
         }
     }
-    Some(convex_hull(&pts))
+    Some(pts)
 }
 
 /// Whether the world points `points` lie wholly behind the light and its samples along the view

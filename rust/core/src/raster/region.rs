@@ -5,6 +5,7 @@
 //! visited.
 
 use glam::DVec2;
+use std::ops::Range;
 
 /// Slack of the conservative coverage, in texels.
 const SLACK: f64 = 1e-6;
@@ -55,6 +56,23 @@ pub fn conservative_row_extent(
     let first = (first..=last).find(touches)?;
     let last = (first..=last).rev().find(touches)?;
     Some((first, last))
+}
+
+/// The texels `(rows, columns)` of a `width × height` map within a texel of the bounding box of
+/// the polygon `hull` (empty for none): they hold every span of [`conservative_rows`], and of
+/// any polygon that `hull` holds up to round-off.
+pub fn texel_box(hull: &[DVec2], width: usize, height: usize) -> (Range<usize>, Range<usize>) {
+    let (lo, hi) = hull
+        .iter()
+        .fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), &p| {
+            (lo.min(p), hi.max(p))
+        });
+    let range = |lo: f64, hi: f64, n: usize| {
+        let first = (lo.floor() - 1.0).clamp(0.0, n as f64) as usize;
+        let end = (hi.floor() + 2.0).clamp(0.0, n as f64) as usize;
+        first..end.max(first)
+    };
+    (range(lo.y, hi.y, height), range(lo.x, hi.x, width))
 }
 
 /// The half-open columns `[x0, x1)` of row `y` of a `width`-column map whose texel squares the

@@ -82,10 +82,11 @@ use crate::geometry::bvh::SceneBvh;
 use crate::geometry::edges::{edges, edges_peak, Edge};
 use crate::geometry::inside::inside_closed_meshes;
 use crate::geometry::mesh::Scene;
-use crate::geometry::polygon::clip_affine;
+use crate::geometry::polygon::{clip_affine, convex_hull};
 use crate::geometry::receivers::Receivers;
 use crate::influence::{
-    check_hull_degree, influence_hull, record_list_stats, LightBounds, ReceiverLists,
+    check_hull_degree, influence_hull, influence_points, record_list_stats, LightBounds,
+    ReceiverLists,
 };
 use crate::isa::signum;
 use crate::light::lights::{Light, Shape};
@@ -96,12 +97,13 @@ use crate::raster::cube::by_light_face;
 use crate::raster::depth::{band_rows, casters, Caster, FaceFilter, RasterMode, RasterOptions};
 use crate::raster::frustum::check_resolution;
 use crate::raster::frustum::LightFrustum;
-use crate::raster::region::conservative_rows;
+use crate::raster::region::{conservative_rows, texel_box};
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
 use lanes::{CasterLanes, Lanes};
 use rayon::prelude::*;
 use std::borrow::Cow;
+use std::ops::Range;
 pub(crate) use tables::{BracketTable, Lut};
 
 /// The most light samples a view sample's bitmask holds.
@@ -1707,20 +1709,45 @@ impl<'a> Tester<'a> {
         Ok(work)
     }
 
-    /// The region of caster `c` over the receivers of a band whose far plane is `band_frustum`'s.
-    fn region(&self, c: usize, band_frustum: &LightFrustum) -> Option<Vec<DVec2>> {
+    /// The region of caster `c` over the receivers of rows `rows`, whose far plane is
+    /// `band_frustum`'s (`Some(None)`: the whole map); `None` where no texel of those rows within
+    /// a texel of the region's bounding box holds a view sample. Most casters binned to a band
+    /// meet none of the penumbra's sparse view samples there: they are passed over on the
+    /// bounding box of the region's points, before its hull is built and cut.
+    fn region(
+        &self,
+        c: usize,
+        band_frustum: &LightFrustum,
+        rows: &Range<usize>,
+    ) -> Option<Option<Vec<DVec2>>> {
         let setup = self.setup;
-        match (&self.regions[c], self.pass) {
-            (None, _) => None,
-            (Some(hull), Pass::Center) => Some(hull.clone()),
-            (Some(_), Pass::Samples) => influence_hull(
+        let points = match (&self.regions[c], self.pass) {
+            (None, _) => return Some(None),
+            (Some(hull), Pass::Center) => Cow::Borrowed(hull.as_slice()),
+            (Some(_), Pass::Samples) => match influence_points(
                 band_frustum,
                 setup.bounds,
                 &setup.casters.raw[c].vertices,
                 setup.hull_degree,
-            )
-            .map(|hull| setup.cut(hull, band_frustum, &setup.casters.prepared[c])),
+            ) {
+                None => return Some(None),
+                Some(points) => Cow::Owned(points),
+            },
+        };
+        let (w, h) = (self.lists.frustum.width, self.lists.frustum.height);
+        let (box_rows, columns) = texel_box(&points, w, h);
+        let rows = box_rows.start.max(rows.start)..box_rows.end.min(rows.end);
+        if !self.lists.any_entry_in(&rows, &columns) {
+            return None;
         }
+        Some(Some(match self.pass {
+            Pass::Center => points.into_owned(),
+            Pass::Samples => setup.cut(
+                convex_hull(&points),
+                band_frustum,
+                &setup.casters.prepared[c],
+            ),
+        }))
     }
 
     /// Tests the casters binned to band `b` (rows `rows`, list entries from `base` on) against
@@ -1746,9 +1773,11 @@ impl<'a> Tester<'a> {
         let entries = &self.entries;
         let mut lanes = Lanes::new();
         for &c in self.bins[b].iter().take_while(|_| !watch.requested()) {
+            let Some(region) = self.region(c as usize, &band_frustum, &rows) else {
+                continue;
+            };
             let t = &casters.prepared[c as usize];
             let center_only = self.pass == Pass::Center && !t.alpha;
-            let region = self.region(c as usize, &band_frustum);
             let supporting = Supporting::new(t, &unrotated);
             let caster_lanes = CasterLanes::new(t, &supporting, &unrotated);
             let slack = 1e-9 * t.near_depth.abs();
