@@ -1119,21 +1119,19 @@ def alias_free(
     the same ``caster_faces``: ``ray_traced(..., caster_faces="backfacing")`` for the default.
 
     On the CPU the time goes to the (view sample, triangle) pairs: the bunny at 512x512 with 256
-    samples tests 41 million pairs (217 per view sample) and reads 2.1 plane masks per pair, in
-    3.2-3.6x ``ray_traced``'s wall time with ``lut=64`` and 6.1-7.0x exact on two threads (three
-    rounds against the build before, 3.9-4.3x and 6.2-7.2x). One thread's call splits as: the
-    per-texel tests (the pair loop with its table reads) 78%, the influence regions (each
-    caster's once, then again per band of rows of the map, their rows and supporting-plane cuts)
-    13%, the lists 3%, the rest (set-up, the inside test, the table's build, Python) 6%. A
-    triangle's own plane, its sphere test and its table entry (for unrotated samples) are set up
-    once per band; per pair the three planes through the receiver and the triangle's edges are
+    samples tests 41 million pairs (217 per view sample) and reads 2.1 plane masks per pair (3.3
+    per pair left open), in 2.1-2.2x ``ray_traced``'s wall time with ``lut=64`` and 6.3-6.7x exact on two
+    threads (``bench/alias_free.py``). Per band of rows of the map, a caster whose region there
+    meets no view sample is passed over on the bounding box of its region's points; for the
+    others, the triangle's own plane, its sphere test and its table entry (for unrotated samples)
+    are set up, and per pair the three planes through the receiver and the triangle's edges are
     built and placed against the light's bounding sphere by squared distances, normalized and
     located in the table, for 8 receivers side by side in the CPU's vector registers (the same
-    bits as one by one), and the masks of those across the sphere are read and AND-ed. So the
-    pairs bound it: even with everything else free, the per-texel tests alone take 2.8x
-    ``ray_traced``'s time. Most pairs block nothing: 25 million have three or four planes across
-    the light's bounding sphere, 3.7 million block a sample, and their masks must be read to
-    know.
+    bits as one by one); the four masks of a pair left open are then AND-ed by their table codes
+    without a branch. One thread's call spends about 21% on those planes and bins, 20% on the
+    loop over the lists' entries, 10% on the table's reads and the masks' updates and 8% on the
+    influence regions. Most pairs block nothing: 26 million are left open by every plane, 3.9
+    million block a sample, and their masks must be read to know.
 
     Parameters
     ----------

@@ -110,8 +110,9 @@ mod tests {
     use crate::geometry::polygon::convex_hull;
 
     #[test]
-    fn the_row_extent_is_that_of_the_rows() {
-        // Triangles and a long thin sliver, inside, across and wholly off a 10 x 12 map's sides.
+    fn the_row_extent_and_box_hold_the_rows() {
+        // Triangles and a long thin sliver, inside, across and wholly off a 10 x 12 map's sides:
+        // the extent is the first and last rows', and the box holds every span.
         let hulls = [
             vec![(1.2, 1.5), (6.7, 2.1), (3.3, 7.9)],
             vec![(-4.0, -3.0), (2.5, 5.5), (-1.0, 14.0)],
@@ -127,6 +128,10 @@ mod tests {
                 .first()
                 .map(|f| (f.0, rows.last().map_or(f.0, |l| l.0)));
             assert_eq!(conservative_row_extent(&hull, 10, 12), expected, "{hull:?}");
+            let (box_rows, columns) = texel_box(&hull, 10, 12);
+            assert!(rows.iter().all(|&(y, x0, x1)| box_rows.contains(&y)
+                && columns.start <= x0
+                && x1 <= columns.end));
         }
     }
 

@@ -97,7 +97,7 @@ use crate::raster::cube::by_light_face;
 use crate::raster::depth::{band_rows, casters, Caster, FaceFilter, RasterMode, RasterOptions};
 use crate::raster::frustum::check_resolution;
 use crate::raster::frustum::LightFrustum;
-use crate::raster::region::{conservative_rows, texel_box};
+use crate::raster::region::{conservative_row_range, conservative_span, texel_box};
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
 use lanes::{CasterLanes, Lanes};
@@ -1651,23 +1651,27 @@ fn penumbra_texels(
     if hulls.iter().any(Option::is_none) {
         return (vec![true; w * h], silhouettes.len());
     }
-    // Each thread marks the texels of its share of the regions in a map of its own (millions
-    // of spans, not gathered in lists first), and the maps are merged.
-    let mark = |mut flags: Vec<bool>, hull: &Vec<DVec2>| {
-        for (y, x0, x1) in conservative_rows(hull, w, h) {
-            flags[y * w + x0..y * w + x1].fill(true);
-        }
-        flags
-    };
-    let flags = hulls
-        .par_iter()
-        .filter_map(Option::as_ref)
-        .fold(|| vec![false; w * h], mark)
-        .reduce_with(|mut a, b| {
-            a.iter_mut().zip(b).for_each(|(a, b)| *a |= b);
-            a
-        })
-        .unwrap_or_else(|| vec![false; w * h]);
+    // The map is marked in parallel by runs of rows, each run over every region's spans in its
+    // rows (millions of spans in all, not gathered in lists first).
+    let mut flags = vec![false; w * h];
+    let run = h.div_ceil(4 * rayon::current_num_threads()).max(1);
+    flags
+        .par_chunks_mut(run * w)
+        .enumerate()
+        .for_each(|(k, part)| {
+            let rows = k * run..((k + 1) * run).min(h);
+            for hull in hulls.iter().flatten() {
+                let Some((first, last)) = conservative_row_range(hull, h) else {
+                    continue;
+                };
+                for y in first.max(rows.start)..(last + 1).min(rows.end) {
+                    if let Some((x0, x1)) = conservative_span(hull, y, w) {
+                        let at = (y - rows.start) * w;
+                        part[at + x0..at + x1].fill(true);
+                    }
+                }
+            }
+        });
     (flags, silhouettes.len())
 }
 
