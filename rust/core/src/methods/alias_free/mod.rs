@@ -313,13 +313,10 @@ impl<'a> Planes<'a> {
         }
     }
 
-    /// How the paper's table (if this view sample reads it) or the bracketing table serves the
-    /// unrotated plane `(m, k)` (`inv = 1 / |m|`).
+    /// How the bracketing table serves the unrotated plane `(m, k)` (`inv = 1 / |m|`) for the
+    /// exact tests.
     #[inline]
     fn read(&self, (m, k, inv): Plane) -> Read<'a> {
-        if let Some(lut) = self.lut {
-            return Read::from_lut(lut, lut.grid.code(m, k, inv));
-        }
         match self.brackets.and_then(|b| b.lookup(m, k, inv)) {
             Some((sure, unsure)) => Read::Bracket(sure, unsure),
             None => Read::Test,
@@ -338,22 +335,17 @@ impl<'a> Planes<'a> {
         ops: &mut u64,
     ) -> bool {
         let planes = &pair.planes[..pair.count];
+        if let Some(lut) = self.lut {
+            // The paper's table: the planes' rows, those left out read as every sample's.
+            let mut codes = [lut.grid.misses_below(); 4];
+            for (code, &(m, k, inv)) in codes.iter_mut().zip(planes) {
+                *code = lut.grid.code(m, k, inv);
+            }
+            *ops += planes.len() as u64;
+            return lut.below_all(codes, out);
+        }
         let read = |i: usize| pair.known[i].unwrap_or_else(|| self.read(planes[i]));
         out.copy_from_slice(full);
-        if self.lut.is_some() {
-            // The paper's table: every plane's mask is read and AND-ed, not stopping at an empty
-            // one, so that the reads (far apart in a table of megabytes) overlap rather than
-            // wait on a branch on the one before.
-            for i in 0..planes.len() {
-                *ops += 1;
-                match read(i) {
-                    Read::Lut(table) => and_into(out, table),
-                    Read::Nothing => return false,
-                    _ => {}
-                }
-            }
-            return out.iter().any(|w| *w != 0);
-        }
         // Exact: `out` gathers the samples some planes may put below all of them, `sure` those
         // every plane does; the rest of `out` is tested against every plane, sample by sample.
         // The bracketing table's entries are found before any is read, so that the reads (far
@@ -428,31 +420,13 @@ impl<'a> PairPlanes<'a> {
     }
 }
 
-/// How the tables serve one plane `m · y < k`.
+/// How the exact tests serve one plane `m · y < k`.
 #[derive(Clone, Copy)]
 enum Read<'a> {
-    /// The plane misses the light with its center above: no sample lies below it.
-    Nothing,
-    /// The plane misses the light with its center below: it removes no sample.
-    Everything,
-    /// The paper's table's mask.
-    Lut(&'a [u64]),
     /// The bracketing table's `(sure, unsure)` masks.
     Bracket(&'a [u64], &'a [u64]),
     /// No table serves it: every sample is tested.
     Test,
-}
-
-impl<'a> Read<'a> {
-    /// How the paper's table serves a plane of [`tables::PlaneBins::code`] `code`.
-    #[inline]
-    fn from_lut(lut: &'a Lut, code: u32) -> Self {
-        match code {
-            c if c == lut.grid.misses_above() => Read::Nothing,
-            c if c == lut.grid.misses_below() => Read::Everything,
-            _ => Read::Lut(lut.mask(code)),
-        }
-    }
 }
 
 /// Where a plane lies against the light's bounding sphere.
@@ -508,23 +482,11 @@ struct Supporting<'a> {
 struct SupportingSide<'a> {
     plane: Plane,
     reach: Reach,
-    /// How the tables serve it for unrotated samples, with the paper's table (where one is read)
-    /// and without it (the bracketing table of exact view samples).
-    lut: Read<'a>,
+    /// How the bracketing table serves it for unrotated samples tested exactly.
     exact: Read<'a>,
     /// Its [`tables::PlaneBins::code`] in the paper's table where it straddles the light, the
     /// code of every sample where it lies below (meaningless without a table).
     code: u32,
-}
-
-impl<'a> SupportingSide<'a> {
-    /// How the tables serve this plane for unrotated samples tested through `planes`.
-    fn read(&self, planes: &Planes<'a>) -> Read<'a> {
-        match planes.lut {
-            Some(_) => self.lut,
-            None => self.exact,
-        }
-    }
 }
 
 impl<'a> Supporting<'a> {
@@ -542,10 +504,6 @@ impl<'a> Supporting<'a> {
             let (m, k) = (t.normal * sigma, sigma * t.normal.dot(t.v[0]));
             let (reach, inv) = reach(m, k, unrotated.center, unrotated.radius);
             let plane = (m, k, inv);
-            let read = |planes: &Planes<'a>| match reach {
-                Reach::Straddles => planes.read(plane),
-                _ => Read::Test,
-            };
             let code = unrotated.lut.map_or(0, |lut| match reach {
                 Reach::Straddles => lut.grid.code(m, k, inv),
                 _ => lut.grid.misses_below(),
@@ -553,8 +511,10 @@ impl<'a> Supporting<'a> {
             SupportingSide {
                 plane,
                 reach,
-                lut: read(unrotated),
-                exact: read(&exact),
+                exact: match reach {
+                    Reach::Straddles => exact.read(plane),
+                    _ => Read::Test,
+                },
                 code,
             }
         };
@@ -721,7 +681,7 @@ fn pair_planes<'a>(
     pair.clear();
     if side.reach == Reach::Straddles {
         // The supporting plane's reads hold for unrotated samples only.
-        let known = planes.rotation.is_none().then(|| side.read(planes));
+        let known = planes.rotation.is_none().then_some(side.exact);
         pair.push(planes.unrotated(side.plane), known);
     }
     for (m, bound) in edges {
@@ -1952,7 +1912,7 @@ impl<'a> Tester<'a> {
                     }),
                 None => {
                     let planes = Planes { lut, ..unrotated };
-                    lanes.pair(l, supporting, &planes, &mut pair)
+                    lanes.pair(l, supporting, &mut pair)
                         && below_all_planes(&pair, &planes, &setup.full, buffers, work)
                 }
             };

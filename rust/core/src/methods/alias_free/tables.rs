@@ -335,9 +335,7 @@ impl Lut {
             _ => {
                 out.copy_from_slice(self.mask(codes[0]));
                 for &code in &codes[1..] {
-                    out.iter_mut()
-                        .zip(self.mask(code))
-                        .for_each(|(a, b)| *a &= b);
+                    super::and_into(out, self.mask(code));
                 }
                 out.iter().any(|&w| w != 0)
             }
