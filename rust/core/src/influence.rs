@@ -28,7 +28,7 @@ use crate::limits::Peak;
 use crate::raster::cube::enclosing_face;
 use crate::raster::depth::{band_rows, bin_row_ranges};
 use crate::raster::frustum::{check_resolution, LightFrustum, NEAR_FRACTION};
-use crate::raster::region::{conservative_row_extent, conservative_row_range, conservative_span};
+use crate::raster::region::{conservative_row_extent, conservative_spans};
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
 use rayon::prelude::*;
@@ -303,23 +303,21 @@ impl ReceiverLists {
 
     /// The texel spans `(row, x0, x1)` of `rows` that the region `hull` (`None`: the whole map)
     /// covers conservatively: [`conservative_rows`] restricted to `rows`, computed for those
-    /// rows only (a band visits the regions of every caster binned to it).
+    /// rows only (a band visits the regions of every caster binned to it) by
+    /// [`conservative_spans`]; `bounds` is its scratch memory.
     pub fn spans<'s>(
         &self,
-        hull: Option<&'s [DVec2]>,
+        hull: Option<&[DVec2]>,
         rows: &Range<usize>,
+        bounds: &'s mut Vec<DVec2>,
     ) -> impl Iterator<Item = (usize, usize, usize)> + 's {
-        let (w, h) = (self.frustum.width, self.frustum.height);
-        let (first, end) = match hull {
-            None => (rows.start, rows.end),
-            Some(hull) => conservative_row_range(hull, h).map_or((0, 0), |(first, last)| {
-                (first.max(rows.start), (last + 1).min(rows.end))
-            }),
-        };
-        (first..end.max(first)).filter_map(move |y| match hull {
-            None => Some((y, 0, w)),
-            Some(hull) => conservative_span(hull, y, w).map(|(x0, x1)| (y, x0, x1)),
-        })
+        let w = self.frustum.width;
+        let whole = hull.is_none().then(|| rows.clone().map(move |y| (y, 0, w)));
+        let region = hull.map(|hull| conservative_spans(hull, rows.clone(), w, bounds));
+        whole
+            .into_iter()
+            .flatten()
+            .chain(region.into_iter().flatten())
     }
 
     /// Whether a texel of rows `rows` and columns `columns` holds a list entry.
@@ -443,14 +441,14 @@ impl ReceiverLists {
                 let Some(band_frustum) = self.band_frustum(&rows) else {
                     return;
                 };
-                let mut scratch = scratch();
+                let (mut scratch, mut span_bounds) = (scratch(), Vec::new());
                 for &k in bins[b].iter().take_while(|_| !watch.requested()) {
                     let item = &items[k as usize];
                     let region = match &hulls[k as usize] {
                         Some(_) => influence_hull(&band_frustum, bounds, vertices(item), degree),
                         None => None,
                     };
-                    for span in self.spans(region.as_deref(), &rows) {
+                    for span in self.spans(region.as_deref(), &rows, &mut span_bounds) {
                         let entries = self.span_entries(span);
                         let values = &mut part
                             [(entries.start - base) * per_entry..(entries.end - base) * per_entry];
@@ -728,6 +726,11 @@ pub struct LightBounds<'a> {
     pub light: &'a Light,
     /// `None` when every sample lies on the light.
     beyond: Option<Beyond>,
+    /// For a light whose bounding points are the same from every point (point, rectangle and
+    /// disk lights, with every sample on the light), the polygons' degree and those points:
+    /// [`LightBounds::points_seen_from`] lends them, where millions of calls would each build
+    /// its own copy.
+    fixed: Option<(usize, Vec<DVec3>)>,
 }
 
 /// A shape holding a light and its samples off it.
@@ -746,6 +749,7 @@ impl<'a> LightBounds<'a> {
         Self {
             light,
             beyond: None,
+            fixed: None,
         }
     }
 
@@ -771,7 +775,17 @@ impl<'a> LightBounds<'a> {
                 degree,
             ),
         };
-        let bounds = Self { light, beyond };
+        let fixed = match (&beyond, &light.shape) {
+            (None, Shape::Point { .. } | Shape::Rect { .. } | Shape::Disk { .. }) => {
+                Some((degree, light_points(light, c, degree)))
+            }
+            _ => None,
+        };
+        let bounds = Self {
+            light,
+            beyond,
+            fixed,
+        };
         if !bounds.reach().is_finite() {
             return Err(too_far());
         }
@@ -805,7 +819,10 @@ impl<'a> LightBounds<'a> {
     /// corners; empty when `v` lies inside a volume.
     pub fn points_seen_from(&self, v: DVec3, degree: usize) -> Cow<'_, [DVec3]> {
         match &self.beyond {
-            None => Cow::Owned(light_points(self.light, v, degree)),
+            None => match &self.fixed {
+                Some((fixed_degree, points)) if *fixed_degree == degree => Cow::Borrowed(points),
+                _ => Cow::Owned(light_points(self.light, v, degree)),
+            },
             Some(Beyond::Volume(volume)) => Cow::Owned(light_points(volume, v, degree)),
             Some(Beyond::Corners(corners)) => Cow::Borrowed(corners),
         }

@@ -10,6 +10,7 @@ use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::Scene;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
+use std::borrow::Cow;
 
 /// How far along its normal a receiver is probed for lying inside a closed mesh, at least: this
 /// fraction of the scene's diagonal, a tenth of `ray_traced`'s default offset, so that a
@@ -27,15 +28,15 @@ const INSIDE_RAYS: [Vec3; 2] = [
 
 /// For each receiver `(p, n)` moved `bias` along its normal, whether it lies inside a closed
 /// mesh of `scene`: probed [`INSIDE_PROBE`] or `bias` along the normal, whichever is farther,
-/// within a closed mesh's bounding box, with an odd number of the mesh's faces on either of the
-/// [`INSIDE_RAYS`]. The BVH comes from `bvh`, called only when some probe lies in a box. A
-/// receiver flagged though outside only tests more triangles, and exactly; one inside the mesh
-/// and missed would see the light through it.
+/// within a closed mesh's bounding box, with some of the mesh's faces on the first of the
+/// [`INSIDE_RAYS`] and an odd number on either. The BVH comes from `bvh`, called only when some
+/// probe lies in a box. A receiver flagged though outside only tests more triangles, and
+/// exactly; one inside the mesh and missed would see the light through it.
 pub fn inside_closed_meshes<'b>(
     scene: &Scene,
     receivers: &[(DVec3, DVec3)],
     bias: f64,
-    bvh: impl FnOnce() -> Result<std::borrow::Cow<'b, Bvh>>,
+    bvh: impl FnOnce() -> Result<Cow<'b, Bvh>>,
 ) -> Result<Vec<bool>> {
     let boxes = closed_mesh_boxes(scene);
     let (lo, hi) = scene.bounds();
@@ -50,11 +51,18 @@ pub fn inside_closed_meshes<'b>(
         return Ok(vec![false; receivers.len()]);
     }
     let bvh = bvh()?;
+    // A ray that meets none of a closed mesh's faces proves its origin outside the mesh: from
+    // inside, every ray leaves through a face (the watertight test lets none slip between two),
+    // so the second ray is cast only after a first that met some.
     let odd = |q: DVec3, (mesh, lo, hi): &(u32, DVec3, DVec3)| {
         let reach = 2.0 * (*hi - *lo).length() as f32 + 1.0;
-        INSIDE_RAYS.iter().any(|d| {
-            bvh.count_hits(q.as_vec3(), *d, reach, |f| scene.face_ref(f).mesh == *mesh) % 2 == 1
-        })
+        let hits =
+            |d: Vec3| bvh.count_hits(q.as_vec3(), d, reach, |f| scene.face_ref(f).mesh == *mesh);
+        match hits(INSIDE_RAYS[0]) {
+            0 => false,
+            first if first % 2 == 1 => true,
+            _ => hits(INSIDE_RAYS[1]) % 2 == 1,
+        }
     };
     Ok(probes
         .par_iter()
@@ -81,4 +89,35 @@ fn closed_mesh_boxes(scene: &Scene) -> Vec<(u32, DVec3, DVec3)> {
             (k as u32, lo, hi)
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::mesh::Mesh;
+
+    #[test]
+    fn points_are_inside_a_closed_tetrahedron_where_its_planes_say() {
+        // A grid over the tetrahedron's box (most rays from the points outside meet no face,
+        // some meet two): flagged exactly where the point lies inside, away from the faces.
+        let tet = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
+        let faces = vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+        let scene = Scene::new(vec![Mesh::new(tet, faces, None, None, true).unwrap()]).unwrap();
+        let bvh = Bvh::build(&scene).unwrap();
+        let grid: Vec<DVec3> = (0..9)
+            .flat_map(|i| {
+                (0..9).flat_map(move |j| {
+                    (0..9).map(move |k| DVec3::new(i as f64, j as f64, k as f64))
+                })
+            })
+            .map(|c| (c + 0.37) / 9.0)
+            .filter(|p| (p.x + p.y + p.z - 1.0).abs() > 0.01)
+            .collect();
+        let receivers: Vec<(DVec3, DVec3)> = grid.iter().map(|&p| (p, DVec3::X)).collect();
+        let inside =
+            inside_closed_meshes(&scene, &receivers, 0.0, || Ok(Cow::Borrowed(&bvh))).unwrap();
+        let expected: Vec<bool> = grid.iter().map(|p| p.x + p.y + p.z < 1.0).collect();
+        assert_eq!(inside, expected);
+        assert!(expected.iter().any(|&e| e) && expected.iter().any(|&e| !e));
+    }
 }

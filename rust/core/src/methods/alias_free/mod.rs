@@ -88,16 +88,18 @@ use crate::influence::{
     check_hull_degree, influence_hull, influence_points, record_list_stats, LightBounds,
     ReceiverLists,
 };
-use crate::isa::signum;
+use crate::isa::{isa_dispatch, signum, Isa};
 use crate::light::lights::{Light, Shape};
 use crate::light::sampling::{lit_fraction, SampleSet};
 use crate::limits::{self, object_work, Peak};
 use crate::methods::CasterFaces;
 use crate::raster::cube::by_light_face;
-use crate::raster::depth::{band_rows, casters, Caster, FaceFilter, RasterMode, RasterOptions};
+use crate::raster::depth::{
+    band_rows, bin_row_ranges, casters, Caster, FaceFilter, RasterMode, RasterOptions,
+};
 use crate::raster::frustum::check_resolution;
 use crate::raster::frustum::LightFrustum;
-use crate::raster::region::{conservative_row_range, conservative_span, texel_box};
+use crate::raster::region::{conservative_row_range, conservative_spans, texel_box};
 use crate::stats::Stats;
 use glam::{DMat3, DVec2, DVec3, Vec3};
 use lanes::{CasterLanes, Lanes};
@@ -1380,6 +1382,7 @@ fn view_samples(
     let center = light.center().as_dvec3();
     let extent = f64::from(bounds.reach());
     (0..receivers.len())
+        .into_par_iter()
         .filter(|&i| receivers.valid[i])
         .map(|i| {
             let (p, n) = (
@@ -1443,33 +1446,110 @@ fn initial_masks(
     center: DVec3,
 ) -> Vec<u64> {
     let words = samples.words;
+    let behind = BehindPlane::new(samples, center);
+    let isa = Isa::detect();
     let mut masks = vec![0u64; lists.entries.len() * words];
     masks
         .par_chunks_mut(words)
         .zip(&lists.entries)
-        .for_each(|(m, &e)| {
-            let s = &view[e as usize];
-            let behind = |y: DVec3| s.n.dot(y - s.p) <= 0.0;
-            match s.rotation {
-                None => set_bits(m, &samples.points, behind),
-                Some(_) => set_bits(m, &samples.points, |y| {
-                    behind(rotate_about(center, s.rotation, y))
-                }),
-            }
-        });
+        .for_each(|(m, &e)| behind.mask_on(isa, &view[e as usize], m));
     masks
 }
 
-/// Sets, in `mask`, the bit of each point of `points` where `test` holds: a word at a time,
-/// without a branch per point.
-#[inline(always)]
-fn set_bits(mask: &mut [u64], points: &[DVec3], test: impl Fn(DVec3) -> bool) {
-    for (word, points) in mask.iter_mut().zip(points.chunks(64)) {
-        *word |= points
-            .iter()
-            .enumerate()
-            .fold(0, |bits, (b, &y)| bits | (u64::from(test(y)) << b));
+/// The light samples behind a view sample's tangent plane, 64 samples (a mask word) at a time in
+/// lane loops compiled for the widest instruction set ([`isa_dispatch`]): per axis, the samples
+/// and their offsets from the light's center (from which a rotated view sample's rotation turns
+/// them). Each lane does the IEEE operations of `s.n.dot(rotate_about(center, s.rotation, y) -
+/// s.p) <= 0.0`, in their order, so the bits are those of that test sample by sample.
+struct BehindPlane {
+    points: [Vec<f64>; 3],
+    offsets: [Vec<f64>; 3],
+    center: DVec3,
+    count: usize,
+}
+
+impl BehindPlane {
+    fn new(samples: &LightSamples, center: DVec3) -> Self {
+        // Per axis, padded to whole words (the padding's bits are cleared after the test).
+        let per_axis = |points: &[DVec3]| {
+            [0, 1, 2].map(|a| {
+                let mut v: Vec<f64> = points.iter().map(|y| y[a]).collect();
+                v.resize(samples.words * 64, 0.0);
+                v
+            })
+        };
+        let offsets: Vec<DVec3> = samples.points.iter().map(|&y| y - center).collect();
+        Self {
+            points: per_axis(&samples.points),
+            offsets: per_axis(&offsets),
+            center,
+            count: samples.points.len(),
+        }
     }
+
+    isa_dispatch! {
+        /// Sets in `mask` the bits of the samples behind `s`'s tangent plane:
+        /// [`Self::mask_body`] compiled for `isa`.
+        fn mask_on(&BehindPlane) => mask_body(s: &ViewSample, mask: &mut [u64]) -> ()
+    }
+
+    #[inline(always)]
+    fn mask_body(&self, s: &ViewSample, mask: &mut [u64]) {
+        for (w, word) in mask.iter_mut().enumerate() {
+            let at = w * 64..(w + 1) * 64;
+            let dots = match s.rotation {
+                None => plane_values(
+                    s,
+                    [
+                        &self.points[0][at.clone()],
+                        &self.points[1][at.clone()],
+                        &self.points[2][at],
+                    ],
+                ),
+                Some(rt) => {
+                    let [x, y, z] = &self.offsets;
+                    rotated_plane_values(
+                        s,
+                        self.center,
+                        rt.transpose(),
+                        [&x[at.clone()], &y[at.clone()], &z[at]],
+                    )
+                }
+            };
+            let mut bits = 0u64;
+            for (l, &dot) in dots.iter().enumerate() {
+                bits |= u64::from(dot <= 0.0) << l;
+            }
+            *word |= bits & valid_bits(w, self.count);
+        }
+    }
+}
+
+/// `s.n.dot(y - s.p)` for 64 samples `y` given per axis.
+#[inline(always)]
+fn plane_values(s: &ViewSample, [x, y, z]: [&[f64]; 3]) -> [f64; 64] {
+    let (n, p) = (s.n, s.p);
+    let mut dots = [0.0; 64];
+    for (l, dot) in dots.iter_mut().enumerate() {
+        *dot = n.x * (x[l] - p.x) + n.y * (y[l] - p.y) + n.z * (z[l] - p.z);
+    }
+    dots
+}
+
+/// `s.n.dot(center + r * d - s.p)` for 64 offsets `d` from the center given per axis, with the
+/// matrix product in glam's order (`r.x_axis * d.x + r.y_axis * d.y + r.z_axis * d.z`).
+#[inline(always)]
+fn rotated_plane_values(s: &ViewSample, c: DVec3, r: DMat3, [x, y, z]: [&[f64]; 3]) -> [f64; 64] {
+    let (n, p) = (s.n, s.p);
+    let mut dots = [0.0; 64];
+    for (l, dot) in dots.iter_mut().enumerate() {
+        let (dx, dy, dz) = (x[l], y[l], z[l]);
+        let qx = c.x + (r.x_axis.x * dx + r.y_axis.x * dy + r.z_axis.x * dz);
+        let qy = c.y + (r.x_axis.y * dx + r.y_axis.y * dy + r.z_axis.y * dz);
+        let qz = c.z + (r.x_axis.z * dx + r.y_axis.z * dy + r.z_axis.z * dz);
+        *dot = n.x * (qx - p.x) + n.y * (qy - p.y) + n.z * (qz - p.z);
+    }
+    dots
 }
 
 /// The casting triangles, prepared, with their influence regions on the lists' far plane (`None`:
@@ -1603,32 +1683,48 @@ fn penumbra_texels(
         .zip(&casters.hulls)
         .filter(|(c, _)| c.alpha_tested)
         .map(|(_, hull)| hull.clone());
-    let hulls: Vec<Option<Vec<DVec2>>> = edge_hulls
+    let hulls: Option<Vec<Vec<DVec2>>> = edge_hulls
         .collect::<Vec<_>>()
         .into_iter()
         .chain(perforated)
         .collect();
-    if hulls.iter().any(Option::is_none) {
+    let Some(hulls) = hulls else {
         return (vec![true; w * h], silhouettes.len());
-    }
-    // The map is marked in parallel by runs of rows, each run over every region's spans in its
-    // rows (millions of spans in all, not gathered in lists first).
+    };
+    // The map is marked in parallel by runs of rows, each run over the spans of the regions
+    // binned to it (millions of spans in all, each texel under hundreds, and crowded in a few
+    // runs: hence many runs): a span counts one up at its first column and one down past its
+    // last, and a texel is marked where the running count along its row is positive.
+    let run = h.div_ceil(16 * rayon::current_num_threads()).max(1);
+    let row_ranges: Vec<Option<(usize, usize)>> = hulls
+        .par_iter()
+        .map(|hull| conservative_row_range(hull, h).map(|(first, last)| (first, last + 1)))
+        .collect();
+    let bins = bin_row_ranges(&row_ranges, run, h.div_ceil(run));
     let mut flags = vec![false; w * h];
-    let run = h.div_ceil(4 * rayon::current_num_threads()).max(1);
     flags
         .par_chunks_mut(run * w)
+        .zip(&bins)
+        .with_max_len(1)
         .enumerate()
-        .for_each(|(k, part)| {
+        .for_each(|(k, (part, bin))| {
             let rows = k * run..((k + 1) * run).min(h);
-            for hull in hulls.iter().flatten() {
-                let Some((first, last)) = conservative_row_range(hull, h) else {
-                    continue;
-                };
-                for y in first.max(rows.start)..(last + 1).min(rows.end) {
-                    if let Some((x0, x1)) = conservative_span(hull, y, w) {
-                        let at = (y - rows.start) * w;
-                        part[at + x0..at + x1].fill(true);
-                    }
+            let mut steps = vec![0i32; rows.len() * (w + 1)];
+            let mut span_bounds = Vec::new();
+            for &i in bin {
+                for (y, x0, x1) in
+                    conservative_spans(&hulls[i as usize], rows.clone(), w, &mut span_bounds)
+                {
+                    let at = (y - rows.start) * (w + 1);
+                    steps[at + x0] += 1;
+                    steps[at + x1] -= 1;
+                }
+            }
+            for (row, steps) in part.chunks_mut(w).zip(steps.chunks(w + 1)) {
+                let mut open = 0;
+                for (flag, step) in row.iter_mut().zip(steps) {
+                    open += step;
+                    *flag = open > 0;
                 }
             }
         });
@@ -1780,7 +1876,7 @@ impl<'a> Tester<'a> {
         let center = setup.center;
         let unrotated = self.unrotated_planes();
         let entries = &self.entries;
-        let mut lanes = Lanes::new();
+        let (mut lanes, mut span_bounds) = (Lanes::new(), Vec::new());
         for &c in self.bins[b].iter().take_while(|_| !watch.requested()) {
             let Some(region) = self.region(c as usize, &band_frustum, &rows) else {
                 continue;
@@ -1790,7 +1886,7 @@ impl<'a> Tester<'a> {
             let supporting = Supporting::new(t, &unrotated);
             let caster_lanes = CasterLanes::new(t, &supporting, &unrotated);
             let slack = 1e-9 * t.near_depth.abs();
-            for span in lists.spans(region.as_deref(), &rows) {
+            for span in lists.spans(region.as_deref(), &rows, &mut span_bounds) {
                 for e in lists.span_entries(span) {
                     let m = &mut band_masks[(e - base) * words..(e - base + 1) * words];
                     let s = &entries[e];
@@ -2009,6 +2105,63 @@ mod tests {
     use super::*;
     use crate::influence::light_points;
     use crate::light::sampling::Rng;
+
+    #[test]
+    fn the_lanes_find_the_samples_behind_each_tangent_plane() {
+        // 1 to 300 samples (spare lanes in the last word), view samples with and without a
+        // rotation, some planes through samples (a zero value counts as behind): on every
+        // instruction set, each bit is the scalar test of that sample, and no spare bit is set.
+        let mut rng = Rng::new(9);
+        let mut unit = |rng: &mut Rng| {
+            DVec3::new(
+                f64::from(rng.next_f32()) * 2.0 - 1.0,
+                f64::from(rng.next_f32()) * 2.0 - 1.0,
+                f64::from(rng.next_f32()) * 2.0 - 1.0,
+            )
+        };
+        let center = DVec3::new(0.3, 2.0, -0.7);
+        for n in [1usize, 63, 64, 65, 100, 256, 300] {
+            let points: Vec<DVec3> = (0..n).map(|_| center + unit(&mut rng)).collect();
+            let samples = LightSamples {
+                weights: vec![1.0; n],
+                words: n.div_ceil(64),
+                points,
+            };
+            let behind = BehindPlane::new(&samples, center);
+            for case in 0..40 {
+                let rotation = (case % 2 == 1).then(|| {
+                    DMat3::from_axis_angle(
+                        unit(&mut rng).normalize(),
+                        f64::from(rng.next_f32()) * 6.0,
+                    )
+                });
+                let p = match case % 4 {
+                    0 => samples.points[rng.below(n)],
+                    _ => unit(&mut rng) * 3.0,
+                };
+                let s = ViewSample {
+                    receiver: 0,
+                    p,
+                    moved: p,
+                    n: unit(&mut rng),
+                    rotation,
+                    inside: false,
+                    exact_planes: false,
+                };
+                let mut expected = vec![0u64; samples.words];
+                for (k, &y) in samples.points.iter().enumerate() {
+                    if s.n.dot(rotate_about(center, rotation, y) - s.p) <= 0.0 {
+                        expected[k / 64] |= 1 << (k % 64);
+                    }
+                }
+                for isa in Isa::all_on_this_cpu() {
+                    let mut mask = vec![0u64; samples.words];
+                    behind.mask_on(isa, &s, &mut mask);
+                    assert_eq!(mask, expected, "{n} samples, case {case}, {isa:?}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn visibility_by_count_is_the_sum_of_the_shared_power_of_two_weights() {
