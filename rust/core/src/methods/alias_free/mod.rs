@@ -2112,7 +2112,7 @@ mod tests {
         // rotation, some planes through samples (a zero value counts as behind): on every
         // instruction set, each bit is the scalar test of that sample, and no spare bit is set.
         let mut rng = Rng::new(9);
-        let mut unit = |rng: &mut Rng| {
+        let unit = |rng: &mut Rng| {
             DVec3::new(
                 f64::from(rng.next_f32()) * 2.0 - 1.0,
                 f64::from(rng.next_f32()) * 2.0 - 1.0,
