@@ -94,9 +94,7 @@ use crate::light::sampling::{lit_fraction, SampleSet};
 use crate::limits::{self, object_work, Peak};
 use crate::methods::CasterFaces;
 use crate::raster::cube::by_light_face;
-use crate::raster::depth::{
-    band_rows, bin_row_ranges, casters, Caster, FaceFilter, RasterMode, RasterOptions,
-};
+use crate::raster::depth::{band_rows, casters, Caster, FaceFilter, RasterMode, RasterOptions};
 use crate::raster::frustum::check_resolution;
 use crate::raster::frustum::LightFrustum;
 use crate::raster::region::{conservative_row_range, conservative_spans, texel_box};
@@ -1381,31 +1379,37 @@ fn view_samples(
 ) -> Vec<ViewSample> {
     let center = light.center().as_dvec3();
     let extent = f64::from(bounds.reach());
-    (0..receivers.len())
+    let point = |i: usize| {
+        (
+            receivers.points[i].as_dvec3(),
+            receivers.normals[i].as_dvec3(),
+        )
+    };
+    let faces_the_light = |(p, n): (DVec3, DVec3)| {
+        n.dot(center - p) > -extent * n.length() && (center - p).length_squared() > 0.0
+    };
+    // The receivers kept first, so that the view samples (tens of megabytes) are written once,
+    // in place, by an indexed parallel pass.
+    let kept: Vec<usize> = (0..receivers.len())
         .into_par_iter()
-        .filter(|&i| receivers.valid[i])
+        .filter(|&i| receivers.valid[i] && faces_the_light(point(i)))
+        .collect();
+    kept.into_par_iter()
         .map(|i| {
-            let (p, n) = (
-                receivers.points[i].as_dvec3(),
-                receivers.normals[i].as_dvec3(),
-            );
+            let (p, n) = point(i);
             let rotation = samples
                 .rotation_for(i)
                 .and_then(|r| light.rigid_rotation(r))
                 .map(|m| m.as_dmat3().transpose());
-            let moved = p + n * f64::from(bias);
             ViewSample {
                 receiver: i as u32,
                 p,
-                moved,
+                moved: p + n * f64::from(bias),
                 n,
                 rotation,
                 inside: false,
                 exact_planes: false,
             }
-        })
-        .filter(|s| {
-            s.n.dot(center - s.p) > -extent * s.n.length() && (center - s.p).length_squared() > 0.0
         })
         .collect()
 }
@@ -1692,23 +1696,29 @@ fn penumbra_texels(
         return (vec![true; w * h], silhouettes.len());
     };
     // The map is marked in parallel by runs of rows, each run over the spans of the regions
-    // binned to it (millions of spans in all, each texel under hundreds, and crowded in a few
-    // runs: hence many runs): a span counts one up at its first column and one down past its
-    // last, and a texel is marked where the running count along its row is positive.
-    let run = h.div_ceil(16 * rayon::current_num_threads()).max(1);
+    // that reach it (millions of spans in all, each texel under hundreds, crowded in a few rows:
+    // the runs are cut to about equal numbers of regions, few enough that a region meets few):
+    // a span counts one up at its first column and one down past its last, and a texel is
+    // marked where the running count along its row is positive.
     let row_ranges: Vec<Option<(usize, usize)>> = hulls
         .par_iter()
         .map(|hull| conservative_row_range(hull, h).map(|(first, last)| (first, last + 1)))
         .collect();
-    let bins = bin_row_ranges(&row_ranges, run, h.div_ceil(run));
+    let runs = balanced_runs(&row_ranges, h, 4 * rayon::current_num_threads());
+    let bins = bin_to_runs(&row_ranges, &runs);
     let mut flags = vec![false; w * h];
-    flags
-        .par_chunks_mut(run * w)
+    let mut parts = Vec::with_capacity(runs.len());
+    let mut rest = flags.as_mut_slice();
+    for rows in &runs {
+        let (part, tail) = rest.split_at_mut(rows.len() * w);
+        parts.push((rows.clone(), part));
+        rest = tail;
+    }
+    parts
+        .into_par_iter()
         .zip(&bins)
         .with_max_len(1)
-        .enumerate()
-        .for_each(|(k, (part, bin))| {
-            let rows = k * run..((k + 1) * run).min(h);
+        .for_each(|((rows, part), bin)| {
             let mut steps = vec![0i32; rows.len() * (w + 1)];
             let mut span_bounds = Vec::new();
             for &i in bin {
@@ -1729,6 +1739,55 @@ fn penumbra_texels(
             }
         });
     (flags, silhouettes.len())
+}
+
+/// Cuts the rows `0..height` into at most `parts` runs of about equal work, a row's work being
+/// how many of the half-open `row_ranges` (`None`: no rows) reach it.
+fn balanced_runs(
+    row_ranges: &[Option<(usize, usize)>],
+    height: usize,
+    parts: usize,
+) -> Vec<Range<usize>> {
+    let mut steps = vec![0i64; height + 1];
+    for &(first, end) in row_ranges.iter().flatten() {
+        steps[first] += 1;
+        steps[end] -= 1;
+    }
+    let per_row: Vec<i64> = steps[..height]
+        .iter()
+        .scan(0, |open, step| {
+            *open += step;
+            Some(*open)
+        })
+        .collect();
+    let total = per_row.iter().sum::<i64>().max(1);
+    let (mut runs, mut start, mut done) = (Vec::new(), 0, 0);
+    for (y, work) in per_row.iter().enumerate() {
+        done += work;
+        if done * parts as i64 >= (runs.len() as i64 + 1) * total && y + 1 < height {
+            runs.push(start..y + 1);
+            start = y + 1;
+        }
+    }
+    runs.push(start..height);
+    runs
+}
+
+/// For each run of rows of `runs` (consecutive, from row 0), the indices of the `row_ranges`
+/// (half-open, `None`: no rows) that reach it.
+fn bin_to_runs(row_ranges: &[Option<(usize, usize)>], runs: &[Range<usize>]) -> Vec<Vec<u32>> {
+    let starts: Vec<usize> = runs.iter().map(|r| r.start).collect();
+    let mut bins = vec![Vec::new(); runs.len()];
+    for (i, range) in row_ranges.iter().enumerate() {
+        if let Some((first, end)) = *range {
+            let from = starts.partition_point(|&s| s <= first) - 1;
+            let to = starts.partition_point(|&s| s < end);
+            for bin in &mut bins[from..to] {
+                bin.push(i as u32);
+            }
+        }
+    }
+    bins
 }
 
 /// The CPU's work counters of the per-texel tests (the stats `pair_tests`, `plane_mask_ops`).
@@ -2105,6 +2164,42 @@ mod tests {
     use super::*;
     use crate::influence::light_points;
     use crate::light::sampling::Rng;
+
+    #[test]
+    fn runs_of_rows_split_the_work_and_hold_every_range_that_reaches_them() {
+        // Ranges crowded in a few rows, spread, of one row, none: the runs tile the rows, are at
+        // most as many as asked, and each run's bin holds exactly the ranges that reach it.
+        let mut rng = Rng::new(11);
+        for (height, parts) in [(1usize, 4), (7, 3), (64, 8), (512, 8), (300, 1)] {
+            let ranges: Vec<Option<(usize, usize)>> = (0..400)
+                .map(|k| {
+                    let first = match k % 3 {
+                        0 => {
+                            height / 2 + rng.below(height.div_ceil(8)).min(height - height / 2 - 1)
+                        }
+                        _ => rng.below(height),
+                    };
+                    (k % 7 != 0).then(|| (first, first + 1 + rng.below(height - first)))
+                })
+                .collect();
+            let runs = balanced_runs(&ranges, height, parts);
+            assert!(
+                runs.len() <= parts && runs[0].start == 0 && runs[runs.len() - 1].end == height
+            );
+            assert!(runs
+                .windows(2)
+                .all(|w| w[0].end == w[1].start && !w[0].is_empty()));
+            let bins = bin_to_runs(&ranges, &runs);
+            for (run, bin) in runs.iter().zip(&bins) {
+                let expected: Vec<u32> = (0..ranges.len() as u32)
+                    .filter(|&i| {
+                        ranges[i as usize].is_some_and(|(f, e)| f < run.end && run.start < e)
+                    })
+                    .collect();
+                assert_eq!(bin, &expected, "{height} rows, run {run:?}");
+            }
+        }
+    }
 
     #[test]
     fn the_lanes_find_the_samples_behind_each_tangent_plane() {
