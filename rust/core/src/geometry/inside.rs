@@ -97,13 +97,13 @@ mod tests {
     use crate::geometry::mesh::Mesh;
 
     #[test]
-    fn points_are_inside_a_closed_tetrahedron_where_its_planes_say() {
+    fn points_are_inside_a_closed_tetrahedron_where_its_planes_say() -> Result<()> {
         // A grid over the tetrahedron's box (most rays from the points outside meet no face,
         // some meet two): flagged exactly where the point lies inside, away from the faces.
         let tet = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
         let faces = vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
-        let scene = Scene::new(vec![Mesh::new(tet, faces, None, None, true).unwrap()]).unwrap();
-        let bvh = Bvh::build(&scene).unwrap();
+        let scene = Scene::new(vec![Mesh::new(tet, faces, None, None, true)?])?;
+        let bvh = Bvh::build(&scene)?;
         let grid: Vec<DVec3> = (0..9)
             .flat_map(|i| {
                 (0..9).flat_map(move |j| {
@@ -114,10 +114,10 @@ mod tests {
             .filter(|p| (p.x + p.y + p.z - 1.0).abs() > 0.01)
             .collect();
         let receivers: Vec<(DVec3, DVec3)> = grid.iter().map(|&p| (p, DVec3::X)).collect();
-        let inside =
-            inside_closed_meshes(&scene, &receivers, 0.0, || Ok(Cow::Borrowed(&bvh))).unwrap();
+        let inside = inside_closed_meshes(&scene, &receivers, 0.0, || Ok(Cow::Borrowed(&bvh)))?;
         let expected: Vec<bool> = grid.iter().map(|p| p.x + p.y + p.z < 1.0).collect();
         assert_eq!(inside, expected);
         assert!(expected.iter().any(|&e| e) && expected.iter().any(|&e| !e));
+        Ok(())
     }
 }

@@ -41,6 +41,7 @@ use crate::geometry::mesh::Scene;
 use crate::limits::{self, Peak, Work};
 use glam::{DVec2, DVec3, Vec3};
 use rayon::prelude::*;
+use std::ops::Range;
 
 use crate::geometry::polygon::{ClippedPolygon, MAX_CLIPPED};
 use crate::raster::frustum::{LightFrustum, TexelRect};
@@ -792,10 +793,55 @@ pub(crate) fn bin_row_ranges(
     band: usize,
     bands: usize,
 ) -> Vec<Vec<u32>> {
-    let mut bins = vec![Vec::new(); bands];
-    for (i, r) in rows.iter().enumerate() {
-        if let Some((y0, y1)) = *r {
-            for bin in &mut bins[y0 / band..=(y1 - 1) / band] {
+    let runs: Vec<Range<usize>> = (0..bands).map(|b| b * band..(b + 1) * band).collect();
+    bin_to_runs(rows, &runs)
+}
+
+/// Cuts the rows `0..height` into at most `parts` runs of about equal work, a row's work being
+/// how many of the half-open `row_ranges` (`None`: no rows) reach it.
+pub(crate) fn balanced_runs(
+    row_ranges: &[Option<(usize, usize)>],
+    height: usize,
+    parts: usize,
+) -> Vec<Range<usize>> {
+    let mut steps = vec![0i64; height + 1];
+    for &(first, end) in row_ranges.iter().flatten() {
+        steps[first] += 1;
+        steps[end] -= 1;
+    }
+    let per_row: Vec<i64> = steps[..height]
+        .iter()
+        .scan(0, |open, step| {
+            *open += step;
+            Some(*open)
+        })
+        .collect();
+    let total = per_row.iter().sum::<i64>().max(1);
+    let (mut runs, mut start, mut done) = (Vec::new(), 0, 0);
+    for (y, work) in per_row.iter().enumerate() {
+        done += work;
+        if done * parts as i64 >= (runs.len() as i64 + 1) * total && y + 1 < height {
+            runs.push(start..y + 1);
+            start = y + 1;
+        }
+    }
+    runs.push(start..height);
+    runs
+}
+
+/// For each run of rows of `runs` (consecutive, from row 0), the indices of the `row_ranges`
+/// (half-open, `None`: no rows) that reach it.
+pub(crate) fn bin_to_runs(
+    row_ranges: &[Option<(usize, usize)>],
+    runs: &[Range<usize>],
+) -> Vec<Vec<u32>> {
+    let starts: Vec<usize> = runs.iter().map(|r| r.start).collect();
+    let mut bins = vec![Vec::new(); runs.len()];
+    for (i, range) in row_ranges.iter().enumerate() {
+        if let Some((first, end)) = *range {
+            let from = starts.partition_point(|&s| s <= first) - 1;
+            let to = starts.partition_point(|&s| s < end);
+            for bin in &mut bins[from..to] {
                 bin.push(i as u32);
             }
         }
@@ -836,6 +882,43 @@ fn draw_band(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::light::sampling::Rng;
+
+    #[test]
+    fn runs_of_rows_split_the_work_and_hold_every_range_that_reaches_them() {
+        // Ranges crowded in a few rows, spread, of one row, none: the runs tile the rows, are at
+        // most as many as asked, and each run's bin holds exactly the ranges that reach it.
+        let mut rng = Rng::new(11);
+        for (height, parts) in [(1usize, 4), (7, 3), (64, 8), (512, 8), (300, 1)] {
+            let ranges: Vec<Option<(usize, usize)>> = (0..400)
+                .map(|k| {
+                    let first = match k % 3 {
+                        0 => {
+                            height / 2 + rng.below(height.div_ceil(8)).min(height - height / 2 - 1)
+                        }
+                        _ => rng.below(height),
+                    };
+                    (k % 7 != 0).then(|| (first, first + 1 + rng.below(height - first)))
+                })
+                .collect();
+            let runs = balanced_runs(&ranges, height, parts);
+            assert!(
+                runs.len() <= parts && runs[0].start == 0 && runs[runs.len() - 1].end == height
+            );
+            assert!(runs
+                .windows(2)
+                .all(|w| w[0].end == w[1].start && !w[0].is_empty()));
+            let bins = bin_to_runs(&ranges, &runs);
+            for (run, bin) in runs.iter().zip(&bins) {
+                let expected: Vec<u32> = (0..ranges.len() as u32)
+                    .filter(|&i| {
+                        ranges[i as usize].is_some_and(|(f, e)| f < run.end && run.start < e)
+                    })
+                    .collect();
+                assert_eq!(bin, &expected, "{height} rows, run {run:?}");
+            }
+        }
+    }
 
     /// Fuzzing regression: a point light 1.4e-30 from its only receiver gets `near = 1e-33`;
     /// clipping a flat box (y = 0) seen edge-on rounded a vertex behind the eye, and its infinite

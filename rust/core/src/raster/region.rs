@@ -94,39 +94,30 @@ pub fn texel_box(hull: &[DVec2], width: usize, height: usize) -> (Range<usize>, 
 
 /// The half-open columns `[x0, x1)` of row `y` of a `width`-column map whose texel squares the
 /// polygon `hull` touches (with the slack of [`conservative_rows`]); `None` for none. The GPU
-/// repeats it operation for operation (`row_span` in `methods/alias_free/alias_free.wgsl`).
+/// finds the same spans (`row_span` in `methods/alias_free/alias_free.wgsl`).
 pub fn conservative_span(hull: &[DVec2], y: usize, width: usize) -> Option<(usize, usize)> {
-    let (top, bottom) = (y as f64 - SLACK, y as f64 + 1.0 + SLACK);
-    let (mut x_lo, mut x_hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    let lines = row_lines(y);
+    let mut bounds = DVec2::new(f64::INFINITY, f64::NEG_INFINITY);
     let n = hull.len();
     for i in 0..n {
         let (a, b) = (hull[i], hull[(i + 1) % n]);
-        if a.y >= top && a.y <= bottom {
-            x_lo = x_lo.min(a.x);
-            x_hi = x_hi.max(a.x);
+        if in_row(a, lines) {
+            widen(&mut bounds, a.x);
         }
-        for edge_y in [top, bottom] {
-            if (a.y - edge_y) * (b.y - edge_y) < 0.0 {
-                let x = a.x + (b.x - a.x) * (edge_y - a.y) / (b.y - a.y);
-                x_lo = x_lo.min(x);
-                x_hi = x_hi.max(x);
+        for line in lines {
+            if let Some(x) = crossing(a, b, line) {
+                widen(&mut bounds, x);
             }
         }
     }
-    if x_lo > x_hi {
-        return None;
-    }
-    let x0 = floor(x_lo - SLACK).max(0.0);
-    let x1 = (floor(x_hi + SLACK) + 1.0).min(width as f64);
-    (x1 > x0).then_some((x0 as usize, x1 as usize))
+    columns(bounds, width)
 }
 
 /// The spans `(y, x0, x1)` of [`conservative_span`] of the rows `rows` that the polygon `hull`
 /// touches, in increasing `y`, found by walking the polygon's edges once: each edge and vertex
 /// visits only the rows whose top or bottom line it may meet, where [`conservative_span`] tests
-/// every edge in every row, and the columns are found without `floor` (a call without SSE4.1;
-/// these run millions of times a frame). The same comparisons and crossings (minima and maxima
-/// taken in another order, of the same values), so the same spans. `bounds` is scratch memory.
+/// every edge in every row. The same comparisons and crossings (minima and maxima taken in
+/// another order, of the same values), so the same spans. `bounds` is scratch memory.
 pub fn conservative_spans<'b>(
     hull: &[DVec2],
     rows: Range<usize>,
@@ -146,17 +137,10 @@ pub fn conservative_spans<'b>(
         }
         _ => 0,
     };
-    // `conservative_span`'s columns in integers: `v as usize` is `v.floor().max(0.0)` for any
-    // `v` (truncating, saturating at 0), and a negative right end leaves no span.
-    bounds.iter().enumerate().filter_map(move |(k, r)| {
-        let right = r.y + SLACK;
-        if r.x > r.y || right < 0.0 {
-            return None;
-        }
-        let x0 = (r.x - SLACK) as usize;
-        let x1 = (right as usize).saturating_add(1).min(width);
-        (x1 > x0).then_some((first + k, x0, x1))
-    })
+    bounds
+        .iter()
+        .enumerate()
+        .filter_map(move |(k, &r)| columns(r, width).map(|(x0, x1)| (first + k, x0, x1)))
 }
 
 /// The least and greatest crossing `(x, x)` of each row `first + k` in `bounds[k]`: the
@@ -175,23 +159,59 @@ fn walk_edges(hull: &[DVec2], first: usize, bounds: &mut [DVec2]) {
     for i in 0..n {
         let (a, b) = (hull[i], hull[(i + 1) % n]);
         for y in candidates(a.y - 1.0 - SLACK, a.y + SLACK) {
-            let (top, bottom) = (y as f64 - SLACK, y as f64 + 1.0 + SLACK);
-            if a.y >= top && a.y <= bottom {
-                let r = &mut bounds[y - first];
-                *r = DVec2::new(r.x.min(a.x), r.y.max(a.x));
+            if in_row(a, row_lines(y)) {
+                widen(&mut bounds[y - first], a.x);
             }
         }
         let (lo, hi) = (a.y.min(b.y), a.y.max(b.y));
         for y in candidates(lo - 1.0 - SLACK, hi + SLACK) {
-            for edge_y in [y as f64 - SLACK, y as f64 + 1.0 + SLACK] {
-                if (a.y - edge_y) * (b.y - edge_y) < 0.0 {
-                    let x = a.x + (b.x - a.x) * (edge_y - a.y) / (b.y - a.y);
-                    let r = &mut bounds[y - first];
-                    *r = DVec2::new(r.x.min(x), r.y.max(x));
+            for line in row_lines(y) {
+                if let Some(x) = crossing(a, b, line) {
+                    widen(&mut bounds[y - first], x);
                 }
             }
         }
     }
+}
+
+/// The top and bottom lines of row `y`, with the slack of [`conservative_rows`].
+#[inline(always)]
+fn row_lines(y: usize) -> [f64; 2] {
+    [y as f64 - SLACK, y as f64 + 1.0 + SLACK]
+}
+
+/// Whether the point `a` lies between a row's `lines`.
+#[inline(always)]
+fn in_row(a: DVec2, [top, bottom]: [f64; 2]) -> bool {
+    a.y >= top && a.y <= bottom
+}
+
+/// Where the edge `a -> b` crosses the horizontal `line` strictly between its ends.
+#[inline(always)]
+fn crossing(a: DVec2, b: DVec2, line: f64) -> Option<f64> {
+    ((a.y - line) * (b.y - line) < 0.0).then(|| a.x + (b.x - a.x) * (line - a.y) / (b.y - a.y))
+}
+
+/// Widens the range `(least, greatest)` to hold `x`.
+#[inline(always)]
+fn widen(bounds: &mut DVec2, x: f64) {
+    *bounds = DVec2::new(bounds.x.min(x), bounds.y.max(x));
+}
+
+/// The half-open columns of a `width`-column map that the range `(least, greatest)` of a row's
+/// crossings touches (with the slack); `None` for an empty range. In integers, without `floor`
+/// (a call without SSE4.1; this runs millions of times a frame): `v as usize` is
+/// `v.floor().max(0.0)` for any `v` (truncating, saturating at 0), and a negative right end
+/// leaves no span.
+#[inline(always)]
+fn columns(bounds: DVec2, width: usize) -> Option<(usize, usize)> {
+    let right = bounds.y + SLACK;
+    if bounds.x > bounds.y || right < 0.0 {
+        return None;
+    }
+    let x0 = (bounds.x - SLACK) as usize;
+    let x1 = (right as usize).saturating_add(1).min(width);
+    (x1 > x0).then_some((x0, x1))
 }
 
 #[cfg(test)]
@@ -252,6 +272,17 @@ mod tests {
             assert_eq!(floor(v), v.floor(), "{v}");
         }
         assert!(floor(f64::NAN).is_nan());
+        // The columns in integers are those of `floor` in floats.
+        for &lo in &values {
+            for &hi in &values {
+                let float = (lo <= hi).then(|| {
+                    let x0 = (lo - SLACK).floor().max(0.0);
+                    let x1 = ((hi + SLACK).floor() + 1.0).min(9.0);
+                    (x1 > x0).then_some((x0 as usize, x1 as usize))
+                });
+                assert_eq!(columns(DVec2::new(lo, hi), 9), float.flatten(), "{lo} {hi}");
+            }
+        }
     }
 
     #[test]

@@ -94,7 +94,9 @@ use crate::light::sampling::{lit_fraction, SampleSet};
 use crate::limits::{self, object_work, Peak};
 use crate::methods::CasterFaces;
 use crate::raster::cube::by_light_face;
-use crate::raster::depth::{band_rows, casters, Caster, FaceFilter, RasterMode, RasterOptions};
+use crate::raster::depth::{
+    balanced_runs, band_rows, bin_to_runs, casters, Caster, FaceFilter, RasterMode, RasterOptions,
+};
 use crate::raster::frustum::check_resolution;
 use crate::raster::frustum::LightFrustum;
 use crate::raster::region::{conservative_row_range, conservative_spans, texel_box};
@@ -261,12 +263,9 @@ pub(crate) struct LightSamples {
 
 impl LightSamples {
     fn full_mask(&self) -> Vec<u64> {
-        let mut m = vec![!0u64; self.words];
-        let spare = self.words * 64 - self.points.len();
-        if spare > 0 {
-            m[self.words - 1] = !0u64 >> spare;
-        }
-        m
+        (0..self.words)
+            .map(|k| valid_bits(k, self.points.len()))
+            .collect()
     }
 
     /// The samples with `m · y < k`.
@@ -1499,9 +1498,10 @@ impl BehindPlane {
 
     #[inline(always)]
     fn mask_body(&self, s: &ViewSample, mask: &mut [u64]) {
+        let rotation = s.rotation.map(|rt| rt.transpose());
         for (w, word) in mask.iter_mut().enumerate() {
             let at = w * 64..(w + 1) * 64;
-            let dots = match s.rotation {
+            let dots = match rotation {
                 None => plane_values(
                     s,
                     [
@@ -1510,12 +1510,12 @@ impl BehindPlane {
                         &self.points[2][at],
                     ],
                 ),
-                Some(rt) => {
+                Some(r) => {
                     let [x, y, z] = &self.offsets;
                     rotated_plane_values(
                         s,
                         self.center,
-                        rt.transpose(),
+                        r,
                         [&x[at.clone()], &y[at.clone()], &z[at]],
                     )
                 }
@@ -1739,55 +1739,6 @@ fn penumbra_texels(
             }
         });
     (flags, silhouettes.len())
-}
-
-/// Cuts the rows `0..height` into at most `parts` runs of about equal work, a row's work being
-/// how many of the half-open `row_ranges` (`None`: no rows) reach it.
-fn balanced_runs(
-    row_ranges: &[Option<(usize, usize)>],
-    height: usize,
-    parts: usize,
-) -> Vec<Range<usize>> {
-    let mut steps = vec![0i64; height + 1];
-    for &(first, end) in row_ranges.iter().flatten() {
-        steps[first] += 1;
-        steps[end] -= 1;
-    }
-    let per_row: Vec<i64> = steps[..height]
-        .iter()
-        .scan(0, |open, step| {
-            *open += step;
-            Some(*open)
-        })
-        .collect();
-    let total = per_row.iter().sum::<i64>().max(1);
-    let (mut runs, mut start, mut done) = (Vec::new(), 0, 0);
-    for (y, work) in per_row.iter().enumerate() {
-        done += work;
-        if done * parts as i64 >= (runs.len() as i64 + 1) * total && y + 1 < height {
-            runs.push(start..y + 1);
-            start = y + 1;
-        }
-    }
-    runs.push(start..height);
-    runs
-}
-
-/// For each run of rows of `runs` (consecutive, from row 0), the indices of the `row_ranges`
-/// (half-open, `None`: no rows) that reach it.
-fn bin_to_runs(row_ranges: &[Option<(usize, usize)>], runs: &[Range<usize>]) -> Vec<Vec<u32>> {
-    let starts: Vec<usize> = runs.iter().map(|r| r.start).collect();
-    let mut bins = vec![Vec::new(); runs.len()];
-    for (i, range) in row_ranges.iter().enumerate() {
-        if let Some((first, end)) = *range {
-            let from = starts.partition_point(|&s| s <= first) - 1;
-            let to = starts.partition_point(|&s| s < end);
-            for bin in &mut bins[from..to] {
-                bin.push(i as u32);
-            }
-        }
-    }
-    bins
 }
 
 /// The CPU's work counters of the per-texel tests (the stats `pair_tests`, `plane_mask_ops`).
@@ -2164,42 +2115,6 @@ mod tests {
     use super::*;
     use crate::influence::light_points;
     use crate::light::sampling::Rng;
-
-    #[test]
-    fn runs_of_rows_split_the_work_and_hold_every_range_that_reaches_them() {
-        // Ranges crowded in a few rows, spread, of one row, none: the runs tile the rows, are at
-        // most as many as asked, and each run's bin holds exactly the ranges that reach it.
-        let mut rng = Rng::new(11);
-        for (height, parts) in [(1usize, 4), (7, 3), (64, 8), (512, 8), (300, 1)] {
-            let ranges: Vec<Option<(usize, usize)>> = (0..400)
-                .map(|k| {
-                    let first = match k % 3 {
-                        0 => {
-                            height / 2 + rng.below(height.div_ceil(8)).min(height - height / 2 - 1)
-                        }
-                        _ => rng.below(height),
-                    };
-                    (k % 7 != 0).then(|| (first, first + 1 + rng.below(height - first)))
-                })
-                .collect();
-            let runs = balanced_runs(&ranges, height, parts);
-            assert!(
-                runs.len() <= parts && runs[0].start == 0 && runs[runs.len() - 1].end == height
-            );
-            assert!(runs
-                .windows(2)
-                .all(|w| w[0].end == w[1].start && !w[0].is_empty()));
-            let bins = bin_to_runs(&ranges, &runs);
-            for (run, bin) in runs.iter().zip(&bins) {
-                let expected: Vec<u32> = (0..ranges.len() as u32)
-                    .filter(|&i| {
-                        ranges[i as usize].is_some_and(|(f, e)| f < run.end && run.start < e)
-                    })
-                    .collect();
-                assert_eq!(bin, &expected, "{height} rows, run {run:?}");
-            }
-        }
-    }
 
     #[test]
     fn the_lanes_find_the_samples_behind_each_tangent_plane() {
