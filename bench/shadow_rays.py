@@ -36,16 +36,22 @@ def shadow_rays(gb, samples, eps):
     return o.astype(np.float32), (d / length[:, None]).astype(np.float32), (length * (1 - 1e-6)).astype(np.float32), front
 
 
+#: Pause before each timed call (seconds): the worker threads of the call before (rayon's, Dr.Jit's)
+#: spin a while after their work before they sleep, and would otherwise take cores from the next.
+PAUSE = 0.05
+
+
 def side_by_side(repeat, contenders, cpu=None):
-    """Runs every contender (name -> function) once per round for ``repeat`` rounds, in turn;
-    returns each one's fastest round (seconds) and its last result. A dict ``cpu`` gets each
-    one's fastest CPU time of the process (seconds, all threads: steadier than wall time on a
-    shared machine)."""
+    """Runs every contender (name -> function) once per round for ``repeat`` rounds, in turn,
+    each after a short pause (:data:`PAUSE`); returns each one's fastest round (seconds) and its
+    last result. A dict ``cpu`` gets each one's fastest CPU time of the process (seconds, all
+    threads: steadier than wall time on a shared machine)."""
     seconds, results = {name: float("inf") for name in contenders}, {}
     cpu = {} if cpu is None else cpu
     cpu.update({name: float("inf") for name in contenders})
     for _ in range(repeat):
         for name, fn in contenders.items():
+            time.sleep(PAUSE)
             start, start_cpu = time.perf_counter(), time.process_time()
             results[name] = fn()
             seconds[name] = min(seconds[name], time.perf_counter() - start)

@@ -1034,4 +1034,47 @@ mod tests {
             Some(0)
         );
     }
+
+    /// The box `lo..hi` as a mesh of 12 triangles (corner `i` takes `hi` on the axes of its set
+    /// bits: bit 0 for x, 1 for y, 2 for z).
+    fn cuboid(lo: Vec3, hi: Vec3) -> Result<Mesh> {
+        let pick = |i: u32, bit: u32, a: usize| if i >> bit & 1 != 0 { hi[a] } else { lo[a] };
+        let corners = (0..8)
+            .map(|i| Vec3::new(pick(i, 0, 0), pick(i, 1, 1), pick(i, 2, 2)))
+            .collect();
+        let faces = vec![
+            [0, 4, 6],
+            [0, 6, 2],
+            [1, 3, 7],
+            [1, 7, 5],
+            [0, 1, 5],
+            [0, 5, 4],
+            [2, 6, 7],
+            [2, 7, 3],
+            [0, 2, 3],
+            [0, 3, 1],
+            [4, 5, 7],
+            [4, 7, 6],
+        ];
+        Mesh::new(corners, faces, None, None, false)
+    }
+
+    /// A room around a small box, as in `bench/alias_free.py`'s lamp room: every leaf holding
+    /// triangles of the room's walls is flat, one wall's. Four triangles of two walls in one
+    /// leaf (what the build made before it weighed splitting such leaves) give that leaf the
+    /// room's box, entered by every ray in the room.
+    #[test]
+    fn the_walls_of_a_room_get_leaves_of_their_own() -> Result<()> {
+        let room = cuboid(Vec3::splat(-2.0), Vec3::splat(2.0))?;
+        let inside = cuboid(Vec3::new(0.9, -0.3, -0.4), Vec3::new(1.3, 0.5, 0.4))?;
+        let bvh = Bvh::build(&Scene::new(vec![room, inside])?)?;
+        for leaf in bvh.leaf_refs() {
+            let faces = bvh.blocks[leaf.block as usize].ids;
+            if faces.iter().any(|&f| f < 12) {
+                let extent = Vec3::from(leaf.hi) - Vec3::from(leaf.lo);
+                assert_eq!(extent.min_element(), 0.0, "faces {faces:?}, box {leaf:?}");
+            }
+        }
+        Ok(())
+    }
 }

@@ -1,13 +1,23 @@
 //! Binned-SAH construction of a binary BVH, then its collapse into the 4-wide layout the
 //! traversal uses.
 //!
-//! - Binning: 16 bins per axis over the centroid bounds; the split plane minimizing
-//!   `area(L) * blocks(L) + area(R) * blocks(R)` is taken, where `blocks(n) = ceil(n / 4)` since a
-//!   leaf's four-triangle block costs one SIMD test whatever its occupancy. Nodes of at most four
-//!   triangles become leaves (exactly one block each).
+//! - Binning: 16 bins per axis over the centroid bounds; the split plane minimizing the surface
+//!   area heuristic `area(L) * n(L) + area(R) * n(R)` (n: triangles) is taken.
+//! - Leaves: a node of at most four triangles is one leaf (one block, a single SIMD test whatever
+//!   its occupancy) unless two leaves cost less ([`split_small`]): their two areas plus
+//!   [`SPLIT_COST`] times the node's, against the node's area for one leaf. So the walls of a room
+//!   get leaves of their own, flat boxes that few rays enter, where four triangles of two walls
+//!   would share a box as large as the room that every ray inside it tests. Counting blocks
+//!   (`ceil(n / 4)`) instead of triangles in the binned cost had the same effect one level up:
+//!   it filled blocks with triangles far apart. On the lamp room of `bench/alias_free.py` (72
+//!   triangles, 256x256 receivers x 64 samples, one thread, same bits) `ray_traced` took 130-160
+//!   ms with blocks counted and no leaf split, 67-115 ms with the leaf split alone and 32-35 ms
+//!   with both changes; on the bunny and the other built-in scenes (1-2 alternating runs each)
+//!   the time stayed within the noise or fell.
 //! - Depth bound: below depth [`SAH_DEPTH_LIMIT`] the split is the object median instead, which
-//!   halves the node, so the binary tree is at most `48 + 32` levels deep and the traversal
-//!   stacks of [`super::STACK`] entries cannot overflow (checked once in [`build`]).
+//!   halves the node, and a leaf's split adds at most three levels, so the binary tree is at most
+//!   `48 + 32 + 3` levels deep and the traversal stacks of [`super::STACK`] entries cannot
+//!   overflow (checked once in [`build`]).
 //! - Determinism: subtrees above [`PAR_MIN`] triangles are built with `rayon::join` into their own
 //!   node vectors and concatenated in (root, left, right) order, and every partition is an
 //!   in-place sequential pass over a disjoint slice, so the result is the same for any thread count.
@@ -217,7 +227,12 @@ fn build_serial(
 ) -> u32 {
     let (b, cb) = bounds_of(prims, idx);
     let me = out.len() as u32;
-    if idx.len() <= LEAF_SIZE {
+    let mid = if idx.len() > LEAF_SIZE {
+        Some(split(prims, idx, cb, depth))
+    } else {
+        split_small(prims, idx, b)
+    };
+    let Some(mid) = mid else {
         out.push(Node2 {
             b,
             kind: Kind::Leaf {
@@ -226,12 +241,11 @@ fn build_serial(
             },
         });
         return me;
-    }
+    };
     out.push(Node2 {
         b,
         kind: Kind::Leaf { start, count: 0 },
     });
-    let mid = split(prims, idx, cb, depth);
     let (li, ri) = idx.split_at_mut(mid);
     let left = build_serial(prims, li, start, depth + 1, out);
     let right = build_serial(prims, ri, start + mid as u32, depth + 1, out);
@@ -299,14 +313,14 @@ fn best_sah_split(prims: &[Prim], idx: &[u32], cb: Aabb) -> Option<(usize, usize
         for k in (1..BINS).rev() {
             rb = rb.union(boxes[k]);
             rn += count[k];
-            right[k] = (rn, rb.half_area() * rn.div_ceil(LEAF_SIZE as u32) as f32);
+            right[k] = (rn, rb.half_area() * rn as f32);
         }
         let (mut lb, mut ln) = (Aabb::EMPTY, 0u32);
         for plane in 1..BINS {
             lb = lb.union(boxes[plane - 1]);
             ln += count[plane - 1];
             let (rn, rcost) = right[plane];
-            let cost = lb.half_area() * ln.div_ceil(LEAF_SIZE as u32) as f32 + rcost;
+            let cost = lb.half_area() * ln as f32 + rcost;
             // Both sides non-empty; strict `<` keeps the first of equal candidates.
             if ln > 0 && rn > 0 && best.is_none_or(|b| cost < b.0) {
                 best = Some((cost, axis, plane, scale));
@@ -314,6 +328,50 @@ fn best_sah_split(prims: &[Prim], idx: &[u32], cb: Aabb) -> Option<(usize, usize
         }
     }
     best.map(|(_, axis, plane, scale)| (axis, plane, scale))
+}
+
+/// The cost of one more split, in units of a block test over the node's area (see
+/// [`split_small`]); small, since the collapse into the 4-wide tree absorbs most binary nodes.
+/// Below 1/3 so that a cubic room's opposite walls part (their two flat boxes have 2/3 of the
+/// room's area): 0.5 kept them two to a leaf (the lamp room of the module doc took 115-165 ms),
+/// 0.1 took the same time as 0.3 there and on the bunny, within the noise.
+const SPLIT_COST: f32 = 0.3;
+
+/// Whether the node `idx` of at most [`LEAF_SIZE`] triangles (bounds `b`) costs less as two
+/// leaves than as one (see the module doc): over every split of its triangles in two, the
+/// cheapest `area(L) + area(R)` (the first on ties) against `(1 - SPLIT_COST) * area(b)`. If so,
+/// reorders `idx` to put the left part first (each part in its order) and returns its size.
+fn split_small(prims: &[Prim], idx: &mut [u32], b: Aabb) -> Option<usize> {
+    let n = idx.len();
+    let box_of = |mask: u32, inside: bool| {
+        (0..n)
+            .filter(|&k| (mask >> k & 1 != 0) == inside)
+            .fold(Aabb::EMPTY, |a, k| a.union(prims[idx[k] as usize].b))
+    };
+    // The splits with the first triangle on the left, each once.
+    let (cost, mask) = (1..(1u32 << n) - 1)
+        .filter(|mask| mask & 1 != 0)
+        .map(|mask| {
+            (
+                box_of(mask, true).half_area() + box_of(mask, false).half_area(),
+                mask,
+            )
+        })
+        .fold(None::<(f32, u32)>, |best, (cost, mask)| match best {
+            Some((c, _)) if c <= cost => best,
+            _ => Some((cost, mask)),
+        })?;
+    if cost >= (1.0 - SPLIT_COST) * b.half_area() {
+        return None;
+    }
+    let mut order = [0u32; LEAF_SIZE];
+    let left = (0..n).filter(|&k| mask >> k & 1 != 0);
+    let right = (0..n).filter(|&k| mask >> k & 1 == 0);
+    for (slot, k) in order.iter_mut().zip(left.chain(right)) {
+        *slot = idx[k];
+    }
+    idx.copy_from_slice(&order[..n]);
+    Some(mask.count_ones() as usize)
 }
 
 /// Object-median split along the widest centroid axis (halves the node: bounds the depth).
