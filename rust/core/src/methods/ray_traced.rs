@@ -240,14 +240,15 @@ const _: () = assert!(TILE <= Bvh::PACKET_LANES);
 const TILE_ROWS: usize = 8;
 
 /// [`trace_all`] for samples `ys` shared by every receiver, all of weight 1: the grid is cut
-/// into bands of tile rows (the parallel work items, so the output does not depend on the
-/// thread count) and each band into tiles traced by [`trace_tile`].
+/// into bands of tile rows, each band into segments of [`SEGMENT_TILES`] tiles (the parallel work
+/// items: fixed, so the paths the receivers take do not depend on the thread count, and the
+/// answers never do) and each segment into tiles traced by [`trace_tile`].
 ///
-/// All the bands go in one parallel pass, not in rounds: the cost of a band varies tenfold with
-/// the shadows it crosses, and rounds of one band per thread wait for their slowest
+/// All the segments go in one parallel pass, not in rounds: the cost of a band varies tenfold
+/// with the shadows it crosses, and rounds of one band per thread wait for their slowest
 /// (`bench/shadow_rays.py` at 128x128 measured the one pass faster on two cores). A tile is
-/// the unit of interruption instead: the bands stop at their next tile once the call is asked
-/// to stop, and the check after the pass reports it.
+/// the unit of interruption instead: the segments stop at their next tile once the call is
+/// asked to stop, and the check after the pass reports it.
 fn trace_shared(
     scene: &Scene,
     bvh: &Bvh,
@@ -261,21 +262,23 @@ fn trace_shared(
     let cols = TILE / rows;
     let shared = SharedSamples::new(ys);
     let band_len = rows * width;
+    let segment_cols = cols * SEGMENT_TILES;
+    let segments = Segment::split(out, width, band_len, segment_cols);
     interrupt::check()?;
     let watch = interrupt::watch();
-    let rays = out
-        .par_chunks_mut(band_len)
-        .enumerate()
-        .map_init(TileBuffers::default, |buf, (b, band)| {
-            let (first, len) = (b * band_len, band.len());
+    let rays = segments
+        .into_par_iter()
+        .map_init(TileBuffers::default, |buf, mut segment| {
+            let (first, len) = (segment.band * band_len, segment.rows.len() * width);
             buf.to_packets.clear();
             buf.to_packets.resize(len, false);
-            (0..width)
+            let end = (segment.x0 + segment_cols).min(width);
+            (segment.x0..end)
                 .step_by(cols)
                 .take_while(|_| !watch.requested())
                 .map(|x0| {
                     let tile = (0..rows)
-                        .flat_map(|r| (x0..(x0 + cols).min(width)).map(move |x| r * width + x))
+                        .flat_map(|r| (x0..(x0 + cols).min(end)).map(move |x| r * width + x))
                         .filter(move |&k| k < len);
                     trace_tile(
                         scene,
@@ -285,7 +288,7 @@ fn trace_shared(
                         epsilon,
                         (first, width),
                         tile,
-                        band,
+                        &mut segment,
                         buf,
                     )
                 })
@@ -294,6 +297,55 @@ fn trace_shared(
         .sum::<u64>();
     interrupt::check()?;
     Ok(rays)
+}
+
+/// Tiles of one band per parallel work item (see [`trace_shared`]).
+///
+/// Whole bands were the work items before: on the bunny at 128x128 (64 shared samples, 16
+/// bands) the costliest band took a fifth of the call's cycles, and a thread that finished
+/// its share of the bands early waited on it. With two threads, alternating the two in one
+/// process (100 rounds at 128x128, 30 at 256x256, same bits), segments of four tiles took
+/// 0.92x the fastest wall time of whole bands at 128x128 (17.1 against 18.6 ms; median 0.94x)
+/// and 0.95x at 256x256 (median 0.99x); one or two tiles per item did no better than four.
+const SEGMENT_TILES: usize = 4;
+
+/// The receivers of one parallel work item of [`trace_shared`]: the rows of band `band` between
+/// column `x0` and the next segment, as pieces of the output rows (`rows[r][x - x0]` for the
+/// receiver in row `r` of the band and column `x`).
+struct Segment<'a> {
+    band: usize,
+    x0: usize,
+    width: usize,
+    rows: Vec<&'a mut [f32]>,
+}
+
+impl<'a> Segment<'a> {
+    /// Cuts `out`, a grid `width` receivers wide, into bands of `band_len` receivers and each
+    /// band into segments of `cols` columns, band by band, left to right.
+    fn split(out: &'a mut [f32], width: usize, band_len: usize, cols: usize) -> Vec<Segment<'a>> {
+        let per_band = width.div_ceil(cols);
+        let mut segments: Vec<Segment<'a>> = Vec::new();
+        for (band, rows) in out.chunks_mut(band_len).enumerate() {
+            let start = segments.len();
+            segments.extend((0..per_band).map(|g| Segment {
+                band,
+                x0: g * cols,
+                width,
+                rows: Vec::new(),
+            }));
+            for row in rows.chunks_mut(width) {
+                for (g, piece) in row.chunks_mut(cols).enumerate() {
+                    segments[start + g].rows.push(piece);
+                }
+            }
+        }
+        segments
+    }
+
+    /// Sets the value of the receiver at index `k` of the band.
+    fn set(&mut self, k: usize, value: f32) {
+        self.rows[k / self.width][k % self.width - self.x0] = value;
+    }
 }
 
 /// The samples every receiver shares: as points, per axis (for [`SharedSamples::front`]) and
@@ -361,12 +413,14 @@ struct TileBuffers {
     /// Per sample, the lanes of the hard receivers it is in front of, and of those blocked.
     front: Vec<u64>,
     blocked_lanes: Vec<u64>,
-    /// Per receiver of the band, whether it went to the packets (see [`trace_tile`]).
+    /// Per receiver of the band, whether it went to the packets in this segment (see
+    /// [`trace_tile`]).
     to_packets: Vec<bool>,
 }
 
-/// Traces the receivers `tile` (indices into `band`, whose first receiver is `first`, of a grid
-/// `width` receivers wide) to the shared samples `ys`; returns the rays traced.
+/// Traces the receivers `tile` (indices into their band, whose first receiver is `first`, of a grid
+/// `width` receivers wide) to the shared samples `ys`, writing their visibility into `segment`;
+/// returns the rays traced.
 ///
 /// When no leaf meets the shaft between the tile's ray origins and the samples
 /// ([`Bvh::shaft_is_empty`]), every receiver of the tile sees all its front samples. Otherwise
@@ -375,8 +429,8 @@ struct TileBuffers {
 /// listing their samples). A receiver whose left and upper neighbours in the band both
 /// went to the packets skips that pass and goes there too: shadow regions are contiguous, so
 /// the pass would almost surely fail after meeting too many leaves, and either path gives the
-/// same answers (the left neighbour may lie in the previous tile of the band, so
-/// `b.to_packets` must be reset per band). The rays of the others go as coherent packets
+/// same answers (the left neighbour may lie in the previous tile of the segment, so
+/// `b.to_packets` must be reset per segment). The rays of the others go as coherent packets
 /// (Benthin and Wald 2009, see `bvh/packet.rs`), by sample or by receiver, whichever makes
 /// fewer packets ([`by_receiver`]): those of all remaining receivers of the tile to sample
 /// `y_s` converge at `y_s`, those of one receiver diverge from it. All give the answers of
@@ -390,7 +444,7 @@ fn trace_tile(
     epsilon: f32,
     (first, width): (usize, usize),
     tile: impl Iterator<Item = usize>,
-    band: &mut [f32],
+    segment: &mut Segment,
     b: &mut TileBuffers,
 ) -> u64 {
     // Unit weights: the sums of `receiver_visibility` are exact counts here.
@@ -416,7 +470,7 @@ fn trace_tile(
         let count = ys.front(p, n, &mut b.front_bits);
         rays += u64::from(count);
         if lit_tile {
-            band[k] = visibility(count);
+            segment.set(k, visibility(count));
             continue;
         }
         let left = k % width > 0 && b.to_packets[k - 1];
@@ -426,13 +480,16 @@ fn trace_tile(
             .then(|| bvh.frustum_candidates(origin, ys.bounds))
             .flatten()
         {
-            Some(cand) if cand.is_empty() => band[k] = visibility(count),
+            Some(cand) if cand.is_empty() => segment.set(k, visibility(count)),
             Some(cand) => {
                 b.targets.clear();
                 b.targets
                     .extend(set_bits(&b.front_bits).map(|s| ys.points[s]));
                 bvh.occluded_by_candidates(scene, origin, &b.targets, &cand, &mut b.blocked);
-                band[k] = visibility(b.blocked.iter().filter(|&&x| !x).count() as u32);
+                segment.set(
+                    k,
+                    visibility(b.blocked.iter().filter(|&&x| !x).count() as u32),
+                );
             }
             None => {
                 b.to_packets[k] = true;
@@ -454,7 +511,7 @@ fn trace_tile(
         trace_by_sample(scene, bvh, ys, b);
     }
     for &(k, lit) in &b.hard {
-        band[k] = visibility(lit);
+        segment.set(k, visibility(lit));
     }
     rays
 }
