@@ -306,7 +306,9 @@ fn trace_shared(
 /// its share of the bands early waited on it. With two threads, alternating the two in one
 /// process (100 rounds at 128x128, 30 at 256x256, same bits), segments of four tiles took
 /// 0.92x the fastest wall time of whole bands at 128x128 (17.1 against 18.6 ms; median 0.94x)
-/// and 0.95x at 256x256 (median 0.99x); one or two tiles per item did no better than four.
+/// and 0.95x at 256x256 (median 0.99x); in alternating processes of release builds (fastest
+/// of 30 calls, eight pairs) 0.86x the fastest and 0.95x the median at 128x128, no change
+/// beyond the noise at 256x256. One or two tiles per item did no better than four.
 const SEGMENT_TILES: usize = 4;
 
 /// The receivers of one parallel work item of [`trace_shared`]: the rows of band `band` between
