@@ -7,7 +7,8 @@ origin p + eps n, ending just short of the sample; samples behind the tangent pl
 traced). Each round runs every contender once, in turn, so that the machine's noise hits them
 alike; each one's fastest round counts, in wall and in CPU time. ``ray_test`` and embreex get the
 rays prebuilt, the other two build them from the receivers and samples. It prints rays per second
-of each and the ratios, plus how often the answers agree.
+of each and the ratios, how many receivers took each path of ``ray_traced`` (its packets cost the
+most per ray), plus how often the answers agree.
 
 Usage: ``python bench/shadow_rays.py [--size 512] [--samples 64] [--repeat 3]``
 """
@@ -63,6 +64,10 @@ def best_of(repeat, fn):
     """The fastest of ``repeat`` runs of one function (seconds) and its last result."""
     seconds, results = side_by_side(repeat, {"run": fn})
     return seconds["run"], results["run"]
+
+
+#: The paths of ``ray_traced``'s receivers, cheapest per ray first (its stats ``<path>_receivers``).
+PATHS = ("shaft_lit", "frustum_lit", "candidate", "diverging", "converging")
 
 
 def ours(setup, gb, samples, eps):
@@ -141,6 +146,9 @@ def main(argv=None):
           f"(CPU time {cpu['mitsuba ray_test'] / cpu['ray_traced']:.2f}x)")
     print(f"  ratio ray_traced / embreex:                  {seconds['embreex (1 thread)'] / seconds['ray_traced']:.2f}x")
     print(f"  ratio mitsuba_visibility / mitsuba ray_test: {t_mi / seconds['mitsuba_visibility']:.2f}x")
+    _, stats = ss.ray_traced(setup.scene, setup.light, gb, samples=samples, epsilon=eps, return_stats=True)
+    paths = {path: int(stats[f"{path}_receivers"]) for path in PATHS}
+    print("  ray_traced's receivers by path: " + ", ".join(f"{path} {count}" for path, count in paths.items()))
     ours_hit = results["ray_traced"][gb.mask]
     print(f"  identical visibility: vs mitsuba {np.mean(ours_hit == visibility(results['mitsuba ray_test'])):.4%} of pixels, "
           f"vs embree {np.mean(ours_hit == visibility(results['embreex (1 thread)'])):.4%}, mitsuba_visibility vs "

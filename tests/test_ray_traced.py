@@ -133,6 +133,9 @@ def test_gbuffer_visibility_has_the_image_shape_and_zero_off_surface(ground):
     assert np.all(vis[~gb.mask] == 0) and gb.mask.any() and not gb.mask.all()
     assert np.all((vis >= 0) & (vis <= 1)) and not np.isnan(vis).any()
     assert stats["rays"] > 0 and "trace_seconds" in stats
+    # Shared samples: every valid receiver is answered by exactly one path.
+    paths = [stats[f"{path}_receivers"] for path in ("shaft_lit", "frustum_lit", "candidate", "diverging", "converging")]
+    assert sum(paths) == stats["receivers"] == gb.mask.sum(), paths
 
 
 def test_textured_light_weights_match_an_independent_computation(ground):

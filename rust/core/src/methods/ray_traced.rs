@@ -71,11 +71,27 @@ pub fn auto_epsilon(scene: &Scene) -> f64 {
 
 /// The stats keys every call returns (beside [`crate::stats::COMMON`]), zeroed at the start:
 /// the one declaration the Python docstring and the key tests read.
-pub const STATS: &[&str] = &["trace_seconds", "rays", "receivers", "samples"];
+pub const STATS: &[&str] = &[
+    "trace_seconds",
+    "rays",
+    "receivers",
+    "samples",
+    "shaft_lit_receivers",
+    "frustum_lit_receivers",
+    "candidate_receivers",
+    "diverging_receivers",
+    "converging_receivers",
+];
 
 /// Visibility of every receiver by tracing its shadow rays (see the module doc). Returns one
 /// value in [0, 1] per receiver and the stats `trace_seconds`, `rays` (segments traced),
-/// `receivers` (valid ones) and `samples` (per receiver).
+/// `receivers` (valid ones), `samples` (per receiver) and, when every receiver shares the
+/// samples (else 0), how many valid receivers each path of [`trace_tile`] answered:
+/// `shaft_lit_receivers` (a tile's shaft met no leaf), `frustum_lit_receivers` (the receiver's
+/// frustum met none), `candidate_receivers` (its rays tested against the leaves its frustum met),
+/// `diverging_receivers` and `converging_receivers` (its rays traced in packets by receiver or by
+/// sample). They sum to `receivers`, and say where a scene's time goes: the packets' receivers
+/// cost the most per ray.
 pub fn ray_traced(
     scene: &Scene,
     bvh: &Bvh,
@@ -105,7 +121,7 @@ pub fn ray_traced(
         .loop_of(&[n as u64, samples.count() as u64, Work::RAY])
         .check("ray_traced", &mut stats)?;
     let mut out = vec![0f32; n];
-    let rays = stats.time("trace", || {
+    let paths = stats.time("trace", || {
         let culled = culled_receivers(scene, bvh, receivers, opts)?;
         trace_all(
             scene,
@@ -117,7 +133,12 @@ pub fn ray_traced(
             &mut out,
         )
     })?;
-    stats.set("rays", rays as f64);
+    stats.set("rays", paths.rays as f64);
+    stats.set("shaft_lit_receivers", paths.shaft_lit as f64);
+    stats.set("frustum_lit_receivers", paths.frustum_lit as f64);
+    stats.set("candidate_receivers", paths.candidates as f64);
+    stats.set("diverging_receivers", paths.diverging as f64);
+    stats.set("converging_receivers", paths.converging as f64);
     stats.set(
         "receivers",
         receivers.valid.iter().filter(|&&v| v).count() as f64,
@@ -159,7 +180,7 @@ fn culled_receivers(
 }
 
 /// Fills `out` in parallel with thread-local buffers, in interruptible rounds; returns the rays
-/// traced. When every receiver uses the same unweighted samples and every triangle casts,
+/// traced and the receivers' paths. When every receiver uses the same unweighted samples and every triangle casts,
 /// screen tiles of receivers are traced together ([`trace_shared`]); otherwise each receiver
 /// traces its own samples, those in `culled` with the culling of closed casters.
 fn trace_all(
@@ -170,7 +191,7 @@ fn trace_all(
     samples: &SampleSet,
     (epsilon, culled): (f32, Option<&[bool]>),
     out: &mut [f32],
-) -> Result<u64> {
+) -> Result<Paths> {
     if samples.is_shared() && !light.is_textured() && culled.is_none() {
         return trace_shared(
             scene,
@@ -223,7 +244,10 @@ fn trace_all(
                 .sum::<u64>();
         },
     )?;
-    Ok(rays)
+    Ok(Paths {
+        rays,
+        ..Paths::default()
+    })
 }
 
 /// Receivers of one tile, at most the lanes of a packet ([`Bvh::occluded_converging_lanes`]).
@@ -256,7 +280,7 @@ fn trace_shared(
     ys: &[Vec3],
     epsilon: f32,
     out: &mut [f32],
-) -> Result<u64> {
+) -> Result<Paths> {
     let width = receivers.width.max(1);
     let rows = TILE_ROWS.min(receivers.height.max(1));
     let cols = TILE / rows;
@@ -266,7 +290,7 @@ fn trace_shared(
     let segments = Segment::split(out, width, band_len, segment_cols);
     interrupt::check()?;
     let watch = interrupt::watch();
-    let rays = segments
+    let paths = segments
         .into_par_iter()
         .map_init(TileBuffers::default, |buf, mut segment| {
             let (first, len) = (segment.band * band_len, segment.rows.len() * width);
@@ -292,11 +316,36 @@ fn trace_shared(
                         buf,
                     )
                 })
-                .sum::<u64>()
+                .fold(Paths::default(), Paths::plus)
         })
-        .sum::<u64>();
+        .reduce(Paths::default, Paths::plus);
     interrupt::check()?;
-    Ok(rays)
+    Ok(paths)
+}
+
+/// The rays a call traced and how many valid receivers each path of [`trace_tile`] answered
+/// (the stats of [`ray_traced`]).
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
+struct Paths {
+    rays: u64,
+    shaft_lit: u64,
+    frustum_lit: u64,
+    candidates: u64,
+    diverging: u64,
+    converging: u64,
+}
+
+impl Paths {
+    fn plus(self, o: Paths) -> Paths {
+        Paths {
+            rays: self.rays + o.rays,
+            shaft_lit: self.shaft_lit + o.shaft_lit,
+            frustum_lit: self.frustum_lit + o.frustum_lit,
+            candidates: self.candidates + o.candidates,
+            diverging: self.diverging + o.diverging,
+            converging: self.converging + o.converging,
+        }
+    }
 }
 
 /// Tiles of one band per parallel work item (see [`trace_shared`]).
@@ -422,7 +471,7 @@ struct TileBuffers {
 
 /// Traces the receivers `tile` (indices into their band, whose first receiver is `first`, of a grid
 /// `width` receivers wide) to the shared samples `ys`, writing their visibility into `segment`;
-/// returns the rays traced.
+/// returns the rays traced and the receivers' paths.
 ///
 /// When no leaf meets the shaft between the tile's ray origins and the samples
 /// ([`Bvh::shaft_is_empty`]), every receiver of the tile sees all its front samples. Otherwise
@@ -448,7 +497,7 @@ fn trace_tile(
     tile: impl Iterator<Item = usize>,
     segment: &mut Segment,
     b: &mut TileBuffers,
-) -> u64 {
+) -> Paths {
     // Unit weights: the sums of `receiver_visibility` are exact counts here.
     let total = ys.points.len() as f64;
     let visibility = |lit: u32| lit_fraction(f64::from(lit), total);
@@ -459,19 +508,22 @@ fn trace_tile(
     b.tile.clear();
     b.tile.extend(tile.filter(|&k| receivers.valid[first + k]));
     let origin = |k: usize| receivers.points[first + k] + receivers.normals[first + k] * epsilon;
-    let Some(&k0) = b.tile.first() else { return 0 };
+    let Some(&k0) = b.tile.first() else {
+        return Paths::default();
+    };
     let origins = b.tile.iter().fold([origin(k0); 2], |[lo, hi], &k| {
         [lo.min(origin(k)), hi.max(origin(k))]
     });
     let lit_tile = bvh.shaft_is_empty(origins, ys.bounds);
-    let mut rays = 0u64;
+    let mut paths = Paths::default();
     for &k in &b.tile {
         let i = first + k;
         let (p, n) = (receivers.points[i], receivers.normals[i]);
         let origin = origin(k);
         let count = ys.front(p, n, &mut b.front_bits);
-        rays += u64::from(count);
+        paths.rays += u64::from(count);
         if lit_tile {
+            paths.shaft_lit += 1;
             segment.set(k, visibility(count));
             continue;
         }
@@ -482,8 +534,12 @@ fn trace_tile(
             .then(|| bvh.frustum_candidates(origin, ys.bounds))
             .flatten()
         {
-            Some(cand) if cand.is_empty() => segment.set(k, visibility(count)),
+            Some(cand) if cand.is_empty() => {
+                paths.frustum_lit += 1;
+                segment.set(k, visibility(count));
+            }
             Some(cand) => {
+                paths.candidates += 1;
                 b.targets.clear();
                 b.targets
                     .extend(set_bits(&b.front_bits).map(|s| ys.points[s]));
@@ -505,17 +561,19 @@ fn trace_tile(
         }
     }
     if b.hard.is_empty() {
-        return rays;
+        return paths;
     }
     if by_receiver(b.hard.len(), ys.points.len()) {
+        paths.diverging = b.hard.len() as u64;
         trace_by_receiver(scene, bvh, ys, b);
     } else {
+        paths.converging = b.hard.len() as u64;
         trace_by_sample(scene, bvh, ys, b);
     }
     for &(k, lit) in &b.hard {
         segment.set(k, visibility(lit));
     }
-    rays
+    paths
 }
 
 /// Whether the receivers left to the packets, `hard` of them with `samples` shared samples, go
@@ -787,6 +845,15 @@ mod tests {
             .collect()
     }
 
+    /// The stats of the receivers' paths, in the order of [`STATS`].
+    const PATH_STATS: [&str; 5] = [
+        "shaft_lit_receivers",
+        "frustum_lit_receivers",
+        "candidate_receivers",
+        "diverging_receivers",
+        "converging_receivers",
+    ];
+
     fn bits(v: &[f32]) -> Vec<u32> {
         v.iter().map(|x| x.to_bits()).collect()
     }
@@ -831,7 +898,7 @@ mod tests {
                     .num_threads(threads)
                     .build()
                     .unwrap();
-                let (v, _) = pool
+                let (v, stats) = pool
                     .install(|| ray_traced(&scene, &bvh, &light, &rx, &samples, &opts))
                     .unwrap();
                 assert_eq!(
@@ -839,6 +906,21 @@ mod tests {
                     bits(&expected),
                     "{count} samples, interleave {interleave}, rotate {rotate}, {threads} threads"
                 );
+                let path = |key: &str| stats.get(key).unwrap();
+                let paths = PATH_STATS.map(path);
+                if samples.is_shared() {
+                    // Every valid receiver takes exactly one path.
+                    assert_eq!(paths.iter().sum::<f64>(), path("receivers"), "{paths:?}");
+                } else {
+                    assert_eq!(paths, [0.0; 5]);
+                }
+                if count == 48 && interleave == 1 && !rotate {
+                    // Candidate tests, and packets both ways (see above).
+                    assert!(
+                        paths[2] > 0.0 && paths[3] > 0.0 && paths[4] > 0.0,
+                        "{paths:?}"
+                    );
+                }
             }
         }
     }
