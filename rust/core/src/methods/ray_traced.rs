@@ -180,9 +180,10 @@ fn culled_receivers(
 }
 
 /// Fills `out` in parallel with thread-local buffers, in interruptible rounds; returns the rays
-/// traced and the receivers' paths. When every receiver uses the same unweighted samples and every triangle casts,
-/// screen tiles of receivers are traced together ([`trace_shared`]); otherwise each receiver
-/// traces its own samples, those in `culled` with the culling of closed casters.
+/// traced and the receivers' paths. When every receiver uses the same unweighted samples and
+/// every triangle casts, screen tiles of receivers are traced together ([`trace_shared`]);
+/// otherwise each receiver traces its own samples, those in `culled` with the culling of closed
+/// casters (no path counted).
 fn trace_all(
     scene: &Scene,
     bvh: &Bvh,
