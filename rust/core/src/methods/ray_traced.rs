@@ -133,12 +133,7 @@ pub fn ray_traced(
             &mut out,
         )
     })?;
-    stats.set("rays", paths.rays as f64);
-    stats.set("shaft_lit_receivers", paths.shaft_lit as f64);
-    stats.set("frustum_lit_receivers", paths.frustum_lit as f64);
-    stats.set("candidate_receivers", paths.candidates as f64);
-    stats.set("diverging_receivers", paths.diverging as f64);
-    stats.set("converging_receivers", paths.converging as f64);
+    paths.record(&mut stats);
     stats.set(
         "receivers",
         receivers.valid.iter().filter(|&&v| v).count() as f64,
@@ -346,6 +341,16 @@ impl Paths {
             diverging: self.diverging + o.diverging,
             converging: self.converging + o.converging,
         }
+    }
+
+    /// Sets the stats `rays` and `<path>_receivers` (see [`ray_traced`]).
+    fn record(&self, stats: &mut Stats) {
+        stats.set("rays", self.rays as f64);
+        stats.set("shaft_lit_receivers", self.shaft_lit as f64);
+        stats.set("frustum_lit_receivers", self.frustum_lit as f64);
+        stats.set("candidate_receivers", self.candidates as f64);
+        stats.set("diverging_receivers", self.diverging as f64);
+        stats.set("converging_receivers", self.converging as f64);
     }
 }
 
