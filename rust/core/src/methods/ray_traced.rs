@@ -912,7 +912,8 @@ mod tests {
                     bits(&expected),
                     "{count} samples, interleave {interleave}, rotate {rotate}, {threads} threads"
                 );
-                let path = |key: &str| stats.get(key).unwrap();
+                // A missing key reads NaN, which fails the assertions below.
+                let path = |key: &str| stats.get(key).unwrap_or(f64::NAN);
                 let paths = PATH_STATS.map(path);
                 if samples.is_shared() {
                     // Every valid receiver takes exactly one path.
