@@ -34,6 +34,7 @@ mod triangle;
 use crate::error::{Error, Result};
 use crate::geometry::mesh::Scene;
 use crate::isa::Isa;
+pub use frustum::FrontPlane;
 use frustum::{RayFrustum, MAX_CANDIDATES};
 use glam::{Vec3, Vec4};
 use std::cell::RefCell;
@@ -437,7 +438,7 @@ impl Bvh {
         if targets.len() < Self::FRUSTUM_MIN_RAYS {
             return false;
         }
-        match self.frustum_candidates(origin, bounds) {
+        match self.frustum_candidates(origin, bounds, None) {
             Some(cand) => {
                 self.occluded_by_candidates(scene, origin, targets, &cand, out);
                 true
@@ -511,9 +512,19 @@ impl Bvh {
     /// The first half of the frustum pass: the leaves that the frustum of the segments from
     /// `origin` to any point of the box `bounds` meets, or `None` when it meets more than
     /// [`FrustumCandidates::MAX`] (or no pyramid with apex `origin` bounds the box). No
-    /// candidate means that every such segment is unblocked.
-    pub fn frustum_candidates(&self, origin: Vec3, bounds: [Vec3; 2]) -> Option<FrustumCandidates> {
+    /// candidate means that every such segment is unblocked. With `front`, a plane those
+    /// segments all lie in front of ([`FrontPlane`]), the leaves wholly behind it are left out.
+    pub fn frustum_candidates(
+        &self,
+        origin: Vec3,
+        bounds: [Vec3; 2],
+        front: Option<FrontPlane>,
+    ) -> Option<FrustumCandidates> {
         let f = RayFrustum::around(origin, bounds)?;
+        let f = match front {
+            Some(plane) => f.in_front_of(plane),
+            None => f,
+        };
         let mut cand = FrustumCandidates {
             leaves: [LeafRef::default(); MAX_CANDIDATES],
             len: 0,
@@ -977,6 +988,98 @@ mod tests {
             [Vec3::new(-1.0, -0.4, -1.0), Vec3::new(5.0, -0.3, 5.0)],
             [Vec3::splat(9.0), Vec3::splat(9.1)]
         ));
+    }
+
+    /// A receiver's tangent plane ([`FrontPlane`]) leaves leaves out of its frustum pass, never
+    /// one that holds a hit: receivers at the face centres of a tessellated sphere (a convex
+    /// mesh: every other face lies behind a face's plane), under a small quad that shadows some
+    /// of them, each traced to the samples in front of it. Every receiver's candidates with
+    /// the plane are among those without, and give each ray the answer of its single ray;
+    /// some receivers lose candidates, and some rays are blocked.
+    #[test]
+    fn tangent_planes_cut_candidates_but_no_hit() {
+        let (n, m) = (16u32, 8u32);
+        let mut positions = Vec::new();
+        for i in 0..=m {
+            let theta = std::f32::consts::PI * i as f32 / m as f32;
+            for j in 0..=n {
+                let phi = 2.0 * std::f32::consts::PI * (j % n) as f32 / n as f32;
+                let dir = Vec3::new(
+                    theta.sin() * phi.cos(),
+                    theta.cos(),
+                    theta.sin() * phi.sin(),
+                );
+                positions.push(Vec3::new(0.2, 1.0, -0.1) + 0.5 * dir);
+            }
+        }
+        let faces: Vec<[u32; 3]> = (0..m)
+            .flat_map(|i| (0..n).map(move |j| i * (n + 1) + j))
+            .flat_map(|a| [[a, a + n + 1, a + 1], [a + 1, a + n + 1, a + n + 2]])
+            .filter(|f| f.iter().all(|&v| (v as usize) < positions.len()))
+            .collect();
+        let quad =
+            [(0.0, -0.2), (0.3, -0.2), (0.3, 0.1), (0.0, 0.1)].map(|(x, z)| Vec3::new(x, 2.0, z));
+        let scene = Scene::new(vec![
+            Mesh::new(positions, faces, None, None, true).unwrap(),
+            Mesh::new(quad.to_vec(), vec![[0, 2, 1], [0, 3, 2]], None, None, false).unwrap(),
+        ])
+        .unwrap();
+        let bvh = Bvh::build(&scene).unwrap();
+        let mut rng = Rng::new(3);
+        let samples: Vec<Vec3> = (0..32)
+            .map(|_| {
+                Vec3::new(
+                    -0.3 + 0.8 * rng.next_f32(),
+                    3.0,
+                    -0.4 + 0.8 * rng.next_f32(),
+                )
+            })
+            .collect();
+        let bounds = frustum::bounds(&samples).unwrap();
+        let (mut cut, mut receivers, mut blocked, mut traced) = (0, 0, 0, 0);
+        for (_, [a, b, c]) in scene.triangles().take(scene.meshes[0].faces.len()) {
+            let point = (a + b + c) / 3.0;
+            let normal = (b - a).cross(c - a).normalize();
+            // Outwards, away from the centre.
+            let normal = normal * normal.dot(point - Vec3::new(0.2, 1.0, -0.1)).signum();
+            let origin = point + normal * 1e-4;
+            let targets: Vec<Vec3> = samples
+                .iter()
+                .copied()
+                .filter(|&y| (y - point).dot(normal) > 0.0)
+                .collect();
+            if targets.is_empty() {
+                continue;
+            }
+            let plane = FrontPlane { point, normal };
+            let (Some(all), Some(front)) = (
+                bvh.frustum_candidates(origin, bounds, None),
+                bvh.frustum_candidates(origin, bounds, Some(plane)),
+            ) else {
+                panic!("too many candidates for the receiver at {point}");
+            };
+            let blocks = |c: &FrustumCandidates| -> Vec<u32> {
+                c.leaves[..c.len].iter().map(|l| l.block).collect()
+            };
+            assert!(blocks(&front).iter().all(|b| blocks(&all).contains(b)));
+            cut += usize::from(front.len < all.len);
+            receivers += 1;
+            let mut got = Vec::new();
+            bvh.occluded_by_candidates(&scene, origin, &targets, &front, &mut got);
+            for (&y, &g) in targets.iter().zip(&got) {
+                assert_eq!(
+                    g,
+                    bvh.occluded(&scene, origin, y - origin, 1.0),
+                    "{point} -> {y}"
+                );
+                blocked += usize::from(g);
+                traced += 1;
+            }
+        }
+        assert!(
+            cut >= 10 && blocked > 100 && 2 * blocked < traced,
+            "{cut} of {receivers} receivers cut, {blocked} of {traced} rays blocked"
+        );
     }
 
     /// Fuzzing regression: a NaN or infinite origin or direction (a receiver or sample near

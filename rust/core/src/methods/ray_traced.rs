@@ -19,7 +19,7 @@
 //! ([`Bvh::occluded_diverging`]): same answers, about twice as fast for those rays.
 
 use crate::error::{Error, Result};
-use crate::geometry::bvh::Bvh;
+use crate::geometry::bvh::{Bvh, FrontPlane};
 use crate::geometry::inside::inside_closed_meshes;
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
@@ -463,10 +463,11 @@ struct TileBuffers {
     front_bits: Vec<u64>,
     targets: Vec<Vec3>,
     blocked: Vec<bool>,
-    /// The receivers left to the packets: index in the band and lit count, and their ray
-    /// origins (lane `h` for `hard[h]`).
+    /// The receivers left to the packets: index in the band and lit count, their ray origins
+    /// and tangent planes (lane `h` for `hard[h]`).
     hard: Vec<(usize, u32)>,
     origins: Vec<Vec3>,
+    tangents: Vec<FrontPlane>,
     /// Per sample, the lanes of the hard receivers it is in front of, and of those blocked.
     front: Vec<u64>,
     blocked_lanes: Vec<u64>,
@@ -483,11 +484,15 @@ struct TileBuffers {
 /// ([`Bvh::shaft_is_empty`]), every receiver of the tile sees all its front samples. Otherwise
 /// each receiver's own frustum pass ([`Bvh::frustum_candidates`], through the box of all the
 /// samples) answers the receivers whose rays meet few leaves (all fully lit ones, without
-/// listing their samples). A receiver whose left and upper neighbours in the band both
-/// went to the packets skips that pass and goes there too: shadow regions are contiguous, so
-/// the pass would almost surely fail after meeting too many leaves, and either path gives the
-/// same answers (the left neighbour may lie in the previous tile of the segment, so
-/// `b.to_packets` must be reset per segment). The rays of the others go as coherent packets
+/// listing their samples). That pass and the packets by receiver leave out the leaves wholly
+/// behind the receiver's tangent plane, which its rays never reach ([`FrontPlane`]): on the
+/// bunny (64 shared samples, one thread, the two alternating call by call in one process, same
+/// bits) 0.97-0.98x the fastest CPU time at 128x128 and 256x256, with 134 more receivers
+/// answered by their candidates at 128x128 (1272 of 12198). A receiver whose left and upper
+/// neighbours in the band both went to the packets skips that pass and goes there too: shadow
+/// regions are contiguous, so the pass would almost surely fail after meeting too many leaves,
+/// and either path gives the same answers (the left neighbour may lie in the previous tile of
+/// the segment, so `b.to_packets` must be reset per segment). The rays of the others go as coherent packets
 /// (Benthin and Wald 2009, see `bvh/packet.rs`), by sample or by receiver, whichever makes
 /// fewer packets ([`by_receiver`]): those of all remaining receivers of the tile to sample
 /// `y_s` converge at `y_s`, those of one receiver diverge from it. All give the answers of
@@ -509,6 +514,7 @@ fn trace_tile(
     let visibility = |lit: u32| lit_fraction(f64::from(lit), total);
     b.hard.clear();
     b.origins.clear();
+    b.tangents.clear();
     b.front.clear();
     b.front.resize(ys.points.len(), 0);
     b.tile.clear();
@@ -526,6 +532,11 @@ fn trace_tile(
         let i = first + k;
         let (p, n) = (receivers.points[i], receivers.normals[i]);
         let origin = origin(k);
+        // Every ray lies in front of it, as only the samples in front are traced.
+        let tangent = FrontPlane {
+            point: p,
+            normal: n,
+        };
         let count = ys.front(p, n, &mut b.front_bits);
         paths.rays += u64::from(count);
         if lit_tile {
@@ -537,7 +548,7 @@ fn trace_tile(
         let up = k >= width && b.to_packets[k - width];
         let frustum = count as usize >= Bvh::FRUSTUM_MIN_RAYS && !(left && up);
         match frustum
-            .then(|| bvh.frustum_candidates(origin, ys.bounds))
+            .then(|| bvh.frustum_candidates(origin, ys.bounds, Some(tangent)))
             .flatten()
         {
             Some(cand) if cand.is_empty() => {
@@ -563,6 +574,7 @@ fn trace_tile(
                 }
                 b.hard.push((k, 0));
                 b.origins.push(origin);
+                b.tangents.push(tangent);
             }
         }
     }
@@ -611,7 +623,8 @@ fn trace_by_receiver(scene: &Scene, bvh: &Bvh, ys: &SharedSamples, b: &mut TileB
                 .map(|(&y, _)| y),
         );
         for targets in b.targets.chunks(Bvh::PACKET_LANES) {
-            let blocked = bvh.occluded_diverging(scene, b.origins[h], targets);
+            let front = Some(b.tangents[h]);
+            let blocked = bvh.occluded_diverging(scene, b.origins[h], targets, front);
             *lit += targets.len() as u32 - blocked.count_ones();
         }
     }
@@ -824,6 +837,29 @@ mod tests {
         Receivers::new(points, normals, valid, w, h).unwrap()
     }
 
+    /// A 40 x 24 grid of receivers on the sphere of [`scene`] (radius 0.5 around
+    /// (-0.8, 1, 0), its faces' chords lie just inside), over the upper two thirds of it,
+    /// normals outwards: their neighbouring faces lie behind their tangent planes.
+    fn on_sphere() -> Receivers {
+        let (w, h) = (40, 24);
+        let dirs: Vec<Vec3> = (0..w * h)
+            .map(|i| {
+                let theta = 0.65 * std::f32::consts::PI * ((i / w) as f32 + 0.5) / h as f32;
+                let phi = 2.0 * std::f32::consts::PI * ((i % w) as f32 + 0.5) / w as f32;
+                Vec3::new(
+                    theta.sin() * phi.cos(),
+                    theta.cos(),
+                    theta.sin() * phi.sin(),
+                )
+            })
+            .collect();
+        let points = dirs
+            .iter()
+            .map(|&d| Vec3::new(-0.8, 1.0, 0.0) + 0.5 * d)
+            .collect();
+        Receivers::new(points, dirs, vec![true; w * h], w, h).unwrap()
+    }
+
     /// V of every receiver ray by ray, one receiver at a time (the path before tiling).
     fn per_receiver(
         scene: &Scene,
@@ -930,5 +966,43 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Receivers on a curved surface take the tangent-plane cut of their frustum passes and
+    /// packets by receiver (see [`FrontPlane`]): the same bits as one receiver at a time, whose
+    /// frustum passes have no such cut.
+    #[test]
+    fn curved_receivers_equal_per_receiver_rays() {
+        // The scene of the other tests and a small quad shadowing part of the sphere.
+        let quad = [(-1.0, -0.2), (-0.6, -0.2), (-0.6, 0.2), (-1.0, 0.2)]
+            .map(|(x, z)| Vec3::new(x, 1.8, z));
+        let blocker = Mesh::new(quad.to_vec(), vec![[0, 2, 1], [0, 3, 2]], None, None, false);
+        let mut meshes = scene().meshes;
+        meshes.push(blocker.unwrap());
+        let scene = Scene::new(meshes).unwrap();
+        let bvh = Bvh::build(&scene).unwrap();
+        let light = Light::rect(Vec3::new(-0.3, 3.0, 0.2), Vec3::X * 1.2, Vec3::Z * 0.9).unwrap();
+        let rx = on_sphere();
+        let opts = RayTracedOptions {
+            epsilon: 1e-4,
+            caster_faces: CasterFaces::All,
+        };
+        let samples = SampleSet::generate(&light, 64, Pattern::Poisson, 9, 1, false, 0).unwrap();
+        let expected = per_receiver(&scene, &bvh, &light, &rx, &samples, opts.epsilon);
+        let (v, stats) = ray_traced(&scene, &bvh, &light, &rx, &samples, &opts).unwrap();
+        assert_eq!(bits(&v), bits(&expected));
+        let paths = PATH_STATS.map(|key| stats.get(key).unwrap_or(f64::NAN));
+        assert!(paths[2] > 0.0 && paths[3] > 0.0, "{paths:?}");
+        // Some rays blocked: unblocked, V would be the fraction of samples in front.
+        let blocked = (0..rx.len())
+            .filter(|&i| {
+                let front = samples.pattern_for(0, 0).iter();
+                let n = front
+                    .filter(|&&y| (y - rx.points[i]).dot(rx.normals[i]) > 0.0)
+                    .count();
+                expected[i] < n as f32 / 64.0
+            })
+            .count();
+        assert!(blocked > 50, "{blocked} receivers with blocked rays");
     }
 }

@@ -39,6 +39,30 @@ struct Plane {
     sel_k: usize,
 }
 
+/// A plane that every segment of a frustum lies strictly in front of:
+/// `normal . (x - point) > 0` at every point `x` of every segment.
+///
+/// The tangent plane of a receiver is one: its rays start at `point + epsilon normal` and go
+/// only to the samples in front of it (`docs/design.md` section 3), so every point of them lies
+/// in front. A leaf wholly behind it holds no hit, though its box meets the frustum whenever it
+/// touches the apex: on a curved receiver the neighbouring triangles of the surface lie just
+/// behind the plane, in boxes around the ray origin that the frustum and every lane's slope
+/// test accept.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrontPlane {
+    pub point: Vec3,
+    pub normal: Vec3,
+}
+
+/// A [`FrontPlane`] as seen from the apex `o`: `n . (x - o) > -d`, `d >= 0`, with the bound of
+/// each axis (0 min, 1 max) that maximizes `n_a (x_a - o_a)` over a box.
+#[derive(Debug, Clone, Copy)]
+struct HalfSpace {
+    n: [Vec4; 3],
+    sel: [usize; 3],
+    d: Vec4,
+}
+
 /// The frustum of a set of segments sharing their origin.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct RayFrustum {
@@ -49,6 +73,8 @@ pub(super) struct RayFrustum {
     planes: [Plane; 4],
     lo: [Vec4; 3],
     hi: [Vec4; 3],
+    /// The half-space every segment lies in, when the caller knows one.
+    front: Option<HalfSpace>,
 }
 
 /// The bounding box `[min, max]` of `points`; `None` when there are none.
@@ -170,7 +196,31 @@ impl RayFrustum {
             planes,
             lo: splat3(lo),
             hi: splat3(hi),
+            front: None,
         })
+    }
+
+    /// This frustum cut by `plane`, which every segment lies in front of: a box wholly behind
+    /// it is culled. `normal . (x - point) > 0` reads `n . (x - o) > -d` from the apex `o`, with
+    /// `d = normal . (o - point)`, `epsilon |normal|^2` for a receiver's moved origin; a `d`
+    /// below 0 (an apex behind the plane, which no caller passes) is taken as 0, which only
+    /// culls less. A plane that is not finite leaves the frustum as it is.
+    pub fn in_front_of(self, plane: FrontPlane) -> RayFrustum {
+        let o = Vec3::new(self.o[0].x, self.o[1].x, self.o[2].x);
+        let n = plane.normal;
+        let d = (n * (o - plane.point)).element_sum().max(0.0);
+        if !(n.is_finite() && d.is_finite()) {
+            return self;
+        }
+        let front = HalfSpace {
+            n: [Vec4::splat(n.x), Vec4::splat(n.y), Vec4::splat(n.z)],
+            sel: [0, 1, 2].map(|a| usize::from(n[a] > 0.0)),
+            d: Vec4::splat(d),
+        };
+        RayFrustum {
+            front: Some(front),
+            ..self
+        }
     }
 
     /// The dominant axis `k` and the sign of the targets' offsets from the apex along it: every
@@ -189,6 +239,12 @@ impl RayFrustum {
             let t1 = p.na * (node.bounds[p.sel_a][p.a] - self.o[p.a]);
             let t2 = p.nk * (node.bounds[p.sel_k][self.k] - self.o[self.k]);
             m &= (t1 + t2).cmpge(-(t1.abs() + t2.abs()) * PLANE_TOL);
+        }
+        if let Some(h) = &self.front {
+            // The box's farthest point in front, with the tolerance of the planes above.
+            let t = [0, 1, 2].map(|a| h.n[a] * (node.bounds[h.sel[a]][a] - self.o[a]));
+            let magnitude = t[0].abs() + t[1].abs() + t[2].abs() + h.d;
+            m &= (t[0] + t[1] + t[2]).cmpge(-(h.d + magnitude * PLANE_TOL));
         }
         m.bitmask()
     }

@@ -56,7 +56,7 @@
 //! segment answers either way, so each lane's answer equals [`Bvh::occluded`] bit for bit,
 //! whatever the packet it travels in and whatever the instruction set.
 
-use super::frustum::{bounds, RayFrustum};
+use super::frustum::{bounds, FrontPlane, RayFrustum};
 use super::triangle::RayData;
 use super::{Bvh, LeafRef, Node4, Tri4, LEAF, ROBUST, STACK};
 use crate::geometry::mesh::Scene;
@@ -998,11 +998,18 @@ impl Bvh {
     /// The mask of the segments `origin -> targets[lane]` (t in (0, 1); at most
     /// [`Bvh::PACKET_LANES`] targets, any further ones ignored) that are blocked: the shadow
     /// rays of one receiver to many light samples, traced as one packet diverging from
-    /// `origin`.
+    /// `origin`. With `front`, a plane every segment lies in front of (a receiver's tangent
+    /// plane, [`FrontPlane`]), the subtrees wholly behind it are skipped.
     ///
     /// Same answers as [`Bvh::occluded`] per segment (see `bvh/packet.rs`).
-    pub fn occluded_diverging(&self, scene: &Scene, origin: Vec3, targets: &[Vec3]) -> u64 {
-        self.occluded_diverging_with(Isa::detect(), scene, origin, targets)
+    pub fn occluded_diverging(
+        &self,
+        scene: &Scene,
+        origin: Vec3,
+        targets: &[Vec3],
+        front: Option<FrontPlane>,
+    ) -> u64 {
+        self.occluded_diverging_with(Isa::detect(), scene, origin, targets, front)
     }
 
     /// [`Bvh::occluded_diverging`] with the traversal compiled for `isa`.
@@ -1012,6 +1019,7 @@ impl Bvh {
         scene: &Scene,
         origin: Vec3,
         targets: &[Vec3],
+        front: Option<FrontPlane>,
     ) -> u64 {
         let targets = &targets[..targets.len().min(LANES)];
         let one_by_one = || {
@@ -1022,6 +1030,10 @@ impl Bvh {
         // No pyramid with apex `origin` bounding the targets: the rays go one by one.
         let Some(f) = bounds(targets).and_then(|b| RayFrustum::around(origin, b)) else {
             return one_by_one();
+        };
+        let f = match front {
+            Some(plane) => f.in_front_of(plane),
+            None => f,
         };
         PACKET.with(|p| match p.try_borrow_mut() {
             Ok(mut packet) => super::ANY_STACK.with(|s| match s.try_borrow_mut() {
@@ -1503,7 +1515,7 @@ mod tests {
             .filter(|&l| bvh.occluded(scene, origin, targets[l] - origin, 1.0))
             .fold(0u64, |m, l| m | 1 << l);
         for isa in isas() {
-            let got = bvh.occluded_diverging_with(isa, scene, origin, targets);
+            let got = bvh.occluded_diverging_with(isa, scene, origin, targets, None);
             assert_eq!(got, expected, "{isa:?} origin {origin}");
         }
         (expected.count_ones(), n as u32 - expected.count_ones())
