@@ -998,29 +998,10 @@ mod tests {
     /// some receivers lose candidates, and some rays are blocked.
     #[test]
     fn tangent_planes_cut_candidates_but_no_hit() {
-        let (n, m) = (16u32, 8u32);
-        let mut positions = Vec::new();
-        for i in 0..=m {
-            let theta = std::f32::consts::PI * i as f32 / m as f32;
-            for j in 0..=n {
-                let phi = 2.0 * std::f32::consts::PI * (j % n) as f32 / n as f32;
-                let dir = Vec3::new(
-                    theta.sin() * phi.cos(),
-                    theta.cos(),
-                    theta.sin() * phi.sin(),
-                );
-                positions.push(Vec3::new(0.2, 1.0, -0.1) + 0.5 * dir);
-            }
-        }
-        let faces: Vec<[u32; 3]> = (0..m)
-            .flat_map(|i| (0..n).map(move |j| i * (n + 1) + j))
-            .flat_map(|a| [[a, a + n + 1, a + 1], [a + 1, a + n + 1, a + n + 2]])
-            .filter(|f| f.iter().all(|&v| (v as usize) < positions.len()))
-            .collect();
         let quad =
             [(0.0, -0.2), (0.3, -0.2), (0.3, 0.1), (0.0, 0.1)].map(|(x, z)| Vec3::new(x, 2.0, z));
         let scene = Scene::new(vec![
-            Mesh::new(positions, faces, None, None, true).unwrap(),
+            Mesh::uv_sphere(Vec3::new(0.2, 1.0, -0.1), 0.5, 16, 8, true).unwrap(),
             Mesh::new(quad.to_vec(), vec![[0, 2, 1], [0, 3, 2]], None, None, false).unwrap(),
         ])
         .unwrap();

@@ -67,6 +67,31 @@ pub struct Mesh {
 }
 
 impl Mesh {
+    /// A latitude-longitude sphere of `radius` around `center`: `m` rings of `n` columns,
+    /// `2 n m` triangles (those at the poles degenerate), opaque, wound so that the normal
+    /// `(b - a) x (c - a)` of each points inwards; `closed` declares it closed for the methods
+    /// that cull by it. The test scenes' curved occluder and receiver.
+    pub fn uv_sphere(center: Vec3, radius: f32, n: u32, m: u32, closed: bool) -> Result<Self> {
+        let mut positions = Vec::new();
+        for i in 0..=m {
+            let theta = std::f32::consts::PI * i as f32 / m as f32;
+            for j in 0..=n {
+                let phi = std::f32::consts::TAU * (j % n) as f32 / n as f32;
+                let dir = Vec3::new(
+                    theta.sin() * phi.cos(),
+                    theta.cos(),
+                    theta.sin() * phi.sin(),
+                );
+                positions.push(center + radius * dir);
+            }
+        }
+        let faces = (0..m)
+            .flat_map(|i| (0..n).map(move |j| i * (n + 1) + j))
+            .flat_map(|a| [[a, a + n + 1, a + 1], [a + 1, a + n + 1, a + n + 2]])
+            .collect();
+        Self::new(positions, faces, None, None, closed)
+    }
+
     /// Validates and builds a mesh. `uvs` and `alpha` go together (a perforated mesh).
     pub fn new(
         positions: Vec<Vec3>,

@@ -765,28 +765,7 @@ mod tests {
         };
         let (g, gf) = quad(0.0, 4.0, Vec2::ZERO);
         let ground = Mesh::new(g, gf, None, None, false).unwrap();
-        let (n, m) = (24u32, 12u32);
-        let mut pos = Vec::new();
-        for i in 0..=m {
-            let theta = std::f32::consts::PI * i as f32 / m as f32;
-            for j in 0..=n {
-                let phi = 2.0 * std::f32::consts::PI * (j % n) as f32 / n as f32;
-                pos.push(
-                    Vec3::new(-0.8, 1.0, 0.0)
-                        + 0.5
-                            * Vec3::new(
-                                theta.sin() * phi.cos(),
-                                theta.cos(),
-                                theta.sin() * phi.sin(),
-                            ),
-                );
-            }
-        }
-        let faces = (0..m)
-            .flat_map(|i| (0..n).map(move |j| (i * (n + 1) + j, n)))
-            .flat_map(|(a, n)| [[a, a + n + 1, a + 1], [a + 1, a + n + 1, a + n + 2]])
-            .collect();
-        let sphere = Mesh::new(pos, faces, None, None, true).unwrap();
+        let sphere = Mesh::uv_sphere(Vec3::new(-0.8, 1.0, 0.0), 0.5, 24, 12, true).unwrap();
         // The checker: a 16 x 16 grid of quads (many leaves, so its penumbra goes to packets).
         let k = 17u32;
         let c: Vec<Vec3> = (0..k * k)

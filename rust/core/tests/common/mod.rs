@@ -27,35 +27,10 @@ pub fn plane(y: f32, s: f32) -> Mesh {
     )
 }
 
-/// A latitude-longitude sphere with `2 * n * m` triangles (poles repeated per column), outward
-/// facing; `closed` declares it closed for the methods that cull by it.
+/// A latitude-longitude sphere with `2 * n * m` triangles (see `Mesh::uv_sphere`; their normals
+/// `(b - a) x (c - a)` point inwards); `closed` declares it closed for the methods that cull by it.
 pub fn uv_sphere(center: Vec3, radius: f32, n: u32, m: u32, closed: bool) -> Mesh {
-    let mut pos = Vec::new();
-    for i in 0..=m {
-        let theta = std::f32::consts::PI * i as f32 / m as f32;
-        for j in 0..=n {
-            let phi = std::f32::consts::TAU * (j % n) as f32 / n as f32;
-            pos.push(
-                center
-                    + radius
-                        * Vec3::new(
-                            theta.sin() * phi.cos(),
-                            theta.cos(),
-                            theta.sin() * phi.sin(),
-                        ),
-            );
-        }
-    }
-    let mut faces = Vec::new();
-    for i in 0..m {
-        for j in 0..n {
-            let a = i * (n + 1) + j;
-            let (b, c, d) = (a + 1, a + n + 1, a + n + 2);
-            faces.push([a, c, b]);
-            faces.push([b, c, d]);
-        }
-    }
-    Mesh::new(pos, faces, None, None, closed).unwrap()
+    Mesh::uv_sphere(center, radius, n, m, closed).unwrap()
 }
 
 /// A ground quad (|x|, |z| <= 3 at y = 0) and a cloud of 300 random triangles above it.

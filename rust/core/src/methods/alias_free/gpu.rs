@@ -899,28 +899,7 @@ mod tests {
             false,
         )
         .unwrap();
-        let (n, m) = (16u32, 8u32);
-        let mut pos = Vec::new();
-        for i in 0..=m {
-            let theta = std::f32::consts::PI * i as f32 / m as f32;
-            for j in 0..=n {
-                let phi = 2.0 * std::f32::consts::PI * (j % n) as f32 / n as f32;
-                pos.push(
-                    Vec3::new(-1.0, 1.2, 0.3)
-                        + 0.5
-                            * Vec3::new(
-                                theta.sin() * phi.cos(),
-                                theta.cos(),
-                                theta.sin() * phi.sin(),
-                            ),
-                );
-            }
-        }
-        let faces = (0..m)
-            .flat_map(|i| (0..n).map(move |j| i * (n + 1) + j))
-            .flat_map(|a| [[a, a + n + 1, a + 1], [a + 1, a + n + 1, a + n + 2]])
-            .collect();
-        let sphere = Mesh::new(pos, faces, None, None, true).unwrap();
+        let sphere = Mesh::uv_sphere(Vec3::new(-1.0, 1.2, 0.3), 0.5, 16, 8, true).unwrap();
         let mut rng = Rng::new(5);
         let mut cloud = Vec::new();
         for _ in 0..60 {
