@@ -191,6 +191,22 @@ def test_samples_behind_the_tangent_plane_count_as_occluded():
     np.testing.assert_allclose(vis, [0.0, 1.0, 0.5])
 
 
+def test_sample_order_is_a_curve_remembered_per_sample_set():
+    # Hilbert order on a 4 x 4 grid of samples: consecutive samples are grid neighbours.
+    grid = np.array([[x, 2.0, z] for x in range(4) for z in range(4)], np.float32)
+    order = reference._coherent_order(grid)
+    assert sorted(order) == list(range(16))
+    steps = np.abs(np.diff(grid[order][:, [0, 2]], axis=0)).sum(axis=1)
+    assert np.all(steps == 1)
+    kept = reference._remembered_order(grid.tobytes(), grid.shape)
+    np.testing.assert_array_equal(kept, order)
+    assert reference._remembered_order(grid.tobytes(), grid.shape) is kept
+    assert not kept.flags.writeable
+    shifted = grid[::-1].copy()
+    np.testing.assert_array_equal(reference._remembered_order(shifted.tobytes(), shifted.shape),
+                                  reference._coherent_order(shifted))
+
+
 def test_gbuffer_input_keeps_its_shape_and_zeroes_masked_pixels():
     h, w = 6, 5
     rng = np.random.default_rng(2)
