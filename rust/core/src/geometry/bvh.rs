@@ -520,11 +520,7 @@ impl Bvh {
         bounds: [Vec3; 2],
         front: Option<FrontPlane>,
     ) -> Option<FrustumCandidates> {
-        let f = RayFrustum::around(origin, bounds)?;
-        let f = match front {
-            Some(plane) => f.in_front_of(plane),
-            None => f,
-        };
+        let f = RayFrustum::around(origin, bounds)?.in_front_of(front);
         let mut cand = FrustumCandidates {
             leaves: [LeafRef::default(); MAX_CANDIDATES],
             len: 0,

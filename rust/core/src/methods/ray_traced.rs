@@ -623,8 +623,8 @@ fn trace_by_receiver(scene: &Scene, bvh: &Bvh, ys: &SharedSamples, b: &mut TileB
                 .map(|(&y, _)| y),
         );
         for targets in b.targets.chunks(Bvh::PACKET_LANES) {
-            let front = Some(b.tangents[h]);
-            let blocked = bvh.occluded_diverging(scene, b.origins[h], targets, front);
+            let tangent = Some(b.tangents[h]);
+            let blocked = bvh.occluded_diverging(scene, b.origins[h], targets, tangent);
             *lit += targets.len() as u32 - blocked.count_ones();
         }
     }

@@ -204,8 +204,11 @@ impl RayFrustum {
     /// it is culled. `normal . (x - point) > 0` reads `n . (x - o) > -d` from the apex `o`, with
     /// `d = normal . (o - point)`, `epsilon |normal|^2` for a receiver's moved origin; a `d`
     /// below 0 (an apex behind the plane, which no caller passes) is taken as 0, which only
-    /// culls less. A plane that is not finite leaves the frustum as it is.
-    pub fn in_front_of(self, plane: FrontPlane) -> RayFrustum {
+    /// culls less. No plane, or one that is not finite, leaves the frustum as it is.
+    pub fn in_front_of(self, plane: Option<FrontPlane>) -> RayFrustum {
+        let Some(plane) = plane else {
+            return self;
+        };
         let o = Vec3::new(self.o[0].x, self.o[1].x, self.o[2].x);
         let n = plane.normal;
         let d = (n * (o - plane.point)).element_sum().max(0.0);

@@ -1031,10 +1031,7 @@ impl Bvh {
         let Some(f) = bounds(targets).and_then(|b| RayFrustum::around(origin, b)) else {
             return one_by_one();
         };
-        let f = match front {
-            Some(plane) => f.in_front_of(plane),
-            None => f,
-        };
+        let f = f.in_front_of(front);
         PACKET.with(|p| match p.try_borrow_mut() {
             Ok(mut packet) => super::ANY_STACK.with(|s| match s.try_borrow_mut() {
                 Ok(mut stack) => {
