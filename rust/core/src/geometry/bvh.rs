@@ -993,15 +993,14 @@ mod tests {
     /// the plane are among those without, and give each ray the answer of its single ray;
     /// some receivers lose candidates, and some rays are blocked.
     #[test]
-    fn tangent_planes_cut_candidates_but_no_hit() {
+    fn tangent_planes_cut_candidates_but_no_hit() -> Result<()> {
         let quad =
             [(0.0, -0.2), (0.3, -0.2), (0.3, 0.1), (0.0, 0.1)].map(|(x, z)| Vec3::new(x, 2.0, z));
         let scene = Scene::new(vec![
-            Mesh::uv_sphere(Vec3::new(0.2, 1.0, -0.1), 0.5, 16, 8, true).unwrap(),
-            Mesh::new(quad.to_vec(), vec![[0, 2, 1], [0, 3, 2]], None, None, false).unwrap(),
-        ])
-        .unwrap();
-        let bvh = Bvh::build(&scene).unwrap();
+            Mesh::uv_sphere(Vec3::new(0.2, 1.0, -0.1), 0.5, 16, 8, true)?,
+            Mesh::new(quad.to_vec(), vec![[0, 2, 1], [0, 3, 2]], None, None, false)?,
+        ])?;
+        let bvh = Bvh::build(&scene)?;
         let mut rng = Rng::new(3);
         let samples: Vec<Vec3> = (0..32)
             .map(|_| {
@@ -1012,7 +1011,7 @@ mod tests {
                 )
             })
             .collect();
-        let bounds = frustum::bounds(&samples).unwrap();
+        let bounds = frustum::bounds(&samples).ok_or(Error::invalid("samples", "none"))?;
         let (mut cut, mut receivers, mut blocked, mut traced) = (0, 0, 0, 0);
         for (_, [a, b, c]) in scene.triangles().take(scene.meshes[0].faces.len()) {
             let point = (a + b + c) / 3.0;
@@ -1033,7 +1032,8 @@ mod tests {
                 bvh.frustum_candidates(origin, bounds, None),
                 bvh.frustum_candidates(origin, bounds, Some(plane)),
             ) else {
-                panic!("too many candidates for the receiver at {point}");
+                let why = format!("more than {MAX_CANDIDATES} candidates at {point}");
+                return Err(Error::invalid("receiver", why));
             };
             let blocks = |c: &FrustumCandidates| -> Vec<u32> {
                 c.leaves[..c.len].iter().map(|l| l.block).collect()
@@ -1057,6 +1057,7 @@ mod tests {
             cut >= 10 && blocked > 100 && 2 * blocked < traced,
             "{cut} of {receivers} receivers cut, {blocked} of {traced} rays blocked"
         );
+        Ok(())
     }
 
     /// Fuzzing regression: a NaN or infinite origin or direction (a receiver or sample near

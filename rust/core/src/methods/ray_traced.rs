@@ -757,15 +757,15 @@ mod tests {
     use glam::Vec2;
 
     /// A ground quad, a sphere (umbra and penumbra below it) and a perforated checker quad.
-    fn scene() -> Scene {
+    fn scene() -> Result<Scene> {
         let quad = |y: f32, s: f32, c: Vec2| {
             let p =
                 [(-s, -s), (s, -s), (s, s), (-s, s)].map(|(x, z)| Vec3::new(c.x + x, y, c.y + z));
             (p.to_vec(), vec![[0, 1, 2], [0, 2, 3]])
         };
         let (g, gf) = quad(0.0, 4.0, Vec2::ZERO);
-        let ground = Mesh::new(g, gf, None, None, false).unwrap();
-        let sphere = Mesh::uv_sphere(Vec3::new(-0.8, 1.0, 0.0), 0.5, 24, 12, true).unwrap();
+        let ground = Mesh::new(g, gf, None, None, false)?;
+        let sphere = Mesh::uv_sphere(Vec3::new(-0.8, 1.0, 0.0), 0.5, 24, 12, true)?;
         // The checker: a 16 x 16 grid of quads (many leaves, so its penumbra goes to packets).
         let k = 17u32;
         let c: Vec<Vec3> = (0..k * k)
@@ -789,16 +789,15 @@ mod tests {
             c,
             cf,
             Some(uvs),
-            Some(AlphaTexture::new(8, 8, &alpha).unwrap()),
+            Some(AlphaTexture::new(8, 8, &alpha)?),
             false,
-        )
-        .unwrap();
-        Scene::new(vec![ground, sphere, checker]).unwrap()
+        )?;
+        Scene::new(vec![ground, sphere, checker])
     }
 
     /// A 37 x 21 grid of ground receivers (partial edge tiles), some invalid, normals tilted
     /// so that some samples fall behind the tangent plane.
-    fn grid() -> Receivers {
+    fn grid() -> Result<Receivers> {
         let (w, h) = (37, 21);
         let points = (0..w * h)
             .map(|i| {
@@ -813,13 +812,13 @@ mod tests {
             .map(|i| Vec3::new(0.4 * ((i % 7) as f32 - 3.0) / 3.0, 1.0, 0.0))
             .collect();
         let valid = (0..w * h).map(|i| i % 11 != 3).collect();
-        Receivers::new(points, normals, valid, w, h).unwrap()
+        Receivers::new(points, normals, valid, w, h)
     }
 
     /// A 40 x 24 grid of receivers on the sphere of [`scene`] (radius 0.5 around
     /// (-0.8, 1, 0), its faces' chords lie just inside), over the upper two thirds of it,
     /// normals outwards: their neighbouring faces lie behind their tangent planes.
-    fn on_sphere() -> Receivers {
+    fn on_sphere() -> Result<Receivers> {
         let (w, h) = (40, 24);
         let dirs: Vec<Vec3> = (0..w * h)
             .map(|i| {
@@ -836,7 +835,7 @@ mod tests {
             .iter()
             .map(|&d| Vec3::new(-0.8, 1.0, 0.0) + 0.5 * d)
             .collect();
-        Receivers::new(points, dirs, vec![true; w * h], w, h).unwrap()
+        Receivers::new(points, dirs, vec![true; w * h], w, h)
     }
 
     /// V of every receiver ray by ray, one receiver at a time (the path before tiling).
@@ -880,11 +879,11 @@ mod tests {
     }
 
     #[test]
-    fn tiled_packets_equal_per_receiver_rays_for_any_thread_count() {
-        let scene = scene();
-        let bvh = Bvh::build(&scene).unwrap();
-        let light = Light::rect(Vec3::new(0.0, 3.0, 0.0), Vec3::X * 0.6, Vec3::Z * 0.6).unwrap();
-        let rx = grid();
+    fn tiled_packets_equal_per_receiver_rays_for_any_thread_count() -> Result<()> {
+        let scene = scene()?;
+        let bvh = Bvh::build(&scene)?;
+        let light = Light::rect(Vec3::new(0.0, 3.0, 0.0), Vec3::X * 0.6, Vec3::Z * 0.6)?;
+        let rx = grid()?;
         let opts = RayTracedOptions {
             epsilon: 1e-4,
             caster_faces: CasterFaces::All,
@@ -900,8 +899,7 @@ mod tests {
         ];
         for (count, interleave, rotate) in variants {
             let samples =
-                SampleSet::generate(&light, count, Pattern::Poisson, 5, interleave, rotate, 0)
-                    .unwrap();
+                SampleSet::generate(&light, count, Pattern::Poisson, 5, interleave, rotate, 0)?;
             let expected = per_receiver(&scene, &bvh, &light, &rx, &samples, opts.epsilon);
             if count == 48 && interleave == 1 && !rotate {
                 let (lit, umbra) = (
@@ -918,10 +916,9 @@ mod tests {
                 let pool = rayon::ThreadPoolBuilder::new()
                     .num_threads(threads)
                     .build()
-                    .unwrap();
-                let (v, stats) = pool
-                    .install(|| ray_traced(&scene, &bvh, &light, &rx, &samples, &opts))
-                    .unwrap();
+                    .map_err(|e| Error::invalid("threads", e.to_string()))?;
+                let (v, stats) =
+                    pool.install(|| ray_traced(&scene, &bvh, &light, &rx, &samples, &opts))?;
                 assert_eq!(
                     bits(&v),
                     bits(&expected),
@@ -945,30 +942,31 @@ mod tests {
                 }
             }
         }
+        Ok(())
     }
 
     /// Receivers on a curved surface take the tangent-plane cut of their frustum passes and
     /// packets by receiver (see [`FrontPlane`]): the same bits as one receiver at a time, whose
     /// frustum passes have no such cut.
     #[test]
-    fn curved_receivers_equal_per_receiver_rays() {
+    fn curved_receivers_equal_per_receiver_rays() -> Result<()> {
         // The scene of the other tests and a small quad shadowing part of the sphere.
         let quad = [(-1.0, -0.2), (-0.6, -0.2), (-0.6, 0.2), (-1.0, 0.2)]
             .map(|(x, z)| Vec3::new(x, 1.8, z));
-        let blocker = Mesh::new(quad.to_vec(), vec![[0, 2, 1], [0, 3, 2]], None, None, false);
-        let mut meshes = scene().meshes;
-        meshes.push(blocker.unwrap());
-        let scene = Scene::new(meshes).unwrap();
-        let bvh = Bvh::build(&scene).unwrap();
-        let light = Light::rect(Vec3::new(-0.3, 3.0, 0.2), Vec3::X * 1.2, Vec3::Z * 0.9).unwrap();
-        let rx = on_sphere();
+        let blocker = Mesh::new(quad.to_vec(), vec![[0, 2, 1], [0, 3, 2]], None, None, false)?;
+        let mut meshes = scene()?.meshes;
+        meshes.push(blocker);
+        let scene = Scene::new(meshes)?;
+        let bvh = Bvh::build(&scene)?;
+        let light = Light::rect(Vec3::new(-0.3, 3.0, 0.2), Vec3::X * 1.2, Vec3::Z * 0.9)?;
+        let rx = on_sphere()?;
         let opts = RayTracedOptions {
             epsilon: 1e-4,
             caster_faces: CasterFaces::All,
         };
-        let samples = SampleSet::generate(&light, 64, Pattern::Poisson, 9, 1, false, 0).unwrap();
+        let samples = SampleSet::generate(&light, 64, Pattern::Poisson, 9, 1, false, 0)?;
         let expected = per_receiver(&scene, &bvh, &light, &rx, &samples, opts.epsilon);
-        let (v, stats) = ray_traced(&scene, &bvh, &light, &rx, &samples, &opts).unwrap();
+        let (v, stats) = ray_traced(&scene, &bvh, &light, &rx, &samples, &opts)?;
         assert_eq!(bits(&v), bits(&expected));
         let paths = PATH_STATS.map(|key| stats.get(key).unwrap_or(f64::NAN));
         assert!(paths[2] > 0.0 && paths[3] > 0.0, "{paths:?}");
@@ -983,5 +981,6 @@ mod tests {
             })
             .count();
         assert!(blocked > 50, "{blocked} receivers with blocked rays");
+        Ok(())
     }
 }

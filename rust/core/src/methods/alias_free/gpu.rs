@@ -867,6 +867,7 @@ mod tests {
     //! exists); also with the limits forced low, so that view samples, rows and casters are
     //! split into many chunks, ranges, batches and dispatches.
     use crate::backend::Backend;
+    use crate::error::Result;
     use crate::geometry::bvh::SceneBvh;
     use crate::geometry::mesh::{AlphaTexture, Mesh, Scene};
     use crate::geometry::receivers::Receivers;
@@ -888,7 +889,7 @@ mod tests {
     }
 
     /// A ground quad (open), a closed sphere, a cloud of open triangles and a perforated checker.
-    fn scene() -> Scene {
+    fn scene() -> Result<Scene> {
         let ground =
             [(-3.0, -3.0), (3.0, -3.0), (3.0, 3.0), (-3.0, 3.0)].map(|(x, z)| Vec3::new(x, 0.0, z));
         let ground = Mesh::new(
@@ -897,9 +898,8 @@ mod tests {
             None,
             None,
             false,
-        )
-        .unwrap();
-        let sphere = Mesh::uv_sphere(Vec3::new(-1.0, 1.2, 0.3), 0.5, 16, 8, true).unwrap();
+        )?;
+        let sphere = Mesh::uv_sphere(Vec3::new(-1.0, 1.2, 0.3), 0.5, 16, 8, true)?;
         let mut rng = Rng::new(5);
         let mut cloud = Vec::new();
         for _ in 0..60 {
@@ -913,7 +913,7 @@ mod tests {
             }));
         }
         let cloud_faces = (0..60u32).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect();
-        let cloud = Mesh::new(cloud, cloud_faces, None, None, false).unwrap();
+        let cloud = Mesh::new(cloud, cloud_faces, None, None, false)?;
         let quad: Vec<Vec3> = [(-0.5, -2.0), (1.0, -2.0), (1.0, -0.8), (-0.5, -0.8)]
             .map(|(x, z)| Vec3::new(x, 0.9, z))
             .to_vec();
@@ -926,11 +926,10 @@ mod tests {
             quad,
             vec![[0, 1, 2], [0, 2, 3]],
             Some(uvs),
-            Some(AlphaTexture::new(8, 8, &alpha).unwrap()),
+            Some(AlphaTexture::new(8, 8, &alpha)?),
             false,
-        )
-        .unwrap();
-        Scene::new(vec![ground, sphere, cloud, checker]).unwrap()
+        )?;
+        Scene::new(vec![ground, sphere, cloud, checker])
     }
 
     /// Ground receivers, some invalid, with tilted normals (samples behind the tangent plane).
@@ -957,7 +956,7 @@ mod tests {
         samples: &SampleSet,
         opts: AliasFreeOptions,
         limits: Option<DispatchLimits>,
-    ) -> usize {
+    ) -> Result<usize> {
         agree_on(&receivers(40), light, samples, opts, limits)
     }
 
@@ -967,8 +966,8 @@ mod tests {
         samples: &SampleSet,
         opts: AliasFreeOptions,
         limits: Option<DispatchLimits>,
-    ) -> usize {
-        let scene = scene();
+    ) -> Result<usize> {
+        let scene = scene()?;
         let bvh = OnceLock::new();
         let cpu = sample_masks(
             &scene,
@@ -979,10 +978,9 @@ mod tests {
             &opts,
             false,
             &mut Stats::default(),
-        )
-        .unwrap();
+        )?;
         let _serial = LIMITS.lock().unwrap_or_else(|p| p.into_inner());
-        force_limits(limits).unwrap();
+        force_limits(limits)?;
         let mut stats = Stats::default();
         let gpu = sample_masks(
             &scene,
@@ -997,8 +995,9 @@ mod tests {
             false,
             &mut stats,
         );
-        force_limits(None).unwrap();
-        let gpu = gpu.unwrap();
+        // Back to the device's own limits before any error of the GPU run goes up.
+        force_limits(None)?;
+        let gpu = gpu?;
         let differ = (0..rx.len())
             .filter(|&i| cpu.mask(i) != gpu.mask(i))
             .count();
@@ -1009,9 +1008,9 @@ mod tests {
             rx.len()
         );
         assert!(stats.get("max_list_length").unwrap_or(0.0) >= 1.0);
-        (0..rx.len())
+        Ok((0..rx.len())
             .filter(|&i| cpu.mask(i).iter().any(|&w| w != 0) && cpu.visibility(i) > 0.0)
-            .count()
+            .count())
     }
 
     fn samples(light: &Light, n: usize, rotate: bool) -> SampleSet {
@@ -1019,18 +1018,17 @@ mod tests {
     }
 
     #[test]
-    fn gpu_masks_equal_the_cpu_masks_bit_for_bit() {
+    fn gpu_masks_equal_the_cpu_masks_bit_for_bit() -> Result<()> {
         if !have_gpu() {
-            return;
+            return Ok(());
         }
         let rect = Light::rect(
             Vec3::new(0.3, 4.0, -0.2),
             Vec3::new(0.6, 0.0, 0.0),
             Vec3::new(0.0, 0.0, -0.6),
-        )
-        .unwrap();
-        let disk = Light::disk(Vec3::new(-0.2, 3.5, 0.4), Vec3::new(0.1, -1.0, 0.2), 0.7).unwrap();
-        let sphere = Light::sphere(Vec3::new(0.5, 3.0, 0.0), 0.5).unwrap();
+        )?;
+        let disk = Light::disk(Vec3::new(-0.2, 3.5, 0.4), Vec3::new(0.1, -1.0, 0.2), 0.7)?;
+        let sphere = Light::sphere(Vec3::new(0.5, 3.0, 0.0), 0.5)?;
         let base = AliasFreeOptions {
             resolution: 64,
             bias: 1e-4,
@@ -1047,7 +1045,7 @@ mod tests {
                     &samples(light, n, rotate),
                     AliasFreeOptions { lut, ..base },
                     None,
-                );
+                )?;
                 assert!(partly > 50, "{partly} receivers in penumbra");
             }
         }
@@ -1057,14 +1055,14 @@ mod tests {
             hull_degree: 5,
             ..base
         };
-        agree(&disk, &samples(&disk, 33, false), all, None);
-        let point = Light::point(Vec3::new(0.2, 4.0, 0.1)).unwrap();
-        agree(&point, &samples(&point, 1, false), base, None);
+        agree(&disk, &samples(&disk, 33, false), all, None)?;
+        let point = Light::point(Vec3::new(0.2, 4.0, 0.1))?;
+        agree(&point, &samples(&point, 1, false), base, None)?;
+        Ok(())
     }
 
     #[test]
-    fn view_samples_too_near_the_light_for_the_table_test_exactly_on_both_backends(
-    ) -> crate::error::Result<()> {
+    fn view_samples_too_near_the_light_for_the_table_test_exactly_on_both_backends() -> Result<()> {
         if !have_gpu() {
             return Ok(());
         }
@@ -1084,7 +1082,7 @@ mod tests {
         };
         let mut stats = Stats::default();
         sample_masks(
-            &scene(),
+            &scene()?,
             SceneBvh::Cached(&OnceLock::new()),
             &rect,
             &receivers(40),
@@ -1101,14 +1099,13 @@ mod tests {
             exact > 0.0 && exact < view,
             "{exact} of {view} view samples tested exactly"
         );
-        let partly = agree(&rect, &set, opts, None);
+        let partly = agree(&rect, &set, opts, None)?;
         assert!(partly > 50, "{partly} receivers in penumbra");
         Ok(())
     }
 
     #[test]
-    fn receivers_inside_a_closed_mesh_see_every_triangle_on_both_backends(
-    ) -> crate::error::Result<()> {
+    fn receivers_inside_a_closed_mesh_see_every_triangle_on_both_backends() -> Result<()> {
         if !have_gpu() {
             return Ok(());
         }
@@ -1157,7 +1154,7 @@ mod tests {
                     ..Default::default()
                 };
                 let mut stats = Stats::default();
-                let scene = scene();
+                let scene = scene()?;
                 let bvh = SceneBvh::Cached(&OnceLock::new());
                 let masks = sample_masks(&scene, bvh, light, &rx, &set, &opts, false, &mut stats)?;
                 assert!(
@@ -1169,33 +1166,32 @@ mod tests {
                     lut != TableSize::Exact
                         || (n * n..2 * n * n).all(|i| masks.visibility(i) == 0.0)
                 );
-                agree_on(&rx, light, &set, opts, None);
+                agree_on(&rx, light, &set, opts, None)?;
             }
         }
         Ok(())
     }
 
     #[test]
-    fn long_lists_are_tested_in_slots_within_every_loops_budget() {
+    fn long_lists_are_tested_in_slots_within_every_loops_budget() -> Result<()> {
         // Mesa's llvmpipe stops a loop after 65535 iterations per invocation: lists of ~1000
         // entries at 4 x 4 texels, 1024 samples tested exactly (one entry per slot) or 256
         // through the table (over a hundred per slot).
         if !have_gpu() {
-            return;
+            return Ok(());
         }
         let rect = Light::rect(
             Vec3::new(0.3, 4.0, -0.2),
             Vec3::new(0.6, 0.0, 0.0),
             Vec3::new(0.0, 0.0, -0.6),
-        )
-        .unwrap();
+        )?;
         let rx = receivers(128);
         let opts = AliasFreeOptions {
             resolution: 4,
             bias: 1e-4,
             ..Default::default()
         };
-        agree_on(&rx, &rect, &samples(&rect, 256, false), opts, None);
+        agree_on(&rx, &rect, &samples(&rect, 256, false), opts, None)?;
         agree_on(
             &receivers(48),
             &rect,
@@ -1205,20 +1201,20 @@ mod tests {
                 ..opts
             },
             None,
-        );
+        )?;
+        Ok(())
     }
 
     #[test]
-    fn splitting_within_forced_low_limits_changes_nothing() {
+    fn splitting_within_forced_low_limits_changes_nothing() -> Result<()> {
         if !have_gpu() {
-            return;
+            return Ok(());
         }
         let rect = Light::rect(
             Vec3::new(0.3, 4.0, -0.2),
             Vec3::new(0.6, 0.0, 0.0),
             Vec3::new(0.0, 0.0, -0.6),
-        )
-        .unwrap();
+        )?;
         // 4 KiB bindings: chunks of 25 view samples, ranges of a few rows, batches of a few casters.
         let limits = DispatchLimits {
             workgroups: 2,
@@ -1230,7 +1226,7 @@ mod tests {
             lut: TableSize::Bins(8),
             ..Default::default()
         };
-        agree(&rect, &samples(&rect, 64, false), opts, Some(limits));
+        agree(&rect, &samples(&rect, 64, false), opts, Some(limits))?;
         agree(
             &rect,
             &samples(&rect, 40, false),
@@ -1239,6 +1235,7 @@ mod tests {
                 ..opts
             },
             Some(limits),
-        );
+        )?;
+        Ok(())
     }
 }
