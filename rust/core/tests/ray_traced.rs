@@ -465,7 +465,7 @@ fn shadow_ray_bundles_equal_single_rays() {
         let targets: Vec<Vec3> = (0..n)
             .map(|_| c + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * spread)
             .collect();
-        bvh.occluded_many(&scene, o, &targets, &mut out);
+        bvh.occluded_many(&scene, o, &targets, None, &mut out);
         for (y, &b) in targets.iter().zip(&out) {
             assert_eq!(
                 b,
@@ -493,7 +493,7 @@ fn shadow_ray_bundles_equal_single_rays() {
         for chunk in pts.chunks(64) {
             for scale in [1.0f32, 1.01] {
                 let targets: Vec<Vec3> = chunk.iter().map(|&p| o + (p - o) * scale).collect();
-                bvh.occluded_many(&scene, o, &targets, &mut out);
+                bvh.occluded_many(&scene, o, &targets, None, &mut out);
                 for (y, &b) in targets.iter().zip(&out) {
                     assert_eq!(b, bvh.occluded(&scene, o, *y - o, 1.0), "{o} -> {y}");
                 }

@@ -59,7 +59,7 @@ fuzz_target!(|input: (FuzzScene, Vec<Ray>, Num)| {
     let scale = points.fold(0.0f32, |m, p| m.max(p.abs().max_element()));
     if let (Some(o), true) = (origin, scale <= 1e3) {
         let mut out = Vec::new();
-        bvh.occluded_many(&scene, o, &targets, &mut out);
+        bvh.occluded_many(&scene, o, &targets, None, &mut out);
         assert_eq!(out.len(), targets.len());
         for (k, &y) in targets.iter().enumerate() {
             // Known tie (docs/robustness.md): a segment with a zero or tiny (< 1e-30, where the

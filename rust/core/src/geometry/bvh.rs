@@ -379,7 +379,9 @@ impl Bvh {
     }
 
     /// For each target, whether the open segment from `origin` to it is blocked: the shadow
-    /// rays of one receiver (t in (0, 1) with `dir = target - origin`). Clears and fills `out`.
+    /// rays of one receiver (t in (0, 1) with `dir = target - origin`). With `front`, a plane
+    /// they all lie in front of ([`FrontPlane`]: the receiver's tangent plane), the frustum pass
+    /// leaves out the leaves wholly behind it. Clears and fills `out`.
     ///
     /// Same answers as [`Bvh::occluded`] per target, faster: one traversal with the frustum of
     /// all the segments first collects the few leaves they may hit (none for a fully lit
@@ -390,61 +392,23 @@ impl Bvh {
         scene: &Scene,
         origin: Vec3,
         targets: &[Vec3],
+        front: Option<FrontPlane>,
         out: &mut Vec<bool>,
     ) {
-        if self.occluded_by_frustum(scene, origin, targets, out) {
+        let candidates = frustum::bounds(targets)
+            .filter(|_| targets.len() >= Self::FRUSTUM_MIN_RAYS)
+            .and_then(|bounds| self.frustum_candidates(origin, bounds, front));
+        if let Some(cand) = candidates {
+            self.occluded_by_candidates(scene, origin, targets, &cand, out);
             return;
         }
         let mut cache = ShadowCache::default();
+        out.clear();
         out.extend(
             targets
                 .iter()
                 .map(|&y| self.occluded_cached(scene, origin, y - origin, 1.0, &mut cache)),
         );
-    }
-
-    /// The frustum pass of [`Bvh::occluded_many`] alone: when the frustum of the segments
-    /// `origin -> targets` meets at most [`FrustumCandidates::MAX`] leaves, fills `out` with
-    /// the answers and returns true; otherwise leaves `out` cleared and returns false (the
-    /// caller traces the rays another way, e.g. [`Bvh::occluded_converging`] across receivers).
-    pub fn occluded_by_frustum(
-        &self,
-        scene: &Scene,
-        origin: Vec3,
-        targets: &[Vec3],
-        out: &mut Vec<bool>,
-    ) -> bool {
-        match frustum::bounds(targets) {
-            Some(bounds) => self.occluded_by_frustum_within(scene, origin, targets, bounds, out),
-            None => {
-                out.clear();
-                false
-            }
-        }
-    }
-
-    /// [`Bvh::occluded_by_frustum`] given a box `bounds` (`[min, max]`) holding every target:
-    /// the bounds of a superset of them will do (e.g. of all the light samples a receiver
-    /// traces a subset of), saving a pass over the targets.
-    pub fn occluded_by_frustum_within(
-        &self,
-        scene: &Scene,
-        origin: Vec3,
-        targets: &[Vec3],
-        bounds: [Vec3; 2],
-        out: &mut Vec<bool>,
-    ) -> bool {
-        out.clear();
-        if targets.len() < Self::FRUSTUM_MIN_RAYS {
-            return false;
-        }
-        match self.frustum_candidates(origin, bounds, None) {
-            Some(cand) => {
-                self.occluded_by_candidates(scene, origin, targets, &cand, out);
-                true
-            }
-            None => false,
-        }
     }
 
     /// The root node, or the only leaf with the tree's bounds.
@@ -1041,14 +1005,12 @@ mod tests {
             assert!(blocks(&front).iter().all(|b| blocks(&all).contains(b)));
             cut += usize::from(front.len < all.len);
             receivers += 1;
-            let mut got = Vec::new();
+            let (mut got, mut many) = (Vec::new(), Vec::new());
             bvh.occluded_by_candidates(&scene, origin, &targets, &front, &mut got);
-            for (&y, &g) in targets.iter().zip(&got) {
-                assert_eq!(
-                    g,
-                    bvh.occluded(&scene, origin, y - origin, 1.0),
-                    "{point} -> {y}"
-                );
+            bvh.occluded_many(&scene, origin, &targets, Some(plane), &mut many);
+            for ((&y, &g), &m) in targets.iter().zip(&got).zip(&many) {
+                let single = bvh.occluded(&scene, origin, y - origin, 1.0);
+                assert_eq!((g, m), (single, single), "{point} -> {y}");
                 blocked += usize::from(g);
                 traced += 1;
             }
@@ -1093,7 +1055,7 @@ mod tests {
             assert!(!bvh.occluded(&scene, o, d, 2.0), "{o} {d}");
             assert_eq!(bvh.count_hits(o, d, 2.0, |_| true), 0, "{o} {d}");
             let mut out = Vec::new();
-            bvh.occluded_many(&scene, o, &[o + d; 5], &mut out);
+            bvh.occluded_many(&scene, o, &[o + d; 5], None, &mut out);
             assert_eq!(out, [false; 5], "{o} {d}");
         }
         // Fuzzing regression: a zero direction component at an origin coordinate of ±f32::MAX

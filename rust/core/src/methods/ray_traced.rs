@@ -10,7 +10,8 @@
 //! Receivers are processed in parallel chunks; each receiver's result depends only on its own
 //! samples, so the output is the same bits for any thread count. The shadow rays of a receiver
 //! go to [`Bvh::occluded_many`] together: they share their origin, so one frustum traversal
-//! finds the few leaves they may hit (none for a lit receiver), and umbra rays reuse the leaf
+//! finds the few leaves they may hit (none for a lit receiver; none wholly behind the receiver's
+//! tangent plane, which its rays never reach), and umbra rays reuse the leaf
 //! that blocked the previous ray; neither changes an answer. When all receivers share their
 //! samples, the receivers go by screen tiles: a tile whose shaft to the samples meets no leaf
 //! is lit at once (Haines and Wallace 1994), and receivers in penumbra or umbra are traced as
@@ -692,7 +693,12 @@ fn receiver_visibility(
     if culled {
         occluded_with_culling(scene, bvh, origins, &s.targets, &mut s.blocked);
     } else {
-        bvh.occluded_many(scene, origin, &s.targets, &mut s.blocked);
+        // Every ray lies in front of the tangent plane, as only the samples in front are traced.
+        let tangent = FrontPlane {
+            point: p,
+            normal: n,
+        };
+        bvh.occluded_many(scene, origin, &s.targets, Some(tangent), &mut s.blocked);
     }
     let lit = s
         .weights

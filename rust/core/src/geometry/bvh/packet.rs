@@ -1111,7 +1111,7 @@ impl Bvh {
     }
 
     /// For each target, whether the open segment from `origin` to it (t in (0, 1)) hits one of
-    /// the blocks `cand`: the candidate test of [`Bvh::occluded_by_frustum`], compiled for
+    /// the blocks `cand`: the candidate test of [`Bvh::occluded_by_candidates`], compiled for
     /// `isa`. Appends to `out`.
     ///
     /// The segments are lanes of the packet buffer, [`LANES`] at a time, each candidate block
