@@ -60,3 +60,15 @@ def test_gbuffer_repr_gives_its_size_not_its_arrays():
     setup = ss.scenes.get("parallel_plates", width=40, height=30)
     gb = ss.gbuffer(setup.scene, setup.camera)
     assert repr(gb) == f"GBuffer(40x30 pixels, {int(gb.mask.sum())} hit, msaa=1)"  # was every array in full
+
+
+def test_epsilon_is_1e4_of_the_referenced_vertices_diagonal_per_scene():
+    # Computed once per scene (every method's default offset reads it): each scene keeps its
+    # own value, 1e-4 x the diagonal of the bounds of the vertices its faces use, in float64
+    # (an unused far vertex does not count).
+    small = np.array([[0, 0, 0], [1, 0, 0], [0, 2, 0], [1e6, 1e6, 1e6]], dtype=np.float32)
+    large = np.array([[-3, 0, 0], [5, 1, 0], [0, 0, 7]], dtype=np.float32)
+    scenes = [ss.Scene([ss.Mesh(v, [[0, 1, 2]])]) for v in (small, large)]
+    for scene, v in zip(scenes, (small[:3], large)):
+        d = v.astype(np.float64).max(axis=0) - v.astype(np.float64).min(axis=0)
+        assert scene.epsilon == 1e-4 * np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])

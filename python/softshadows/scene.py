@@ -232,7 +232,8 @@ class Scene:
         """The default shadow-ray offset along the receiver normal: 1e-4 x the bounds' diagonal.
 
         Computed by the core (``auto_epsilon`` in ``rust/core/src/methods/ray_traced.rs``) in
-        float64; ``ray_traced`` and the Mitsuba reference use the same value (docs/design.md section 3).
+        float64, once per scene; ``ray_traced`` and the Mitsuba reference use the same value
+        (docs/design.md section 3).
         """
         return self.native().epsilon
 

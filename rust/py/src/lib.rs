@@ -28,10 +28,12 @@ use softshadows_core::raster::cube::light_frusta;
 use spelling::{Spelled, Spelling};
 use std::sync::OnceLock;
 
-/// A scene and its BVH, built once.
+/// A scene, its default shadow-ray offset and its BVH, each computed once.
 #[pyclass(frozen, module = "softshadows._core")]
 pub struct NativeScene {
     pub scene: Scene,
+    /// Every method's default offset: a pass over all vertices, not repeated per call.
+    epsilon: f64,
     /// Built on first use: image-based methods never trace rays.
     bvh: OnceLock<Bvh>,
 }
@@ -84,6 +86,7 @@ impl NativeScene {
         let meshes = meshes.into_iter().map(mesh).collect::<PyResult<Vec<_>>>()?;
         let scene = Scene::new(meshes).or_raise()?;
         Ok(Self {
+            epsilon: softshadows_core::methods::ray_traced::auto_epsilon(&scene),
             scene,
             bvh: OnceLock::new(),
         })
@@ -97,7 +100,7 @@ impl NativeScene {
     /// The default shadow-ray offset along the receiver normal (world units).
     #[getter]
     fn epsilon(&self) -> f64 {
-        softshadows_core::methods::ray_traced::auto_epsilon(&self.scene)
+        self.epsilon
     }
 
     /// Ray-casts a G-buffer: `(positions (N,3), normals (N,3), mask (N,), face_ids (N,), depths (N*msaa,))`.
