@@ -954,8 +954,9 @@ mod tests {
     /// one that holds a hit: receivers at the face centres of a tessellated sphere (a convex
     /// mesh: every other face lies behind a face's plane), under a small quad that shadows some
     /// of them, each traced to the samples in front of it. Every receiver's candidates with
-    /// the plane are among those without, and give each ray the answer of its single ray;
-    /// some receivers lose candidates, and some rays are blocked.
+    /// the plane are among those without, and give each ray the answer of its single ray, as
+    /// does [`Bvh::occluded_many`] given the plane; some receivers lose candidates, and some
+    /// rays are blocked.
     #[test]
     fn tangent_planes_cut_candidates_but_no_hit() -> Result<()> {
         let quad =
