@@ -92,6 +92,17 @@ const SPARSE_LANES: u32 = 3;
 /// 512x512, with the same answers bit for bit. At 128x128, 2 lanes took 1.06-1.07x the CPU time
 /// of 4, and 8 the same as 4 within the noise (three alternating runs each).
 ///
+/// Since the tiles of few hard receivers go by receiver and the tangent-plane cut, 8 lanes pay
+/// (2026-12-07): by cachegrind, one 128x128 call runs 9% fewer instructions than with 4 (219M
+/// against 240M; 256x256: 884M against 958M, 8% fewer) and misses the first-level data cache 4%
+/// and 2% less often; timed on one thread, the threshold switched call by call in one process
+/// (same bits), 0.96x and 0.975x the fastest CPU time of 4 at 128x128 (80 rounds each; median
+/// 0.94x, 0.945x) and 0.975x and 0.96x at 256x256 (30 and 40 rounds). 6 lanes ran as many
+/// instructions as 4: a packet's active lanes are often one row or column of its 8x8 tile, 8 of
+/// them. 12 and 16 lanes ran fewer still (1% and 3% fewer than 8 at 128x128, 5% at 256x256 for
+/// 16) but took 0.98-1.01x the fastest time of 4, no better than 8: a hand-off's single ray
+/// waits on its loads (below).
+///
 /// At 128x128, with packets by sample only (before `ray_traced` sent the tiles of few receivers to
 /// [`Bvh::occluded_diverging`]), 44% of the packets' live lanes are handed off, each about three
 /// times per sample, and a hand-off tests 1.4 nodes and 0.7 leaves on average (one call: 127k nodes
@@ -117,7 +128,7 @@ const SPARSE_LANES: u32 = 3;
 /// since a receiver's Poisson samples spread over the light and its consecutive rays rarely meet
 /// the same block; tracing a node's handed-off lanes together on one stack, each node slab-tested
 /// for all of them, took 1.58x; 3 lanes took 1.03x and 6 lanes 0.99x the time of 4.
-const SINGLE_RAY_LANES: u32 = 4;
+const SINGLE_RAY_LANES: u32 = 8;
 
 /// The per-lane data of [`W`] rays of a packet, one array entry per lane: the fields of the
 /// lane's single-ray `RayData` (see `bvh/triangle.rs`) and its slopes.
