@@ -98,10 +98,10 @@ const SPARSE_LANES: u32 = 3;
 /// and 2% less often; timed on one thread, the threshold switched call by call in one process
 /// (same bits), 0.96x and 0.975x the fastest CPU time of 4 at 128x128 (80 rounds each; median
 /// 0.94x, 0.945x) and 0.975x and 0.96x at 256x256 (30 and 40 rounds). 6 lanes ran as many
-/// instructions as 4: a packet's active lanes are often one row or column of its 8x8 tile, 8 of
-/// them. 12 and 16 lanes ran fewer still (1% and 3% fewer than 8 at 128x128, 5% at 256x256 for
-/// 16) but took 0.98-1.01x the fastest time of 4, no better than 8: a hand-off's single ray
-/// waits on its loads (below).
+/// instructions as 4 (why was not counted; one row or column of an 8x8 tile is 8 lanes). 12
+/// and 16 lanes ran fewer still (1% and 3% fewer than 8 at 128x128, 5% at 256x256 for 16) but
+/// took 0.98-1.01x the fastest time of 4, no better than 8: a hand-off's single ray waits on
+/// its loads (below).
 ///
 /// At 128x128, with packets by sample only (before `ray_traced` sent the tiles of few receivers to
 /// [`Bvh::occluded_diverging`]), 44% of the packets' live lanes are handed off, each about three
