@@ -93,15 +93,13 @@ const SPARSE_LANES: u32 = 3;
 /// of 4, and 8 the same as 4 within the noise (three alternating runs each).
 ///
 /// Since the tiles of few hard receivers go by receiver and the tangent-plane cut, 8 lanes pay
-/// (2026-12-07): by cachegrind, one 128x128 call runs 9% fewer instructions than with 4 (219M
-/// against 240M; 256x256: 884M against 958M, 8% fewer) and misses the first-level data cache 4%
-/// and 2% less often; timed on one thread, the threshold switched call by call in one process
-/// (same bits), 0.96x and 0.975x the fastest CPU time of 4 at 128x128 (80 rounds each; median
-/// 0.94x, 0.945x) and 0.975x and 0.96x at 256x256 (30 and 40 rounds). 6 lanes ran as many
-/// instructions as 4 (why was not counted; one row or column of an 8x8 tile is 8 lanes). 12
-/// and 16 lanes ran fewer still (1% and 3% fewer than 8 at 128x128, 5% at 256x256 for 16) but
-/// took 0.98-1.01x the fastest time of 4, no better than 8: a hand-off's single ray waits on
-/// its loads (below).
+/// (2026-12-07): by cachegrind, one 128x128 call runs 8% fewer instructions than with 4 (229M
+/// against 249M, one thread, the difference of 9 calls and 1 call in one process each, which
+/// cancels the start-up's variation of about 30M); timed on one thread, the threshold switched
+/// call by call in one process (same bits), 0.96x and 0.975x the fastest CPU time of 4 at
+/// 128x128 (80 rounds each; median 0.94x, 0.945x) and 0.975x and 0.96x at 256x256 (30 and 40
+/// rounds). 12 and 16 lanes took 0.98-1.01x the fastest time of 4, no better than 8: a
+/// hand-off's single ray waits on its loads (below).
 ///
 /// At 128x128, with packets by sample only (before `ray_traced` sent the tiles of few receivers to
 /// [`Bvh::occluded_diverging`]), 44% of the packets' live lanes are handed off, each about three
