@@ -198,13 +198,14 @@ def test_sample_order_is_a_curve_remembered_per_sample_set():
     assert sorted(order) == list(range(16))
     steps = np.abs(np.diff(grid[order][:, [0, 2]], axis=0)).sum(axis=1)
     assert np.all(steps == 1)
-    kept = reference._remembered_order(grid.tobytes(), grid.shape)
+    kept = reference._remembered_order(grid.tobytes(), grid.shape, grid.dtype.str)
     np.testing.assert_array_equal(kept, order)
-    assert reference._remembered_order(grid.tobytes(), grid.shape) is kept
+    assert reference._remembered_order(grid.tobytes(), grid.shape, grid.dtype.str) is kept
     assert not kept.flags.writeable
-    shifted = grid[::-1].copy()
-    np.testing.assert_array_equal(reference._remembered_order(shifted.tobytes(), shifted.shape),
-                                  reference._coherent_order(shifted))
+    # Other samples, or the same values in another type, are not taken for these.
+    for other in (grid[::-1].copy(), grid.astype(np.float64)[::-1].copy()):
+        np.testing.assert_array_equal(reference._remembered_order(other.tobytes(), other.shape, other.dtype.str),
+                                      reference._coherent_order(other))
 
 
 def test_gbuffer_input_keeps_its_shape_and_zeroes_masked_pixels():

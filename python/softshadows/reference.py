@@ -457,7 +457,7 @@ def _visibility(tracer, points, normals, samples, eps, weights, progress) -> np.
     per_batch = max(1, RAYS_PER_CALL // n_samples, tracer.lanes_per_receiver_min if counted else 1)
     # V is a sum over samples, so they may go in any order: along a curve, a receiver's
     # consecutive rays (Embree's packets) stay close together.
-    order = _remembered_order(samples.tobytes(), samples.shape)
+    order = _remembered_order(samples.tobytes(), samples.shape, samples.dtype.str)
     ys = samples[order].astype(np.float64)
     weights = None if weights is None else weights[order]
     out = np.empty(len(points), np.float64)
@@ -479,11 +479,11 @@ def _visibility(tracer, points, normals, samples, eps, weights, progress) -> np.
 
 
 @functools.lru_cache(maxsize=16)
-def _remembered_order(data: bytes, shape: tuple[int, ...]) -> np.ndarray:
-    """:func:`_coherent_order` of the samples whose float32 bytes are ``data``, kept for the next
-    calls with the same samples (read-only): an evaluation traces many receiver sets to one
-    sample set, and at 128x128 receivers the order took 2% of the call."""
-    order = _coherent_order(np.frombuffer(data, np.float32).reshape(shape))
+def _remembered_order(data: bytes, shape: tuple[int, ...], dtype: str) -> np.ndarray:
+    """:func:`_coherent_order` of the samples whose bytes (C order, numpy type ``dtype``) are
+    ``data``, kept for the next calls with the same samples (read-only): an evaluation traces
+    many receiver sets to one sample set, and at 128x128 receivers the order took 2% of the call."""
+    order = _coherent_order(np.frombuffer(data, dtype).reshape(shape))
     order.flags.writeable = False
     return order
 
