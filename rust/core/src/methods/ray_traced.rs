@@ -30,7 +30,7 @@ use crate::light::sampling::{lit_fraction, SampleSet};
 use crate::limits::{self, Peak, Work};
 use crate::methods::CasterFaces;
 use crate::stats::Stats;
-use glam::{DVec3, Vec3};
+use glam::{DVec3, UVec3, Vec3};
 use rayon::prelude::*;
 use std::borrow::Cow;
 
@@ -406,23 +406,34 @@ impl<'a> Segment<'a> {
     }
 }
 
-/// The samples every receiver shares: as points, per axis (for [`SharedSamples::front`]) and
-/// their bounding box.
-struct SharedSamples<'a> {
-    points: &'a [Vec3],
+/// The samples every receiver shares: as points in Morton order ([`morton_order`]), per axis
+/// (for [`SharedSamples::front`]) and their bounding box.
+///
+/// The order sets which samples share a chunk of a packet's lanes: the 16 consecutive targets
+/// of a receiver's packet ([`Bvh::occluded_diverging`]) then lie close together on the light,
+/// so a node's rectangles more often reject a whole chunk. A receiver's answer is a count of its
+/// unblocked samples, the same in any order. On the bunny (64 Poisson samples, one thread,
+/// same bits), by cachegrind 219M instructions per 128x128 call instead of 231M (the difference
+/// of 11 calls and 1 call in one process each); timed in alternating processes (fastest CPU time
+/// of 20 calls, 8 rounds each), 0.95x and 1.02x at 128x128, 0.94x at 256x256 (medians 0.96-0.98x
+/// and 0.95x).
+struct SharedSamples {
+    points: Vec<Vec3>,
     axes: [Vec<f32>; 3],
     bounds: [Vec3; 2],
 }
 
-impl<'a> SharedSamples<'a> {
-    fn new(points: &'a [Vec3]) -> Self {
+impl SharedSamples {
+    fn new(points: &[Vec3]) -> Self {
         let y0 = points.first().copied().unwrap_or(Vec3::ZERO);
+        let bounds = points
+            .iter()
+            .fold([y0, y0], |[lo, hi], &y| [lo.min(y), hi.max(y)]);
+        let points = morton_order(points, bounds);
         Self {
-            points,
             axes: [0, 1, 2].map(|a| points.iter().map(|y| y[a]).collect()),
-            bounds: points
-                .iter()
-                .fold([y0, y0], |[lo, hi], &y| [lo.min(y), hi.max(y)]),
+            points,
+            bounds,
         }
     }
 
@@ -443,6 +454,29 @@ impl<'a> SharedSamples<'a> {
         }
         bits.iter().map(|w| w.count_ones()).sum()
     }
+}
+
+/// `points` sorted along the Morton curve (Morton 1966, "A computer oriented geodetic data base
+/// and a new technique in file sequencing") over their bounding box `[lo, hi]`, on a grid of
+/// 1024 cells a side: the cell coordinates' bits interleaved, so neighbours along the curve
+/// are neighbours in space. Ties keep their order.
+fn morton_order(points: &[Vec3], [lo, hi]: [Vec3; 2]) -> Vec<Vec3> {
+    const BITS: u32 = 10;
+    let cells = ((1 << BITS) - 1) as f32;
+    let extent = hi - lo;
+    let scale = Vec3::select(extent.cmpgt(Vec3::ZERO), cells / extent, Vec3::ZERO);
+    let code = |y: Vec3| {
+        let cell = ((y - lo) * scale)
+            .as_uvec3()
+            .min(UVec3::splat((1 << BITS) - 1));
+        (0..BITS).rev().fold(0u32, |code, bit| {
+            let bit_of = |c: u32| c >> bit & 1;
+            code << 3 | bit_of(cell.x) << 2 | bit_of(cell.y) << 1 | bit_of(cell.z)
+        })
+    };
+    let mut sorted = points.to_vec();
+    sorted.sort_by_key(|&y| code(y));
+    sorted
 }
 
 /// The indices of the set bits of `bits` (see [`SharedSamples::front`]), in increasing order.
@@ -636,7 +670,13 @@ fn trace_by_receiver(scene: &Scene, bvh: &Bvh, ys: &SharedSamples, b: &mut TileB
 /// ([`Bvh::occluded_converging_lanes`]).
 fn trace_by_sample(scene: &Scene, bvh: &Bvh, ys: &SharedSamples, b: &mut TileBuffers) {
     b.blocked_lanes.resize(ys.points.len(), 0);
-    bvh.occluded_converging_lanes(scene, &b.origins, ys.points, &b.front, &mut b.blocked_lanes);
+    bvh.occluded_converging_lanes(
+        scene,
+        &b.origins,
+        &ys.points,
+        &b.front,
+        &mut b.blocked_lanes,
+    );
     for (&front, &blocked) in b.front.iter().zip(&b.blocked_lanes) {
         let mut lit = front & !blocked;
         while lit != 0 {
@@ -988,5 +1028,23 @@ mod tests {
             .count();
         assert!(blocked > 50, "{blocked} receivers with blocked rays");
         Ok(())
+    }
+
+    #[test]
+    fn morton_order_visits_each_quadrant_in_turn() {
+        // A 4x4 grid on a tilted plane, listed row by row: along the Z curve (x the most
+        // significant of each level's bits) each 2x2 quadrant comes whole, in the order
+        // (low x, low y), (low x, high y), (high x, low y), (high x, high y), and so do the
+        // points of each quadrant.
+        let at = |x: u32, y: u32| Vec3::new(x as f32, y as f32, 0.5 * y as f32);
+        let points: Vec<Vec3> = (0..4).flat_map(|y| (0..4).map(move |x| at(x, y))).collect();
+        let bounds = [at(0, 0), at(3, 3)];
+        let sorted = morton_order(&points, bounds);
+        let cell = |p: Vec3| (p.x as u32, p.y as u32);
+        let expected = (0..16u32).map(|m| (m >> 2 & 2 | m >> 1 & 1, m >> 1 & 2 | m & 1));
+        assert_eq!(
+            sorted.iter().map(|&p| cell(p)).collect::<Vec<_>>(),
+            expected.collect::<Vec<_>>()
+        );
     }
 }
