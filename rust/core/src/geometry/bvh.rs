@@ -40,7 +40,7 @@ use glam::{Vec3, Vec4};
 use std::cell::RefCell;
 use std::sync::OnceLock;
 pub use triangle::intersect_triangle;
-use triangle::{hit4, Lanes, RayData};
+use triangle::{hit4, Lanes, Ray, RayData};
 
 /// Traversal stack entries; `build` guarantees `3 * depth + 1 <= STACK`.
 const STACK: usize = 256;
@@ -154,15 +154,15 @@ impl Node4 {
     /// Slab test of the four child boxes: the bitmask of those overlapping (0, `t_max`) and
     /// their entry distances.
     #[inline(always)]
-    fn hit(&self, r: &RayData, t_max: f32) -> (u32, Vec4) {
-        let n = r.near.map(usize::from);
-        let f = r.near.map(|b| usize::from(!b));
-        let x0 = (self.bounds[n[0]][0] - r.org_near[0]) * r.inv[0];
-        let y0 = (self.bounds[n[1]][1] - r.org_near[1]) * r.inv[1];
-        let z0 = (self.bounds[n[2]][2] - r.org_near[2]) * r.inv[2];
-        let x1 = (self.bounds[f[0]][0] - r.org_far[0]) * r.inv[0];
-        let y1 = (self.bounds[f[1]][1] - r.org_far[1]) * r.inv[1];
-        let z1 = (self.bounds[f[2]][2] - r.org_far[2]) * r.inv[2];
+    fn hit<R: Ray>(&self, r: &R, t_max: f32) -> (u32, Vec4) {
+        let n = r.near().map(usize::from);
+        let f = r.near().map(|b| usize::from(!b));
+        let x0 = (self.bounds[n[0]][0] - r.org_near(0)) * r.inv(0);
+        let y0 = (self.bounds[n[1]][1] - r.org_near(1)) * r.inv(1);
+        let z0 = (self.bounds[n[2]][2] - r.org_near(2)) * r.inv(2);
+        let x1 = (self.bounds[f[0]][0] - r.org_far(0)) * r.inv(0);
+        let y1 = (self.bounds[f[1]][1] - r.org_far(1)) * r.inv(1);
+        let z1 = (self.bounds[f[2]][2] - r.org_far(2)) * r.inv(2);
         let tnear = x0.max(y0).max(z0.max(Vec4::ZERO));
         let tfar = x1.min(y1).min(z1.min(Vec4::splat(t_max))) * ROBUST;
         (tnear.cmple(tfar).bitmask(), tnear)
@@ -634,10 +634,10 @@ impl Bvh {
     /// stack (0.995x the CPU time) nor pushing every child without a branch per child (1.01x)
     /// paid.
     #[inline(always)]
-    fn any_hit_inline(
+    fn any_hit_inline<R: Ray>(
         &self,
         scene: &Scene,
-        r: &RayData,
+        r: &R,
         t_max: f32,
         start: u32,
         casts: Option<&dyn Fn(u32) -> bool>,
@@ -721,7 +721,7 @@ impl Bvh {
     /// Whether block `b` holds an opaque hit: opaque-mesh lanes answer at once, perforated lanes
     /// go through the texture.
     #[inline(always)]
-    fn block_occludes(scene: &Scene, b: &Tri4, r: &RayData, t_max: f32) -> bool {
+    fn block_occludes<R: Ray>(scene: &Scene, b: &Tri4, r: &R, t_max: f32) -> bool {
         Self::lanes_occlude(scene, b, &hit4(b, r, t_max))
     }
 

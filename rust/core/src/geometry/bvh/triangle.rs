@@ -110,6 +110,52 @@ impl RayData {
     }
 }
 
+/// What the slab test of a node (`Node4::hit`) and the watertight test ([`hit4`]) read of a
+/// ray: the fields of [`RayData`] of the same names, each broadcast to the four lanes of a node
+/// or block. A [`RayData`] holds them; a lane of a packet is read in place (`LaneView` in
+/// `bvh/packet.rs`), so that the packets hand a lane to a single-ray traversal without copying
+/// it into a `RayData` first.
+pub(super) trait Ray {
+    fn org_near(&self, a: usize) -> Vec4;
+    fn org_far(&self, a: usize) -> Vec4;
+    fn inv(&self, a: usize) -> Vec4;
+    fn near(&self) -> [bool; 3];
+    fn k(&self) -> [usize; 3];
+    fn ok(&self, a: usize) -> Vec4;
+    fn s(&self, a: usize) -> Vec4;
+}
+
+impl Ray for RayData {
+    #[inline(always)]
+    fn org_near(&self, a: usize) -> Vec4 {
+        self.org_near[a]
+    }
+    #[inline(always)]
+    fn org_far(&self, a: usize) -> Vec4 {
+        self.org_far[a]
+    }
+    #[inline(always)]
+    fn inv(&self, a: usize) -> Vec4 {
+        self.inv[a]
+    }
+    #[inline(always)]
+    fn near(&self) -> [bool; 3] {
+        self.near
+    }
+    #[inline(always)]
+    fn k(&self) -> [usize; 3] {
+        self.k
+    }
+    #[inline(always)]
+    fn ok(&self, a: usize) -> Vec4 {
+        self.ok[a]
+    }
+    #[inline(always)]
+    fn s(&self, a: usize) -> Vec4 {
+        self.s[a]
+    }
+}
+
 /// The lanes of a [`Tri4`] that a ray hits, with the unnormalized quantities of the test.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Lanes {
@@ -140,21 +186,18 @@ impl Lanes {
 
 /// Tests the four triangles of `b` against the ray over the open interval (0, `t_max`).
 #[inline(always)]
-pub(super) fn hit4(b: &Tri4, r: &RayData, t_max: f32) -> Lanes {
-    let [kx, ky, kz] = r.k;
+pub(super) fn hit4<R: Ray>(b: &Tri4, r: &R, t_max: f32) -> Lanes {
+    let [kx, ky, kz] = r.k();
+    let (ok, s) = ([r.ok(0), r.ok(1), r.ok(2)], [r.s(0), r.s(1), r.s(2)]);
     // Vertices relative to the origin, in the permuted axes.
-    let (az, bz, cz) = (
-        b.v[0][kz] - r.ok[2],
-        b.v[1][kz] - r.ok[2],
-        b.v[2][kz] - r.ok[2],
-    );
+    let (az, bz, cz) = (b.v[0][kz] - ok[2], b.v[1][kz] - ok[2], b.v[2][kz] - ok[2]);
     // Shear: x' = x - Sx z, y' = y - Sy z.
-    let ax = (b.v[0][kx] - r.ok[0]) - r.s[0] * az;
-    let ay = (b.v[0][ky] - r.ok[1]) - r.s[1] * az;
-    let bx = (b.v[1][kx] - r.ok[0]) - r.s[0] * bz;
-    let by = (b.v[1][ky] - r.ok[1]) - r.s[1] * bz;
-    let cx = (b.v[2][kx] - r.ok[0]) - r.s[0] * cz;
-    let cy = (b.v[2][ky] - r.ok[1]) - r.s[1] * cz;
+    let ax = (b.v[0][kx] - ok[0]) - s[0] * az;
+    let ay = (b.v[0][ky] - ok[1]) - s[1] * az;
+    let bx = (b.v[1][kx] - ok[0]) - s[0] * bz;
+    let by = (b.v[1][ky] - ok[1]) - s[1] * bz;
+    let cx = (b.v[2][kx] - ok[0]) - s[0] * cz;
+    let cy = (b.v[2][ky] - ok[1]) - s[1] * cz;
     // Edge functions, each from its own edge's two vertices only.
     let mut u = cx * by - cy * bx;
     let mut v = ax * cy - ay * cx;
@@ -166,7 +209,7 @@ pub(super) fn hit4(b: &Tri4, r: &RayData, t_max: f32) -> Lanes {
     let neg = u.cmplt(Vec4::ZERO) | v.cmplt(Vec4::ZERO) | w.cmplt(Vec4::ZERO);
     let pos = u.cmpgt(Vec4::ZERO) | v.cmpgt(Vec4::ZERO) | w.cmpgt(Vec4::ZERO);
     let det = u + v + w;
-    let t = u * (r.s[2] * az) + v * (r.s[2] * bz) + w * (r.s[2] * cz);
+    let t = u * (s[2] * az) + v * (s[2] * bz) + w * (s[2] * cz);
     // Compare T / det against the interval without dividing (sign folded in, as in the paper).
     let sign = Vec4::ONE.copysign(det);
     let ts = t * sign;
