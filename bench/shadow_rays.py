@@ -10,7 +10,11 @@ rays prebuilt, the other two build them from the receivers and samples. It print
 of each and the ratios, how many receivers took each path of ``ray_traced`` (its packets cost the
 most per ray), plus how often the answers agree.
 
-Usage: ``python bench/shadow_rays.py [--size 512] [--samples 64] [--repeat 3]``
+``--threads N`` runs ``ray_traced``, ``ray_test`` and ``mitsuba_visibility`` on N threads each (ours
+through :func:`softshadows.set_num_threads`, Mitsuba's through Dr.Jit's thread pool; default: one per
+core): with one thread the ratios compare the work per ray alone, without the threads' scaling.
+
+Usage: ``python bench/shadow_rays.py [--size 512] [--samples 64] [--repeat 3] [--threads N]``
 """
 
 from __future__ import annotations
@@ -109,13 +113,27 @@ def embree(setup, o, d, maxt):
     return lambda: escene.run(o, d, query="OCCLUDED", dists=maxt) >= 0
 
 
+def set_threads(threads):
+    """Runs ours and Mitsuba's kernels on ``threads`` threads each (0: one per core); returns the
+    count."""
+    ss.set_num_threads(threads or None)
+    reference._mitsuba()  # selects the variant; a vectorized one brings Dr.Jit's thread pool
+    if not reference.variant().startswith("scalar"):
+        import drjit as dr
+
+        dr.set_thread_count(threads or os.cpu_count())
+    return ss.num_threads()
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scene", default="bunny")
     parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--samples", type=int, default=64)
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--threads", type=int, default=0, help="threads of ours and Mitsuba's (0: one per core)")
     args = parser.parse_args(argv)
+    threads = set_threads(args.threads)
 
     setup = scenes.get(args.scene, width=args.size, height=args.size)
     gb = ss.gbuffer(setup.scene, setup.camera)
@@ -124,7 +142,7 @@ def main(argv=None):
     o, d, maxt, front = shadow_rays(gb, samples, eps)
     rays = len(o)
     print(f"{args.scene}: {setup.scene.num_faces} triangles, {int(gb.mask.sum())} hit pixels x {args.samples} samples "
-          f"= {rays} shadow rays; {os.cpu_count()} cores; Mitsuba variant {reference.variant()}")
+          f"= {rays} shadow rays; {os.cpu_count()} cores, {threads} threads; Mitsuba variant {reference.variant()}")
 
     cpu = {}
     seconds, results = side_by_side(args.repeat, {
