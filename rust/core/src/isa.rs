@@ -1,4 +1,5 @@
-//! The instruction sets that lane loops are compiled for, and the one dispatch between them.
+//! The instruction sets that lane loops are compiled for, the one dispatch between them, and
+//! the byte masks such loops write their answers in ([`top_bit`], [`movemask`]).
 //!
 //! A lane loop (the packet traversal of `geometry/bvh/packet.rs`, `alias_free`'s pair tests)
 //! is written once, as plain `for` loops over fixed-size arrays whose bodies are made of
@@ -63,6 +64,53 @@ pub(crate) fn signum(x: f64) -> f64 {
     } else {
         sign
     }
+}
+
+/// Lane `l`'s entry of a byte mask of 16 lanes (see [`movemask`]).
+///
+/// Every lane loop writes such bytes in a plain `for` loop whose body is made of
+/// `#[inline(always)]` functions: LLVM vectorizes it into compares and one mask move per
+/// register. Closures, iterator adaptors and `array::map` would risk being left out of line,
+/// compiled for the baseline instead of the dispatched instruction set.
+#[inline(always)]
+pub(crate) fn top_bit(b: bool) -> u8 {
+    if b {
+        0x80
+    } else {
+        0
+    }
+}
+
+/// The top bits of `bytes` as a bitmask: `pmovmskb`, which LLVM folds with the compares before
+/// it into one mask move (the shift-and-or loop it does not recognize).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) fn movemask(bytes: [u8; 16]) -> u64 {
+    // SAFETY: SSE2 is part of the x86-64 baseline, so every x86-64 CPU has it.
+    unsafe { movemask_sse2(bytes) }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "sse2")]
+#[inline]
+fn movemask_sse2(b: [u8; 16]) -> u64 {
+    use std::arch::x86_64::{_mm_movemask_epi8, _mm_set_epi8};
+    let [b0, b1, b2, b3, b4, b5, b6, b7, b8, b9, b10, b11, b12, b13, b14, b15] = b.map(|x| x as i8);
+    let v = _mm_set_epi8(
+        b15, b14, b13, b12, b11, b10, b9, b8, b7, b6, b5, b4, b3, b2, b1, b0,
+    );
+    u64::from(_mm_movemask_epi8(v) as u16)
+}
+
+/// The top bits of `bytes` as a bitmask (portable).
+#[cfg(not(target_arch = "x86_64"))]
+#[inline(always)]
+pub(crate) fn movemask(bytes: [u8; 16]) -> u64 {
+    let mut m = 0u64;
+    for (l, &b) in bytes.iter().enumerate() {
+        m |= u64::from(b >> 7) << l;
+    }
+    m
 }
 
 /// Whether the CPU has the AVX-512 subsets the `avx512` variants of [`isa_dispatch`] are

@@ -25,6 +25,7 @@ use crate::geometry::inside::inside_closed_meshes;
 use crate::geometry::mesh::Scene;
 use crate::geometry::receivers::Receivers;
 use crate::interrupt;
+use crate::isa::{movemask, top_bit};
 use crate::light::lights::Light;
 use crate::light::sampling::{lit_fraction, SampleSet};
 use crate::limits::{self, Peak, Work};
@@ -430,8 +431,15 @@ impl SharedSamples {
             .iter()
             .fold([y0, y0], |[lo, hi], &y| [lo.min(y), hi.max(y)]);
         let points = morton_order(points, bounds);
+        // Padded to whole words with NaN, which no plane has in front of it.
+        let padded = points.len().next_multiple_of(64);
+        let axis = |a: usize| {
+            let mut v: Vec<f32> = points.iter().map(|y| y[a]).collect();
+            v.resize(padded, f32::NAN);
+            v
+        };
         Self {
-            axes: [0, 1, 2].map(|a| points.iter().map(|y| y[a]).collect()),
+            axes: [axis(0), axis(1), axis(2)],
             points,
             bounds,
         }
@@ -440,16 +448,26 @@ impl SharedSamples {
     /// Sets `bits` to the samples in front of the tangent plane at `p` with normal `n` (bit
     /// `s % 64` of word `s / 64` for sample `s`) and returns their count: the test
     /// `(y - p).dot(n) > 0` of [`receiver_visibility`], the same IEEE operations in the same
-    /// order, in a loop LLVM vectorizes.
+    /// order, in a loop LLVM vectorizes: a byte per sample, gathered by [`movemask`] (the
+    /// samples padded to whole words). Written as a shift and an or per sample instead, the loop
+    /// stayed scalar: 7.3M instructions per call on the bunny at 128x128 (64 samples) against
+    /// 2.6M (callgrind, one thread).
     fn front(&self, p: Vec3, n: Vec3, bits: &mut Vec<u64>) -> u32 {
         bits.clear();
         let [xs, ys, zs] = &self.axes;
-        for ((x, y), z) in xs.chunks(64).zip(ys.chunks(64)).zip(zs.chunks(64)) {
-            let mut word = 0u64;
-            for (l, ((&x, &y), &z)) in x.iter().zip(y).zip(z).enumerate() {
-                let dot = (x - p.x) * n.x + (y - p.y) * n.y + (z - p.z) * n.z;
-                word |= u64::from(dot > 0.0) << l;
+        for ((x, y), z) in xs
+            .chunks_exact(64)
+            .zip(ys.chunks_exact(64))
+            .zip(zs.chunks_exact(64))
+        {
+            let mut ahead = [0u8; 64];
+            for (l, byte) in ahead.iter_mut().enumerate() {
+                let dot = (x[l] - p.x) * n.x + (y[l] - p.y) * n.y + (z[l] - p.z) * n.z;
+                *byte = top_bit(dot > 0.0);
             }
+            let word = (0..4).fold(0u64, |word, g| {
+                word | movemask(std::array::from_fn(|l| ahead[16 * g + l])) << (16 * g)
+            });
             bits.push(word);
         }
         bits.iter().map(|w| w.count_ones()).sum()

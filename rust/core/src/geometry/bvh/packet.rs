@@ -60,7 +60,7 @@ use super::frustum::{bounds, FrontPlane, RayFrustum};
 use super::triangle::{Ray, RayData};
 use super::{Bvh, LeafRef, Node4, Tri4, LEAF, ROBUST, STACK};
 use crate::geometry::mesh::Scene;
-use crate::isa::{isa_dispatch, Isa};
+use crate::isa::{isa_dispatch, movemask, top_bit, Isa};
 use glam::{Vec3, Vec4};
 use std::cell::RefCell;
 
@@ -232,53 +232,6 @@ struct Slopes {
     /// Absolute rounding scale of the slopes: the largest coordinate magnitude of the target
     /// and the origins.
     scale: f32,
-}
-
-/// Lane `l`'s entry of a byte mask of a chunk (see [`movemask`]).
-///
-/// Every lane loop writes such bytes in a plain `for` loop whose body is made of
-/// `#[inline(always)]` functions: LLVM vectorizes it into compares and one mask move per
-/// register. Closures, iterator adaptors and `array::map` would risk being left out of line,
-/// compiled for the baseline instead of the dispatched instruction set.
-#[inline(always)]
-fn top_bit(b: bool) -> u8 {
-    if b {
-        0x80
-    } else {
-        0
-    }
-}
-
-/// The top bits of `bytes` as a bitmask: `pmovmskb`, which LLVM folds with the compares before
-/// it into one mask move (the shift-and-or loop it does not recognize).
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn movemask(bytes: [u8; W]) -> u64 {
-    // SAFETY: SSE2 is part of the x86-64 baseline, so every x86-64 CPU has it.
-    unsafe { movemask_sse2(bytes) }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "sse2")]
-#[inline]
-fn movemask_sse2(b: [u8; W]) -> u64 {
-    use std::arch::x86_64::{_mm_movemask_epi8, _mm_set_epi8};
-    let [b0, b1, b2, b3, b4, b5, b6, b7, b8, b9, b10, b11, b12, b13, b14, b15] = b.map(|x| x as i8);
-    let v = _mm_set_epi8(
-        b15, b14, b13, b12, b11, b10, b9, b8, b7, b6, b5, b4, b3, b2, b1, b0,
-    );
-    u64::from(_mm_movemask_epi8(v) as u16)
-}
-
-/// The top bits of `bytes` as a bitmask (portable).
-#[cfg(not(target_arch = "x86_64"))]
-#[inline(always)]
-fn movemask(bytes: [u8; W]) -> u64 {
-    let mut m = 0u64;
-    for (l, &b) in bytes.iter().enumerate() {
-        m |= u64::from(b >> 7) << l;
-    }
-    m
 }
 
 /// `_mm_min_ps(a, b)` lane by lane (glam's `Vec4::min`): `b` unless `a < b`.
