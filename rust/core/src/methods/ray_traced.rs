@@ -1048,6 +1048,48 @@ mod tests {
         Ok(())
     }
 
+    /// The front masks of the shared samples are the scalar test `(y - p).dot(n) > 0` of each
+    /// sample in its Morton place, for counts that fill no word, one word, and part of a second
+    /// (the padding must set no bit), and for planes through and beside the samples.
+    #[test]
+    fn front_masks_equal_the_scalar_test() {
+        let sample = |i: usize| {
+            let t = i as f32 * 0.618_034;
+            Vec3::new((t * 7.3).sin(), 0.2 * (t * 3.1).cos(), (t * 5.7).cos())
+        };
+        let mut bits = Vec::new();
+        for count in [1, 5, 63, 64, 65, 100, 128] {
+            let points: Vec<Vec3> = (0..count).map(sample).collect();
+            let shared = SharedSamples::new(&points);
+            for (p, n) in [
+                (Vec3::ZERO, Vec3::Y),
+                (Vec3::new(0.3, -0.1, 0.2), Vec3::new(0.6, 0.0, 0.8)),
+                (Vec3::new(-2.0, 0.0, 0.0), Vec3::X),
+            ] {
+                let got = shared.front(p, n, &mut bits);
+                let expected: Vec<bool> = shared
+                    .points
+                    .iter()
+                    .map(|&y| (y - p).dot(n) > 0.0)
+                    .collect();
+                assert_eq!(bits.len(), count.div_ceil(64), "{count} samples");
+                let read: Vec<bool> = (0..64 * bits.len())
+                    .map(|s| bits[s / 64] >> (s % 64) & 1 != 0)
+                    .collect();
+                assert_eq!(&read[..count], &expected[..], "{count} samples, n {n}");
+                assert!(
+                    read[count..].iter().all(|&b| !b),
+                    "padding set, {count} samples"
+                );
+                let lit = expected.iter().filter(|&&b| b).count();
+                assert_eq!(got as usize, lit);
+                if count >= 5 && n == Vec3::Y {
+                    assert!(lit > 0 && lit < count, "{count} samples: {lit} in front");
+                }
+            }
+        }
+    }
+
     #[test]
     fn morton_order_visits_each_quadrant_in_turn() {
         // A 4x4 grid on a tilted plane, listed row by row: along the Z curve (x the most
