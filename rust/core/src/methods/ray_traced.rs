@@ -365,8 +365,16 @@ impl Paths {
 /// 0.92x the fastest wall time of whole bands at 128x128 (17.1 against 18.6 ms; median 0.94x)
 /// and 0.95x at 256x256 (median 0.99x); in alternating processes of release builds (fastest
 /// of 30 calls, eight pairs) 0.86x the fastest and 0.95x the median at 128x128, no change
-/// beyond the noise at 256x256. One or two tiles per item did no better than four.
-const SEGMENT_TILES: usize = 4;
+/// beyond the noise at 256x256. One or two tiles per item did no better than four then.
+///
+/// Timed per work item (2026-12-07, two threads, bunny at 128x128), the costliest segment of four
+/// tiles took 2.5-3.7 ms of a 15-20 ms call, and one thread ended 1.1-1.3 ms (median) before
+/// the other, waiting. One tile per item cuts the costliest item to 1.1 ms and that wait to
+/// 0.3-0.4 ms; alternating the two call by call in one process on a machine loaded by others
+/// (same bits), one tile took 0.99x and 0.95x the fastest wall time of four at 128x128 (60 and
+/// 40 rounds; median 0.96x and 0.92x) and 1.00x at 256x256 (25 rounds; median 0.92x): the
+/// finer items let a thread whose core is taken by another process fall behind by less.
+const SEGMENT_TILES: usize = 1;
 
 /// The receivers of one parallel work item of [`trace_shared`]: the rows of band `band` between
 /// column `x0` and the next segment, as pieces of the output rows (`rows[r][x - x0]` for the
