@@ -23,7 +23,7 @@
 //! - a blocked lane leaves the packet, and the traversal stops when no lane is left;
 //! - a node reached by at most [`SINGLE_RAY_LANES`] active lanes is left to single-ray
 //!   traversals of its subtree, one per lane (`Bvh::any_hit` from that node, on the lane's own
-//!   `RayData`): the hybrid of Benthin, Wald, Woop, Ernst and Mark, "Combining Single and
+//!   fields, [`LaneView`]): the hybrid of Benthin, Wald, Woop, Ernst and Mark, "Combining Single and
 //!   Packet-Ray Tracing for Arbitrary Ray Distributions on the Intel MIC Architecture" (IEEE
 //!   TVCG 18(9), 2012). A packet's node visit (frustum, four slope rectangles, lane masks per
 //!   stack entry) costs several single-ray node tests, so below a few lanes the lanes' own
@@ -47,12 +47,12 @@
 //! Exactness: every lane does the IEEE operations, in the same order, of the `RayData` that
 //! [`Bvh::occluded`] builds for the same segment and of its slab and watertight tests (LLVM
 //! never fuses or reorders float operations, whatever the vector width; lanes tested one by
-//! one run `hit4` itself on their own `RayData`, and lanes handed to single-ray traversals run
-//! `Bvh::any_hit` itself, whose answer for a subtree is that of [`Bvh::occluded`] restricted
-//! to it); a leaf is skipped for
-//! a lane only when the frustum or the projection test (both conservative, with margins far
-//! above float rounding) or that lane's own slab test (identical to the single ray's, which
-//! never culls a leaf holding a watertight hit) rejects it. An opaque hit anywhere in the open
+//! one run `hit4` itself on their own fields (the values of that `RayData`, [`LaneView`]), and
+//! lanes handed to single-ray traversals run `Bvh::any_hit` itself, whose answer for a subtree
+//! is that of [`Bvh::occluded`] restricted to it); a leaf is skipped for a lane only when the
+//! frustum or the projection test (both conservative, with margins far above float rounding)
+//! or that lane's own slab test (identical to the single ray's, which never culls a leaf
+//! holding a watertight hit) rejects it. An opaque hit anywhere in the open
 //! segment answers either way, so each lane's answer equals [`Bvh::occluded`] bit for bit,
 //! whatever the packet it travels in and whatever the instruction set.
 
@@ -555,7 +555,7 @@ impl Chunk {
 
     /// The lanes of `lanes` that block `b` holds an opaque hit for: triangle by triangle,
     /// all the lanes at once, or for at most [`SPARSE_LANES`] lanes lane by lane, the four
-    /// triangles at once (`hit4` itself, on each lane's `RayData`).
+    /// triangles at once (`hit4` itself, on each lane's fields, [`LaneView`]).
     #[inline(always)]
     fn blocked_lanes(&self, scene: &Scene, b: &Tri4, lanes: u64) -> u64 {
         if lanes.count_ones() <= SPARSE_LANES {
