@@ -302,9 +302,9 @@ impl ReceiverLists {
     }
 
     /// The texel spans `(row, x0, x1)` of `rows` that the region `hull` (`None`: the whole map)
-    /// covers conservatively: [`conservative_rows`] restricted to `rows`, computed for those
-    /// rows only (a band visits the regions of every caster binned to it) by
-    /// [`conservative_spans`]; `bounds` is its scratch memory.
+    /// covers conservatively: [`conservative_rows`](crate::raster::region::conservative_rows)
+    /// restricted to `rows`, computed for those rows only (a band visits the regions of every
+    /// caster binned to it) by [`conservative_spans`]; `bounds` is its scratch memory.
     pub fn spans<'s>(
         &self,
         hull: Option<&[DVec2]>,

@@ -8,6 +8,12 @@
 //! method runs); `isa` (the instruction sets lane loops are compiled for); [`temporal`]
 //! (accumulation of any method's visibility over a sequence). Every fallible call returns
 //! [`Result`].
+//!
+//! The crate is the Python package's engine, not a library of its own: read its documentation
+//! with the private items (`cargo doc --document-private-items`), as the public items' docs
+//! link to the private functions that implement each stage of a paper.
+
+#![allow(rustdoc::private_intra_doc_links)]
 
 pub mod backend;
 pub mod error;

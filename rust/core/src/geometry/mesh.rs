@@ -16,7 +16,7 @@ pub struct AlphaTexture {
 }
 
 impl AlphaTexture {
-    /// Thresholds `alpha` (row-major, `height * width` values in [0,1]) at 0.5.
+    /// Thresholds `alpha` (row-major, `height * width` values in \[0, 1\]) at 0.5.
     pub fn new(width: usize, height: usize, alpha: &[f32]) -> Result<Self> {
         if width == 0 || height == 0 || alpha.len() != width * height {
             return Err(Error::invalid(

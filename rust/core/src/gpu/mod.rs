@@ -1,7 +1,7 @@
 //! What the wgpu backend's methods share: the device, the dispatch limits, and the lighting pass
 //! of the multi-view methods.
 //!
-//! One device and queue are created lazily on first use and reused by every call ([`context`]),
+//! One device and queue are created lazily on first use and reused by every call ([`context()`]),
 //! one per process: a forked child makes its own ([`after_fork_in_child`]). Each method's GPU
 //! half lives beside its CPU half (`methods/<name>/gpu.rs` and its `.wgsl`, embedded in the
 //! binary, with a `no_gpu.rs` that refuses when the crate feature is off); here are only the
@@ -11,7 +11,7 @@
 //! dispatches within the adapter's limits ([`DispatchLimits`]: workgroup counts and storage
 //! binding sizes), which tests can force lower ([`force_limits`]).
 //!
-//! Built without the crate feature `gpu`, [`context`] answers [`Error::Unavailable`].
+//! Built without the crate feature `gpu`, [`context()`] answers [`Error::Unavailable`].
 
 use crate::error::{Error, Result};
 use std::sync::Mutex;

@@ -14,7 +14,7 @@ pub(crate) const FRUSTUM: &str = include_str!("frustum.wgsl");
 /// `vector64.wgsl`, prepended after it to the shaders that repeat the CPU's f64 arithmetic.
 pub(crate) const VECTOR64: &str = include_str!("vector64.wgsl");
 const SHADER: &str = include_str!("multiview.wgsl");
-/// Bytes per receiver record: two vec4<f32>.
+/// Bytes per receiver record: two `vec4<f32>`.
 const RECEIVER_BYTES: u64 = 32;
 
 /// A `View` of `frustum.wgsl`: the frustum and the light sample's weight.
@@ -54,7 +54,7 @@ pub(crate) fn upload_views(gpu: &Gpu, views: &[LightFrustum], weights: &[f32]) -
     )
 }
 
-/// The receivers uploaded in chunks that fit one binding, each as two vec4<f32> per receiver
+/// The receivers uploaded in chunks that fit one binding, each as two `vec4<f32>` per receiver
 /// (the point with w = 1 when valid, else 0; the normal), with its receiver count.
 pub(crate) fn receiver_chunks<'a>(
     gpu: &'a Gpu,

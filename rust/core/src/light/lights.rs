@@ -448,7 +448,7 @@ impl Light {
         }
     }
 
-    /// Parameters `(s, t)` in [0,1]^2 of a point on a planar light (its emission-texture coordinates).
+    /// Parameters `(s, t)` in \[0, 1\]^2 of a point on a planar light (its emission-texture coordinates).
     pub(crate) fn params(&self, y: Vec3) -> Vec2 {
         match self.shape {
             Shape::Rect { center, u, v } => {

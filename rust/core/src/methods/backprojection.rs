@@ -21,7 +21,7 @@
 //!    visibilities of levels `⌊ℓ⌋` and `⌈ℓ⌉` are blended by the fraction of `ℓ`.
 //! 3. **Micro-occluders** of the chosen level nearer than the receiver (its tangent plane,
 //!    [`ReceiverDepth`]): *micropatches* (a texel's square at its minimum depth, optionally with
-//!    the gap filling of Guennebaud et al. 2006, [`Context::gap_wall`]), *microquads* (texel
+//!    the gap filling of Guennebaud et al. 2006, [`PatchRow::gap_wall`]), *microquads* (texel
 //!    centers as the vertices of a quad mesh, used when all four are nearer) or *microrects*
 //!    (section 5.2, [`Microrects`]).
 //! 4. **Backprojection** onto the light's plane from `p`; the occluded light is accumulated as the
@@ -65,7 +65,7 @@ use rayon::prelude::*;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Occluder {
     /// A texel's square at its depth; `extend` fills the gaps to its left and bottom neighbours
-    /// (Guennebaud et al. 2006, [`Context::gap_wall`]).
+    /// (Guennebaud et al. 2006, [`PatchRow::gap_wall`]).
     Micropatch { extend: bool },
     /// Texel centers as the vertices of a quad mesh.
     Microquad,

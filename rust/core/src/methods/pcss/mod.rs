@@ -8,7 +8,7 @@
 //! 1. **Blocker search.** Occluders that can hide part of the light from the receiver lie in the
 //!    cone from the receiver to the light; between the depths `z_n` and `z_r` that cone projects
 //!    into the map as the light's footprint through depth `z_n`
-//!    ([`LightFootprint`](crate::raster::footprint::LightFootprint)), Fernando's
+//!    ([`LightFootprint`]), Fernando's
 //!    `LIGHT_SIZE_UV · (z_r − NEAR) / z_r` written for a perspective map. `z_n` is the search's near
 //!    plane: `near`, or by default the nearest depth stored in the map (no occluder lies nearer).
 //!    `blocker_samples` Poisson-disk taps over that region average the depths of the texels
