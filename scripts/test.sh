@@ -22,6 +22,8 @@ ss_setup libllvm19 mesa-vulkan-drivers
 cargo test -q --release -p softshadows-core
 # The core without its GPU half compiles, and every GPU method refuses backend="gpu" cleanly.
 cargo test -q --release -p softshadows-core --no-default-features --test no_gpu
+# The core's documentation, read with its private items, builds without a warning (no broken link).
+RUSTDOCFLAGS="-D warnings" cargo doc -q --no-deps -p softshadows-core --document-private-items
 
 # maturin goes into the test environment too: the system Python may refuse pip (PEP 668).
 python3 -m venv --clear "$venv"
